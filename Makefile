@@ -1,0 +1,44 @@
+# caustica: `make render` and `make test` install what is missing, build, and run.
+VENV    := .venv
+PY      := $(VENV)/bin/python
+NVCC     = $(shell ls $(VENV)/lib/python3*/site-packages/nvidia/cu13/bin/nvcc 2>/dev/null | head -n1)
+SCENE   ?= smallvcm-spheres
+SPP     ?= 64
+JOBS    ?= $(shell nproc)
+
+.PHONY: all deps build render test test-cpp test-python cuda-check bench clean
+
+all: build
+
+deps:
+	@bash scripts/install-deps.sh
+
+build: deps
+	CMAKE_BUILD_PARALLEL_LEVEL=$(JOBS) $(PY) -m pip install -q --no-build-isolation --no-deps -e .
+
+render: build
+	@mkdir -p out
+	$(VENV)/bin/caustica render $(SCENE) --spp $(SPP) -o out/default.exr -o out/default.png
+
+test: build cuda-check test-cpp test-python
+
+test-cpp:
+	cd build/py && ctest --output-on-failure -j 1
+
+test-python:
+	$(PY) -m pytest -q tests/python
+
+# Compiles the shared per-ray code and the path tracer's stage functions with
+# nvcc (CUDA 13.0 from PyPI): compile only, no GPU needed.
+cuda-check: deps
+	$(VENV)/bin/cmake -S . -B build/cuda -G Ninja -DCAUSTICA_CUDA_CHECK_ONLY=ON \
+	  -DCMAKE_CUDA_COMPILER=$(NVCC) -DCMAKE_MAKE_PROGRAM=$(abspath $(VENV)/bin/ninja) > build-cuda.log 2>&1 \
+	  || (cat build-cuda.log; exit 1)
+	$(VENV)/bin/cmake --build build/cuda
+	@echo "cuda-check: device code compiles with $$($(NVCC) --version | tail -n 2 | head -n 1)"
+
+bench: build
+	$(PY) bench/bench_cornell.py
+
+clean:
+	rm -rf build out build-cuda.log

@@ -1,0 +1,156 @@
+#include "embree_accel.h"
+
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include "../../scene/intersect.h"
+
+namespace caustica {
+namespace {
+
+void sphere_bounds_fn(const RTCBoundsFunctionArguments* args) {
+  const Sphere* spheres = static_cast<const Sphere*>(args->geometryUserPtr);
+  Bounds3 b = sphere_bounds(spheres[args->primID]);
+  args->bounds_o->lower_x = b.lo.x;
+  args->bounds_o->lower_y = b.lo.y;
+  args->bounds_o->lower_z = b.lo.z;
+  args->bounds_o->upper_x = b.hi.x;
+  args->bounds_o->upper_y = b.hi.y;
+  args->bounds_o->upper_z = b.hi.z;
+}
+
+void sphere_intersect_fn(const RTCIntersectFunctionNArguments* args) {
+  if (!args->valid[0]) return;
+  const Sphere* spheres = static_cast<const Sphere*>(args->geometryUserPtr);
+  RTCRayHit* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);
+  Ray r;
+  r.o = Vec3f(rh->ray.org_x, rh->ray.org_y, rh->ray.org_z);
+  r.d = Vec3f(rh->ray.dir_x, rh->ray.dir_y, rh->ray.dir_z);
+  r.tmax = rh->ray.tfar;
+  float t;
+  if (!intersect_sphere(r, spheres[args->primID], t)) return;
+  rh->ray.tfar = t;
+  rh->hit.geomID = args->geomID;
+  rh->hit.primID = args->primID;
+  rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rh->hit.u = rh->hit.v = 0.f;
+  Vec3f n = (r.o + r.d * t) - spheres[args->primID].center;
+  rh->hit.Ng_x = n.x;
+  rh->hit.Ng_y = n.y;
+  rh->hit.Ng_z = n.z;
+}
+
+void sphere_occluded_fn(const RTCOccludedFunctionNArguments* args) {
+  if (!args->valid[0]) return;
+  const Sphere* spheres = static_cast<const Sphere*>(args->geometryUserPtr);
+  RTCRay* ray = reinterpret_cast<RTCRay*>(args->ray);
+  Ray r;
+  r.o = Vec3f(ray->org_x, ray->org_y, ray->org_z);
+  r.d = Vec3f(ray->dir_x, ray->dir_y, ray->dir_z);
+  r.tmax = ray->tfar;
+  float t;
+  if (intersect_sphere(r, spheres[args->primID], t)) ray->tfar = -kInf;
+}
+
+void error_fn(void*, RTCError code, const char* str) {
+  throw std::runtime_error(std::string("Embree error ") + std::to_string(int(code)) + ": " + (str ? str : ""));
+}
+
+inline void fill_ray(RTCRay& rr, const Ray& ray) {
+  rr.org_x = ray.o.x;
+  rr.org_y = ray.o.y;
+  rr.org_z = ray.o.z;
+  rr.dir_x = ray.d.x;
+  rr.dir_y = ray.d.y;
+  rr.dir_z = ray.d.z;
+  rr.tnear = 0.f;
+  rr.tfar = ray.tmax;
+  rr.time = 0.f;
+  rr.mask = 0xffffffffu;
+  rr.id = 0;
+  rr.flags = 0;
+}
+
+}  // namespace
+
+EmbreeAccel::EmbreeAccel(const SceneView& v) : num_triangles_(v.num_triangles), spheres_(v.spheres) {
+  device_ = rtcNewDevice(nullptr);
+  if (!device_) throw std::runtime_error("Embree: could not create a device");
+  rtcSetDeviceErrorFunction(device_, error_fn, nullptr);
+  scene_ = rtcNewScene(device_);
+  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
+  if (v.num_triangles > 0) {
+    RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    // Copies (Embree reads 16 bytes past the last vertex, so no shared buffer).
+    uint32_t nv = 0;
+    for (uint32_t i = 0; i < 3 * v.num_triangles; ++i) nv = v.indices[i] + 1 > nv ? v.indices[i] + 1 : nv;
+    float* pos = static_cast<float*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+    std::memcpy(pos, v.positions, sizeof(float) * 3 * nv);
+    uint32_t* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                   3 * sizeof(uint32_t), v.num_triangles));
+    std::memcpy(idx, v.indices, sizeof(uint32_t) * 3 * v.num_triangles);
+    rtcCommitGeometry(g);
+    tri_geom_ = rtcAttachGeometry(scene_, g);
+    rtcReleaseGeometry(g);
+  }
+  if (v.num_spheres > 0) {
+    RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryUserPrimitiveCount(g, v.num_spheres);
+    rtcSetGeometryUserData(g, const_cast<Sphere*>(v.spheres));
+    rtcSetGeometryBoundsFunction(g, sphere_bounds_fn, nullptr);
+    rtcSetGeometryIntersectFunction(g, sphere_intersect_fn);
+    rtcSetGeometryOccludedFunction(g, sphere_occluded_fn);
+    rtcCommitGeometry(g);
+    sphere_geom_ = rtcAttachGeometry(scene_, g);
+    rtcReleaseGeometry(g);
+  }
+  rtcCommitScene(scene_);
+}
+
+EmbreeAccel::~EmbreeAccel() {
+  if (scene_) rtcReleaseScene(scene_);
+  if (device_) rtcReleaseDevice(device_);
+}
+
+bool EmbreeAccel::intersect(const Ray& ray, Hit& hit) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh;
+  fill_ray(rh.ray, ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene_, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+    hit = Hit();
+    return false;
+  }
+  hit.t = rh.ray.tfar;
+  if (rh.hit.geomID == tri_geom_) {
+    hit.prim = rh.hit.primID;
+    hit.b1 = rh.hit.u;
+    hit.b2 = rh.hit.v;
+  } else {
+    hit.prim = num_triangles_ + rh.hit.primID;
+    hit.b1 = hit.b2 = 0.f;
+  }
+  return true;
+}
+
+bool EmbreeAccel::occluded(const Ray& ray) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRay r;
+  fill_ray(r, ray);
+  rtcOccluded1(scene_, &ctx, &r);
+  return r.tfar < 0.f;
+}
+
+bool BVHAccel::intersect(const Ray& ray, Hit& hit) const {
+  return scene_intersect(*view, ray, hit);
+}
+bool BVHAccel::occluded(const Ray& ray) const { return scene_occluded(*view, ray); }
+
+}  // namespace caustica

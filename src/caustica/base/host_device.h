@@ -1,0 +1,14 @@
+// The one macro that marks code callable on both the CPU and an NVIDIA GPU.
+// Per-ray, per-photon and per-pixel code lives in headers, uses no virtual
+// functions, exceptions, heap allocation or std containers, and is marked with it.
+#pragma once
+
+#if defined(__CUDACC__)
+#define CAUSTICA_HOST_DEVICE __host__ __device__
+#define CAUSTICA_INLINE __forceinline__
+#else
+#define CAUSTICA_HOST_DEVICE
+#define CAUSTICA_INLINE inline
+#endif
+
+#define CHD CAUSTICA_HOST_DEVICE CAUSTICA_INLINE

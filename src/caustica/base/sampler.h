@@ -1,0 +1,95 @@
+// Per-sample random numbers. Two samplers, both seeded only by (seed, pixel,
+// sample index), so an image never depends on the thread count or schedule:
+//
+// - kIndependent: one PCG32 stream per (pixel, sample index).
+// - kSobol: Owen-scrambled, shuffled Sobol points after Burley 2020, "Practical
+//   Hash-based Owen Scrambling" (JCGT 9(4)): every pair of dimensions is the first
+//   two Sobol dimensions (a (0,2)-sequence) with the sample index shuffled by a
+//   nested uniform scramble of its reversed bits (Sec. 4), and the point Owen
+//   scrambled by a per-(pixel, dimension) hash (Sec. 3, the Laine-Karras style
+//   permutation). Any 2^k consecutive-from-zero samples of a pixel form a
+//   (0,k,2)-net in each pair of dimensions, and pairs are decorrelated.
+#pragma once
+#include <cstdint>
+#include "host_device.h"
+#include "math.h"
+#include "rng.h"
+
+namespace caustica {
+
+enum class SamplerType : uint32_t { kSobol = 0, kIndependent = 1 };
+
+CHD uint32_t reverse_bits32(uint32_t v) {
+#if defined(__CUDA_ARCH__)
+  return __brev(v);
+#else
+  v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
+  v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+  v = ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
+  v = ((v >> 8) & 0x00FF00FFu) | ((v & 0x00FF00FFu) << 8);
+  return (v >> 16) | (v << 16);
+#endif
+}
+
+// Hash-based permutation that only lets a bit depend on the bits below it
+// (Burley 2020, Sec. 3; constants from that paper's improved variant). On
+// reversed bits it acts as a nested uniform (Owen) scramble.
+CHD uint32_t lk_permutation(uint32_t x, uint32_t seed) {
+  x += seed;
+  x ^= x * 0x6c50b47cu;
+  x ^= x * 0xb82f1e52u;
+  x ^= x * 0xc7afe638u;
+  x ^= x * 0x8d22f6e6u;
+  return x;
+}
+CHD uint32_t nested_uniform_scramble(uint32_t x, uint32_t seed) {
+  return reverse_bits32(lk_permutation(reverse_bits32(x), seed));
+}
+
+// First two Sobol dimensions for index i: van der Corput (bit reversal) and
+// the dimension with primitive polynomial x + 1, whose direction numbers obey
+// v_k = v_{k-1} ^ (v_{k-1} >> 1), v_0 = 2^31.
+CHD void sobol_2d(uint32_t i, uint32_t& x, uint32_t& y) {
+  x = reverse_bits32(i);
+  uint32_t v = 1u << 31, r = 0;
+  for (; i; i >>= 1, v ^= v >> 1)
+    if (i & 1u) r ^= v;
+  y = r;
+}
+
+struct Sampler {
+  SamplerType type = SamplerType::kSobol;
+  uint32_t index = 0;      // sample index within the pixel
+  uint32_t dimension = 0;  // next dimension pair
+  uint64_t pixel_seed = 0; // hash of (seed, pixel)
+  PCG32 rng;               // the independent stream
+
+  CHD void start(SamplerType t, uint64_t seed, uint32_t pixel, uint32_t sample_index) {
+    type = t;
+    index = sample_index;
+    dimension = 0;
+    pixel_seed = hash3(seed, pixel, 0x5ca1ab1eULL);
+    rng.set_sequence(hash3(seed, pixel, sample_index), mix64(sample_index ^ (uint64_t(pixel) << 32)));
+  }
+  CHD Vec2f next_2d() {
+    if (type == SamplerType::kIndependent) {
+      float a = rng.next_float();
+      return {a, rng.next_float()};
+    }
+    uint64_t h = mix64(pixel_seed + dimension++);
+    uint32_t shuffled = nested_uniform_scramble(index, uint32_t(h));
+    uint32_t x, y;
+    sobol_2d(shuffled, x, y);
+    x = nested_uniform_scramble(x, uint32_t(h >> 32));
+    y = nested_uniform_scramble(y, uint32_t(mix64(h)));
+    return {u32_to_unit_float(x), u32_to_unit_float(y)};
+  }
+  CHD float next_1d() {
+    if (type == SamplerType::kIndependent) return rng.next_float();
+    uint64_t h = mix64(pixel_seed + dimension++);
+    uint32_t shuffled = nested_uniform_scramble(index, uint32_t(h));
+    return u32_to_unit_float(nested_uniform_scramble(reverse_bits32(shuffled), uint32_t(h >> 32)));
+  }
+};
+
+}  // namespace caustica

@@ -1,0 +1,142 @@
+// The Python extension `caustica._native`: scenes, render jobs (rendering on a
+// C++ thread without the GIL), image output and the BSDF/sampling routines the
+// tests need. The pure-Python package (python/caustica) builds the API on it.
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/pair.h>
+#include <nanobind/stl/shared_ptr.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
+#include "../base/error.h"
+#include "../film/image_io.h"
+#include "../integrator/render.h"
+#include "../scene/builtin/builtin.h"
+#include "../scene/load.h"
+#include "../scene/loaders/json_loader.h"
+
+namespace nb = nanobind;
+using namespace caustica;
+
+namespace {
+
+nb::ndarray<nb::numpy, float> to_numpy(std::vector<float>&& v, int h, int w) {
+  auto* data = new std::vector<float>(std::move(v));
+  nb::capsule owner(data, [](void* p) noexcept { delete static_cast<std::vector<float>*>(p); });
+  size_t shape[3] = {size_t(h), size_t(w), 3};
+  return nb::ndarray<nb::numpy, float>(data->data(), 3, shape, owner);
+}
+
+FilterType parse_filter(const std::string& f) {
+  if (f == "box") return FilterType::kBox;
+  if (f == "tent") return FilterType::kTent;
+  if (f == "gaussian") return FilterType::kGaussian;
+  throw InputError("unknown filter '" + f + "' (allowed: box, tent, gaussian)");
+}
+
+const char* filter_name(FilterType f) {
+  switch (f) {
+    case FilterType::kTent: return "tent";
+    case FilterType::kGaussian: return "gaussian";
+    default: return "box";
+  }
+}
+
+}  // namespace
+
+NB_MODULE(_native, m) {
+  nb::exception<InputError>(m, "InputError", PyExc_ValueError);
+
+  m.def("builtin_scenes", &builtin_scenes);
+  m.def("default_scene_name", &default_scene_name);
+  m.def("integrator_names", &integrator_names);
+
+  nb::class_<Scene>(m, "Scene")
+      .def_prop_ro("name", [](const Scene& s) { return s.desc().name; })
+      .def_prop_ro("width", [](const Scene& s) { return s.view().camera.width; })
+      .def_prop_ro("height", [](const Scene& s) { return s.view().camera.height; })
+      .def_prop_ro("filter", [](const Scene& s) { return std::string(filter_name(s.view().filter)); })
+      .def_prop_ro("max_depth", [](const Scene& s) { return s.desc().max_depth; })
+      .def_prop_ro("num_triangles", [](const Scene& s) { return s.view().num_triangles; })
+      .def_prop_ro("num_spheres", [](const Scene& s) { return s.view().num_spheres; })
+      .def_prop_ro("num_lights", [](const Scene& s) { return s.view().num_lights; })
+      .def_prop_ro("bounding_radius", [](const Scene& s) { return s.view().bsphere_radius; })
+      .def("set_resolution", [](Scene& s, int w, int h) {
+        if (w <= 0 || h <= 0) throw InputError("width and height must be positive integers");
+        s.set_resolution(w, h);
+      })
+      .def("set_filter", [](Scene& s, const std::string& f) { s.set_filter(parse_filter(f)); });
+
+  m.def("load_scene", [](const std::string& name_or_path) { return Scene::build(load_scene_desc(name_or_path)); },
+        nb::call_guard<nb::gil_scoped_release>());
+  m.def("load_scene_json", [](const std::string& text, const std::string& source) {
+        return Scene::build(load_json_scene_text(text, source));
+      },
+      nb::call_guard<nb::gil_scoped_release>());
+
+  nb::class_<RenderJob>(m, "RenderJob")
+      .def("__init__",
+           [](RenderJob* self, std::shared_ptr<Scene> scene, const std::string& integrator, int64_t spp, double time,
+              uint64_t seed, int threads, int max_depth, int rr_depth, const std::string& sampler,
+              const std::string& accel) {
+             RenderOptions o;
+             o.integrator = integrator;
+             o.spp = spp;
+             o.time = time;
+             o.seed = seed;
+             o.threads = threads;
+             o.max_depth = max_depth;
+             o.rr_depth = rr_depth;
+             if (sampler == "sobol") o.sampler = SamplerType::kSobol;
+             else if (sampler == "independent") o.sampler = SamplerType::kIndependent;
+             else throw InputError("unknown sampler '" + sampler + "' (allowed: sobol, independent)");
+             o.accel = accel;
+             new (self) RenderJob(std::move(scene), o);
+           },
+           nb::arg("scene"), nb::arg("integrator") = "path", nb::arg("spp") = 0, nb::arg("time") = 0.0,
+           nb::arg("seed") = 0, nb::arg("threads") = 0, nb::arg("max_depth") = -2, nb::arg("rr_depth") = 5,
+           nb::arg("sampler") = "sobol", nb::arg("accel") = "embree")
+      .def("start", &RenderJob::start)
+      .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
+      .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
+      .def("cancel", &RenderJob::cancel)
+      .def("stats", [](const RenderJob& j) {
+        RenderStats s = j.stats();
+        nb::dict d;
+        d["passes"] = s.passes;
+        d["target_passes"] = s.target_passes;
+        d["samples"] = s.samples;
+        d["rays"] = s.rays;
+        d["shadow_rays"] = s.shadow_rays;
+        d["invalid_samples"] = s.invalid_samples;
+        d["seconds"] = s.seconds;
+        d["done"] = s.done;
+        d["cancelled"] = s.cancelled;
+        return d;
+      })
+      .def("image", [](const RenderJob& j) {
+        std::vector<float> img;
+        {
+          nb::gil_scoped_release release;
+          img = j.image();
+        }
+        return to_numpy(std::move(img), j.height(), j.width());
+      });
+
+  m.def("write_image",
+        [](const std::string& path, nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu> a,
+           float exposure) {
+          if (a.shape(2) != 3) throw InputError("write_image: expected an (H, W, 3) float32 array");
+          std::vector<float> v(a.data(), a.data() + a.size());
+          int h = int(a.shape(0)), w = int(a.shape(1));
+          nb::gil_scoped_release release;
+          write_image(path, v, w, h, exposure);
+        },
+        nb::arg("path"), nb::arg("image"), nb::arg("exposure") = 0.f);
+  m.def("read_image", [](const std::string& path) {
+    int w = 0, h = 0;
+    std::vector<float> v = read_image(path, w, h);
+    return to_numpy(std::move(v), h, w);
+  });
+  m.def("is_supported_image_extension", &is_supported_image_extension);
+}

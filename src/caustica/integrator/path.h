@@ -1,0 +1,158 @@
+// Path tracing with next-event estimation and multiple importance sampling
+// (Kajiya 1986, "The Rendering Equation"; Veach & Guibas 1995, "Optimally
+// Combining Sampling Techniques for Monte Carlo Rendering"; Veach 1997 Ch. 9:
+// the power heuristic with beta = 2, Eq. 9.13). One BSDF sample and one light
+// sample per vertex; the light is chosen in proportion to its power.
+// Russian roulette after rr_depth segments with continuation probability
+// q = min(max(beta) * eta_scale^2, 0.95) (the rule of Mitsuba 3 and pbrt-v4).
+//
+// The integrator is written as stage functions over a small per-path state, so
+// that the CPU runs one path's stages back to back and the GPU runs each stage
+// as a kernel over a queue of paths (wavefront):
+//   path_start  -> camera ray
+//   [intersect]   closest hit of state.ray
+//   path_shade  -> emission with MIS, NEE (a shadow ray), BSDF sampling, RR
+//   [occluded]    any hit of the shadow ray
+//   path_shadow -> adds the NEE contribution if unoccluded
+// Depth counts segments as Mitsuba does: the camera segment is depth 1, so
+// max_depth = 1 shows only emitters and 2 adds direct lighting.
+#pragma once
+#include "../base/sampler.h"
+#include "../light/light_sample.h"
+#include "../material/bsdf.h"
+#include "../scene/interaction.h"
+
+namespace caustica {
+
+struct PathParams {
+  uint32_t max_depth = 0xffffffffu;  // segments; 0xffffffff: unlimited
+  uint32_t rr_depth = 5;
+  uint64_t seed = 0;
+  SamplerType sampler = SamplerType::kSobol;
+};
+
+struct PathState {
+  Ray ray;
+  RGB beta{1.f};     // throughput
+  RGB L{0.f};        // radiance gathered so far
+  float weight = 1.f;  // pixel filter weight of this sample
+  float prev_pdf = 1.f;  // solid-angle pdf of the BSDF sample that made `ray`
+  bool prev_delta = true;  // camera rays and delta BSDF samples skip MIS on emitters
+  bool active = true;
+  uint32_t depth = 0;  // segments traced before `ray`
+  float eta_scale = 1.f;
+  Vec3f prev_p;      // origin of `ray` (for the light's density at hits)
+  uint32_t pixel = 0;
+  Sampler sampler;
+};
+
+struct ShadowRay {
+  Ray ray;
+  RGB contrib{0.f};
+  bool active = false;
+};
+
+CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint32_t py, uint32_t sample_index,
+                    PathState& st) {
+  st = PathState();
+  st.pixel = py * uint32_t(s.camera.width) + px;
+  st.sampler.start(pp.sampler, pp.seed, st.pixel, sample_index);
+  FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
+  Vec2f lens = st.sampler.next_2d();
+  Vec2f film(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y);
+  st.ray = s.camera.generate_ray(film, lens);
+  st.prev_p = st.ray.o;
+  st.weight = fs.weight;
+}
+
+CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, const Hit& hit, ShadowRay& sr) {
+  sr.active = false;
+  st.depth += 1;  // the segment just traced
+  if (!hit.valid()) {
+    if (s.environment_light >= 0) {
+      const Light& env = s.lights[s.environment_light];
+      float w = 1.f;
+      if (!st.prev_delta) {
+        float light_pdf_sa = s.light_sampler.pmf[s.environment_light] * uniform_sphere_pdf();
+        w = power_heuristic(st.prev_pdf, light_pdf_sa);
+      }
+      st.L += st.beta * env.L * w;
+    }
+    st.active = false;
+    return;
+  }
+  SurfaceHit sh = make_surface_hit(s, st.ray, hit);
+  Vec3f wo_world = -st.ray.d;
+
+  // Emission reached by the BSDF sample (or the camera ray).
+  if (sh.light >= 0) {
+    const Light& l = s.lights[sh.light];
+    RGB Le = area_le(l, sh.ng, wo_world);
+    if (!is_black(Le)) {
+      float w = 1.f;
+      if (!st.prev_delta) {
+        float lp = s.light_sampler.pmf[sh.light] * light_pdf(s, l, st.prev_p, sh.p, sh.ng);
+        w = power_heuristic(st.prev_pdf, lp);
+      }
+      st.L += st.beta * Le * w;
+    }
+  }
+  if (st.depth >= pp.max_depth) { st.active = false; return; }
+
+  const Material& m = s.materials[sh.material];
+  Frame frame(sh.ns);
+  Vec3f wo = frame.to_local(wo_world);
+
+  // Next-event estimation: a path of depth + 1 segments.
+  float u_light = st.sampler.next_1d();
+  Vec2f u_light2 = st.sampler.next_2d();
+  if (s.num_lights > 0 && !material_is_delta(m)) {
+    float pmf;
+    uint32_t li = s.light_sampler.sample(u_light, pmf);
+    const Light& l = s.lights[li];
+    LightSample ls;
+    if (sample_light(s, l, sh.p, u_light2, ls)) {
+      Vec3f wi = frame.to_local(ls.wi);
+      RGB f = bsdf_eval(m, wo, wi);
+      if (!is_black(f)) {
+        float w = 1.f;
+        if (!ls.delta) w = power_heuristic(pmf * ls.pdf, bsdf_pdf(m, wo, wi));
+        sr.contrib = st.beta * f * ls.Li * (abs_cos_theta(wi) * w / (pmf * ls.pdf));
+        sr.ray.o = offset_ray_origin(sh.p, sh.ng, ls.wi);
+        sr.ray.d = ls.wi;
+        sr.ray.tmax = std::isfinite(ls.dist) ? ls.dist * (1.f - 2e-4f) : kInf;
+        sr.active = !is_black(sr.contrib) && isfinite3(sr.contrib);
+      }
+    }
+  }
+
+  // BSDF sampling for the next segment.
+  float u_lobe = st.sampler.next_1d();
+  Vec2f u_bsdf = st.sampler.next_2d();
+  float u_rr = st.sampler.next_1d();
+  BSDFSample bs;
+  if (!bsdf_sample(m, wo, u_lobe, u_bsdf, bs)) { st.active = false; return; }
+  Vec3f wi_world = frame.to_world(bs.wi);
+  // Reject samples whose shading-normal side disagrees with the geometric side.
+  if (dot(wi_world, sh.ng) * bs.wi.z * dot(sh.ns, sh.ng) < 0.f) { st.active = false; return; }
+  st.beta *= bs.weight;
+  st.eta_scale *= bs.eta * bs.eta;
+  st.prev_pdf = bs.pdf;
+  st.prev_delta = bs.delta;
+  st.prev_p = sh.p;
+  st.ray.o = offset_ray_origin(sh.p, sh.ng, wi_world);
+  st.ray.d = wi_world;
+  st.ray.tmax = kInf;
+  if (is_black(st.beta)) { st.active = false; return; }
+  if (st.depth >= pp.rr_depth) {
+    float q = minf(max_component(st.beta) * st.eta_scale, 0.95f);
+    if (!(u_rr < q)) { st.active = false; return; }
+    st.beta /= q;
+  }
+}
+
+CHD void path_shadow(PathState& st, const ShadowRay& sr, bool occluded) {
+  if (sr.active && !occluded) st.L += sr.contrib;
+}
+
+}  // namespace caustica

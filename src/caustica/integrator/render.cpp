@@ -1,0 +1,174 @@
+#include "render.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+
+#include "../backend/cpu/embree_accel.h"
+#include "../base/error.h"
+#include "path.h"
+
+namespace caustica {
+
+const std::vector<std::string>& integrator_names() {
+  static const std::vector<std::string> names = {"path"};
+  return names;
+}
+
+std::vector<float> Film::image() const {
+  std::vector<float> img(size_t(width) * height * 3, 0.f);
+  for (size_t i = 0; i < size_t(width) * height; ++i) {
+    double w = sum[4 * i + 3];
+    if (w > 0)
+      for (int c = 0; c < 3; ++c) img[3 * i + c] = float(sum[4 * i + c] / w);
+  }
+  return img;
+}
+
+void RenderJob::validate(const RenderOptions& o) {
+  const auto& names = integrator_names();
+  bool known = false;
+  std::string list;
+  for (const auto& n : names) {
+    known |= n == o.integrator;
+    list += (list.empty() ? "" : ", ") + n;
+  }
+  if (!known) throw InputError("unknown integrator '" + o.integrator + "' (allowed: " + list + ")");
+  if (o.spp < 0) throw InputError("--spp must be a positive integer, got " + std::to_string(o.spp));
+  if (o.time < 0 || !std::isfinite(o.time)) throw InputError("--time must be a positive number of seconds");
+  if (o.max_depth < -2 || o.max_depth == 0)
+    throw InputError("--max-depth must be a positive integer or -1 (unlimited), got " + std::to_string(o.max_depth));
+  if (o.rr_depth < 1) throw InputError("--rr-depth must be a positive integer");
+  if (o.threads < 0) throw InputError("--threads must be a positive integer");
+  if (o.accel != "embree" && o.accel != "bvh")
+    throw InputError("unknown accelerator '" + o.accel + "' (allowed: embree, bvh)");
+}
+
+RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
+    : scene_(std::move(scene)), opt_(std::move(opt)),
+      film_(scene_->view().camera.width, scene_->view().camera.height) {
+  validate(opt_);
+  if (opt_.spp == 0 && opt_.time == 0.0) opt_.spp = 16;
+}
+
+RenderJob::~RenderJob() {
+  cancel();
+  if (thread_.joinable()) thread_.join();
+}
+
+template <typename Accel>
+void RenderJob::render_pass(const Accel& accel, int64_t pass) {
+  const SceneView& view = scene_->view();
+  PathParams pp;
+  int md = opt_.max_depth == -2 ? scene_->desc().max_depth : opt_.max_depth;
+  pp.max_depth = md < 0 ? 0xffffffffu : uint32_t(md);
+  pp.rr_depth = uint32_t(opt_.rr_depth);
+  pp.seed = opt_.seed;
+  pp.sampler = opt_.sampler;
+  const int W = film_.width, H = film_.height, T = 16;
+  const int tiles_x = (W + T - 1) / T, tiles_y = (H + T - 1) / T;
+  tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const tbb::blocked_range<int>& r) {
+    uint64_t rays = 0, shadow = 0, samples = 0, invalid = 0;
+    for (int tile = r.begin(); tile < r.end(); ++tile) {
+      if (cancel_.load(std::memory_order_relaxed)) break;
+      int x0 = (tile % tiles_x) * T, y0 = (tile / tiles_x) * T;
+      for (int y = y0; y < std::min(y0 + T, H); ++y) {
+        for (int x = x0; x < std::min(x0 + T, W); ++x) {
+          PathState st;
+          path_start(view, pp, uint32_t(x), uint32_t(y), uint32_t(pass), st);
+          while (st.active) {
+            Hit hit;
+            accel.intersect(st.ray, hit);
+            ++rays;
+            ShadowRay sr;
+            path_shade(view, pp, st, hit, sr);
+            if (sr.active) {
+              ++shadow;
+              path_shadow(st, sr, accel.occluded(sr.ray));
+            }
+          }
+          ++samples;
+          if (!isfinite3(st.L)) {
+            ++invalid;
+            continue;
+          }
+          film_.add(st.pixel, st.L, st.weight);
+        }
+      }
+    }
+    rays_ += rays;
+    shadow_rays_ += shadow;
+    samples_ += samples;
+    invalid_ += invalid;
+  });
+}
+
+void RenderJob::run() {
+  auto t0 = std::chrono::steady_clock::now();
+  try {
+    int threads = opt_.threads > 0 ? opt_.threads : tbb::this_task_arena::max_concurrency();
+    tbb::task_arena arena(threads);
+    BVHAccel bvh{&scene_->view()};
+    for (int64_t pass = 0;; ++pass) {
+      if (opt_.spp > 0 && pass >= opt_.spp) break;
+      double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (opt_.time > 0.0 && elapsed >= opt_.time) break;
+      if (cancel_.load()) break;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        arena.execute([&] {
+          if (opt_.accel == "bvh")
+            render_pass(bvh, pass);
+          else
+            render_pass(scene_->embree(), pass);
+        });
+      }
+      if (!cancel_.load()) passes_ = pass + 1;
+      seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
+  seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  finished_ = true;
+}
+
+void RenderJob::start() {
+  thread_ = std::thread([this] { run(); });
+}
+
+bool RenderJob::wait(double timeout_seconds) {
+  auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_seconds);
+  while (!finished_.load()) {
+    if (std::chrono::steady_clock::now() >= until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (thread_.joinable()) thread_.join();
+  if (!error_.empty()) throw std::runtime_error(error_);
+  return true;
+}
+
+RenderStats RenderJob::stats() const {
+  RenderStats s;
+  s.passes = passes_.load();
+  s.target_passes = opt_.spp;
+  s.samples = samples_.load();
+  s.rays = rays_.load();
+  s.shadow_rays = shadow_rays_.load();
+  s.invalid_samples = invalid_.load();
+  s.seconds = seconds_.load();
+  s.done = finished_.load();
+  s.cancelled = cancel_.load();
+  return s;
+}
+
+std::vector<float> RenderJob::image() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return film_.image();
+}
+
+}  // namespace caustica

@@ -1,0 +1,92 @@
+// The CPU driver: renders progressive passes of an integrator into a film,
+// in parallel over pixel tiles (oneTBB), under a sample or time budget, and
+// can be cancelled between tiles with every finished sample kept.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "../base/sampler.h"
+#include "../scene/scene.h"
+
+namespace caustica {
+
+struct RenderOptions {
+  std::string integrator = "path";
+  int64_t spp = 0;        // samples per pixel; 0 with a time budget means "until the time is spent"
+  double time = 0.0;      // seconds; 0 = no time budget
+  uint64_t seed = 0;
+  int threads = 0;        // 0 = all hardware threads
+  int max_depth = -2;     // segments (Mitsuba's count); -1 = unlimited; -2 = the scene's default
+  int rr_depth = 5;
+  SamplerType sampler = SamplerType::kSobol;
+  std::string accel = "embree";  // "embree" or "bvh" (the portable BVH)
+};
+
+struct RenderStats {
+  int64_t passes = 0;        // completed passes (samples per pixel)
+  int64_t target_passes = 0; // 0 when the budget is time
+  uint64_t samples = 0;      // camera paths traced
+  uint64_t rays = 0;         // camera + bounce rays
+  uint64_t shadow_rays = 0;
+  uint64_t invalid_samples = 0;  // NaN/inf radiance, dropped
+  double seconds = 0.0;
+  bool done = false;
+  bool cancelled = false;
+};
+
+// Names of the integrators this build offers (the registry).
+const std::vector<std::string>& integrator_names();
+
+class Film {
+ public:
+  Film(int w, int h) : width(w), height(h), sum(size_t(w) * h * 4, 0.0) {}
+  void add(uint32_t pixel, RGB L, float w) {
+    double* p = &sum[size_t(pixel) * 4];
+    p[0] += double(L.x) * w;
+    p[1] += double(L.y) * w;
+    p[2] += double(L.z) * w;
+    p[3] += w;
+  }
+  std::vector<float> image() const;  // H*W*3, weighted mean per pixel
+  int width, height;
+  std::vector<double> sum;  // r, g, b, weight per pixel
+};
+
+class RenderJob {
+ public:
+  RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt);
+  ~RenderJob();
+  // Validates options; throws InputError naming the option and allowed values.
+  static void validate(const RenderOptions& opt);
+
+  void run();     // renders on the calling thread until the budget is spent or cancelled
+  void start();   // renders on a background thread
+  bool wait(double timeout_seconds);  // true when finished
+  void cancel() { cancel_.store(true); }
+  RenderStats stats() const;
+  std::vector<float> image() const;
+  int width() const { return film_.width; }
+  int height() const { return film_.height; }
+
+ private:
+  template <typename Accel>
+  void render_pass(const Accel& accel, int64_t pass);
+  std::shared_ptr<Scene> scene_;
+  RenderOptions opt_;
+  Film film_;
+  mutable std::mutex mutex_;  // guards film_ snapshots against an in-flight pass
+  std::atomic<bool> cancel_{false};
+  std::atomic<bool> finished_{false};
+  std::atomic<int64_t> passes_{0};
+  std::atomic<uint64_t> samples_{0}, rays_{0}, shadow_rays_{0}, invalid_{0};
+  std::atomic<double> seconds_{0.0};
+  std::thread thread_;
+  std::string error_;
+};
+
+}  // namespace caustica

@@ -1,0 +1,48 @@
+// Lights as a tagged struct: diffuse area lights on triangles and spheres (one-
+// or two-sided), point, spot, directional and constant environment lights.
+// sample_li() returns radiance arriving at a reference point with the solid-
+// angle density of the direction (pbrt-v4 Sec. 12.2-12.5; sphere cone
+// sampling: pbrt-v4 Sec. 6.2.4 / Shirley & Wang 1996).
+#pragma once
+#include <cstdint>
+#include "../base/math.h"
+#include "../base/sampling.h"
+#include "../geometry/shapes.h"
+
+namespace caustica {
+
+enum class LightType : uint32_t { kTriangle = 0, kSphere, kPoint, kSpot, kDirectional, kEnvironment };
+
+struct Light {
+  LightType type = LightType::kPoint;
+  uint32_t two_sided = 0;
+  RGB L{0.f};      // area/environment: radiance; point/spot: intensity; directional: irradiance
+  uint32_t prim = 0;  // area lights: the primitive (triangle index, or num_triangles + sphere index)
+  Vec3f p;         // point, spot: position
+  Vec3f dir{0, 0, -1};  // spot: axis; directional: the direction light travels
+  float cos_total = 0.f, cos_falloff_start = 1.f;  // spot cone
+};
+
+CHD bool light_is_delta(const Light& l) {
+  return l.type == LightType::kPoint || l.type == LightType::kSpot || l.type == LightType::kDirectional;
+}
+CHD bool light_is_infinite(const Light& l) {
+  return l.type == LightType::kDirectional || l.type == LightType::kEnvironment;
+}
+
+// Radiance leaving an area light at a point with geometric normal n towards w.
+CHD RGB area_le(const Light& l, Vec3f n, Vec3f w) {
+  float c = dot(n, w);
+  if (c > 0.f || (l.two_sided && c < 0.f)) return l.L;
+  return RGB(0.f);
+}
+
+// pbrt-v4 SpotLight::I: smoothstep falloff between the two cone angles.
+CHD float spot_falloff(const Light& l, float cos_theta) {
+  if (cos_theta >= l.cos_falloff_start) return 1.f;
+  if (cos_theta <= l.cos_total) return 0.f;
+  float t = (cos_theta - l.cos_total) / (l.cos_falloff_start - l.cos_total);
+  return t * t * (3.f - 2.f * t);
+}
+
+}  // namespace caustica

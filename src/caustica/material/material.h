@@ -1,0 +1,64 @@
+// A material is a small tagged struct; bsdf.h dispatches on its type with a
+// switch (no virtual calls), so the same code runs on the CPU and the GPU.
+// All BSDF routines work in the local shading frame, normal = +z, and take
+// wo (towards the viewer or the previous vertex) and wi (towards the light).
+#pragma once
+#include <cstdint>
+#include "../base/math.h"
+
+namespace caustica {
+
+enum class MaterialType : uint32_t {
+  kDiffuse = 0,
+  kConductor,            // smooth: a tinted perfect mirror, or complex IOR (eta + i k)
+  kRoughConductor,       // GGX
+  kDielectric,           // smooth glass
+  kRoughDielectric,      // GGX glass
+  kThinDielectric,       // a thin pane: reflection and straight transmission
+  kPlastic,              // smooth dielectric coat over a diffuse base
+  kDiffuseTransmission,  // Lambertian reflection r/pi and transmission t/pi
+  kPhong,                // SmallVCM's Lambert + modified Phong lobe
+  kCount
+};
+
+enum MaterialFlags : uint32_t {
+  kTwoSided = 1u,       // reflective materials: the same from both sides
+  kConductorTint = 2u,  // conductor: Fresnel ignored, reflectance = specular
+};
+
+// Radiance flows from lights to the camera; importance flows the other way.
+// Refraction scales radiance by 1/eta^2 but not importance (Veach 1997, Sec. 5.2).
+enum class TransportMode : uint32_t { kRadiance = 0, kImportance = 1 };
+
+struct Material {
+  MaterialType type = MaterialType::kDiffuse;
+  uint32_t flags = 0;
+  RGB diffuse{0.5f};        // Lambert / plastic base / Phong kd / diffuse reflectance r
+  RGB specular{1.f};        // specular tint / Phong ks
+  RGB transmission{1.f};    // dielectric transmission tint / diffuse transmittance t
+  RGB eta_c{0.f}, k_c{0.f}; // conductor complex index of refraction
+  float eta = 1.5f;         // dielectric / plastic: interior IOR over exterior IOR
+  float alpha_x = 0.1f, alpha_y = 0.1f;  // GGX roughness
+  float exponent = 90.f;    // Phong exponent
+  float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed)
+};
+
+CHD bool material_is_transmissive(const Material& m) {
+  return m.type == MaterialType::kDielectric || m.type == MaterialType::kRoughDielectric ||
+         m.type == MaterialType::kThinDielectric || m.type == MaterialType::kDiffuseTransmission;
+}
+// True when every lobe is a Dirac delta (NEE is pointless there).
+CHD bool material_is_delta(const Material& m) {
+  return m.type == MaterialType::kConductor || m.type == MaterialType::kDielectric ||
+         m.type == MaterialType::kThinDielectric;
+}
+
+struct BSDFSample {
+  Vec3f wi;
+  RGB weight{0.f};  // f * |cos(wi)| / pdf
+  float pdf = 0.f;  // solid-angle density; for a delta lobe, its discrete probability
+  bool delta = false;
+  float eta = 1.f;  // relative IOR crossed (for Russian roulette on radiance)
+};
+
+}  // namespace caustica

@@ -1,0 +1,21 @@
+// Built-in scenes, by name.
+#pragma once
+#include <string>
+#include <utility>
+#include <vector>
+#include "../scene_desc.h"
+
+namespace caustica {
+
+// (name, one-line description) of every built-in scene, default first.
+const std::vector<std::pair<std::string, std::string>>& builtin_scenes();
+const std::string& default_scene_name();
+bool is_builtin_scene(const std::string& name);
+// Throws InputError for an unknown name (listing the known ones).
+SceneDesc builtin_scene(const std::string& name);
+
+SceneDesc make_cornell_mitsuba();
+enum class SmallVCMLight { kSun, kArea, kPoint, kBackground };
+SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, SmallVCMLight light);
+
+}  // namespace caustica

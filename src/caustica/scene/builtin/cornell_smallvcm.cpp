@@ -1,0 +1,116 @@
+// SmallVCM's Cornell box variants (SmallVCM, scene.hxx LoadCornellBox), from
+// the facts in shared/scenes/smallvcm-scenes.md: z up, an open front, a glossy
+// floor (Lambert 0.1 + modified Phong 0.7, exponent 90), a blue back wall, a
+// thin light box under the ceiling, mirror and glass (IOR 1.6) spheres, and
+// one of four lights. Path length counts segments, at most 10.
+#include "builtin.h"
+
+namespace caustica {
+
+SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, SmallVCMLight light) {
+  SceneDesc d;
+  d.max_depth = 10;
+  d.filter = FilterType::kBox;
+  d.camera.position = {-0.0439815f, -4.12529f, 0.222539f};
+  d.camera.target = d.camera.position + normalize(Vec3f(0.00688625f, 0.998505f, -0.0542161f));
+  d.camera.up = {3.73896e-4f, 0.0542148f, 0.998529f};
+  d.camera.fov_degrees = 45.f;
+  d.camera.fov_axis = CameraDesc::FovAxis::kX;
+  d.camera.width = d.camera.height = 512;
+
+  int black = d.add_material("light", make_diffuse(RGB(0.f)));
+  int floor = d.add_material("glossy-floor", make_phong(RGB(0.1f), RGB(0.7f), 90.f));
+  int green = d.add_material("green", make_diffuse({0.156863f, 0.803922f, 0.172549f}));
+  int red = d.add_material("red", make_diffuse({0.803922f, 0.152941f, 0.152941f}));
+  int white = d.add_material("white", make_diffuse(RGB(0.803922f)));
+  int mirror = d.add_material("mirror", make_mirror(RGB(1.f)));
+  int glass = d.add_material("glass", make_dielectric(1.6f));
+  int blue = d.add_material("blue", make_diffuse({0.156863f, 0.172549f, 0.803922f}));
+
+  const Vec3f cb[8] = {{-1.27029f, 1.30455f, -1.28002f}, {1.28975f, 1.30455f, -1.28002f},
+                       {1.28975f, 1.30455f, 1.28002f},   {-1.27029f, 1.30455f, 1.28002f},
+                       {-1.27029f, -1.25549f, -1.28002f}, {1.28975f, -1.25549f, -1.28002f},
+                       {1.28975f, -1.25549f, 1.28002f},  {-1.27029f, -1.25549f, 1.28002f}};
+  auto add_mesh = [&](const char* name, const Vec3f* pts, std::initializer_list<uint32_t> tris, int mat,
+                      RGB emission = RGB(0.f)) {
+    MeshDesc m;
+    m.name = name;
+    m.positions.assign(pts, pts + 8);
+    m.indices = tris;
+    d.meshes.push_back(m);
+    ShapeDesc s;
+    s.name = name;
+    s.type = ShapeType::kMesh;
+    s.mesh = int(d.meshes.size()) - 1;
+    s.material = mat;
+    s.emission = emission;
+    d.shapes.push_back(s);
+  };
+  add_mesh("floor", cb, {0, 4, 5, 5, 1, 0}, floor);
+  add_mesh("back-wall", cb, {0, 1, 2, 2, 3, 0}, blue);
+  add_mesh("ceiling", cb, {2, 6, 7, 7, 3, 2}, white);
+  add_mesh("left-wall", cb, {3, 7, 4, 4, 0, 3}, green);
+  add_mesh("right-wall", cb, {1, 5, 6, 6, 2, 1}, red);
+
+  if (light != SmallVCMLight::kPoint) {
+    const Vec3f lb[8] = {{-0.25f, 0.25f, 1.26002f},  {0.25f, 0.25f, 1.26002f},  {0.25f, 0.25f, 1.28002f},
+                         {-0.25f, 0.25f, 1.28002f},  {-0.25f, -0.25f, 1.26002f}, {0.25f, -0.25f, 1.26002f},
+                         {0.25f, -0.25f, 1.28002f},  {-0.25f, -0.25f, 1.28002f}};
+    add_mesh("light-box", lb, {0, 2, 1, 2, 0, 3, 3, 4, 7, 4, 3, 0, 1, 6, 5, 6, 1, 2, 4, 5, 6, 6, 7, 4}, white);
+    if (light == SmallVCMLight::kArea)
+      add_mesh("light", lb, {0, 5, 4, 5, 0, 1}, black, RGB(25.03329895614464f));
+    else
+      add_mesh("light-box-bottom", lb, {0, 5, 4, 5, 0, 1}, white);
+  }
+
+  // Spheres, placed from the corner table as SmallVCM does.
+  Vec3f floor_center = (cb[0] + cb[5]) * 0.5f;
+  float box_width = cb[1].x - cb[0].x;
+  auto sphere = [&](const char* name, Vec3f c, float r, int mat) {
+    ShapeDesc s;
+    s.name = name;
+    s.type = ShapeType::kSphere;
+    s.center = c;
+    s.radius = r;
+    s.material = mat;
+    d.shapes.push_back(s);
+  };
+  if (large_mirror_sphere) sphere("large-mirror-sphere", floor_center + Vec3f(0, 0, 0.8f), 0.8f, mirror);
+  if (small_spheres) {
+    Vec3f left_wall = (cb[0] + cb[7]) * 0.5f, right_wall = (cb[1] + cb[6]) * 0.5f;
+    left_wall.z = right_wall.z = floor_center.z + 0.5f;
+    float shift = box_width * 2.f / 7.f;
+    sphere("mirror-sphere", left_wall + Vec3f(shift, 0, 0), 0.5f, mirror);
+    sphere("glass-sphere", right_wall - Vec3f(shift, 0, 0), 0.5f, glass);
+  }
+
+  switch (light) {
+    case SmallVCMLight::kSun: {
+      Light l;
+      l.type = LightType::kDirectional;
+      l.dir = normalize(Vec3f(-1.f, 1.5f, -1.f));
+      l.L = {10.f, 4.f, 0.f};
+      d.lights.push_back(l);
+      break;
+    }
+    case SmallVCMLight::kPoint: {
+      Light l;
+      l.type = LightType::kPoint;
+      l.p = {0.f, -0.5f, 1.f};
+      l.L = RGB(70.f / (4.f * kPi));
+      d.lights.push_back(l);
+      break;
+    }
+    case SmallVCMLight::kBackground: {
+      Light l;
+      l.type = LightType::kEnvironment;
+      l.L = {0.529412f, 0.807843f, 0.980392f};
+      d.lights.push_back(l);
+      break;
+    }
+    case SmallVCMLight::kArea: break;
+  }
+  return d;
+}
+
+}  // namespace caustica

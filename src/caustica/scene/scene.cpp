@@ -1,0 +1,392 @@
+#include "scene.h"
+
+#include <cmath>
+#include <numeric>
+
+#include "../backend/cpu/embree_accel.h"
+#include "../base/error.h"
+#include "../material/fresnel.h"
+
+namespace caustica {
+
+Material make_diffuse(RGB reflectance, bool two_sided) {
+  Material m;
+  m.type = MaterialType::kDiffuse;
+  m.diffuse = reflectance;
+  m.flags = two_sided ? kTwoSided : 0u;
+  return m;
+}
+Material make_mirror(RGB tint) {
+  Material m;
+  m.type = MaterialType::kConductor;
+  m.flags = kConductorTint;
+  m.specular = tint;
+  return m;
+}
+Material make_conductor(RGB eta, RGB k, RGB tint, float alpha) {
+  Material m;
+  m.type = alpha > 0.f ? MaterialType::kRoughConductor : MaterialType::kConductor;
+  m.eta_c = eta;
+  m.k_c = k;
+  m.specular = tint;
+  m.alpha_x = m.alpha_y = alpha;
+  return m;
+}
+Material make_dielectric(float eta, float alpha) {
+  Material m;
+  m.type = alpha > 0.f ? MaterialType::kRoughDielectric : MaterialType::kDielectric;
+  m.eta = eta;
+  m.alpha_x = m.alpha_y = alpha;
+  return m;
+}
+Material make_thin_dielectric(float eta) {
+  Material m;
+  m.type = MaterialType::kThinDielectric;
+  m.eta = eta;
+  return m;
+}
+Material make_plastic(RGB diffuse, float eta, RGB specular) {
+  Material m;
+  m.type = MaterialType::kPlastic;
+  m.diffuse = diffuse;
+  m.eta = eta;
+  m.specular = specular;
+  m.fdr_int = diffuse_fresnel_reflectance(1.f / eta);
+  return m;
+}
+Material make_diffuse_transmission(RGB reflectance, RGB transmittance) {
+  Material m;
+  m.type = MaterialType::kDiffuseTransmission;
+  m.diffuse = reflectance;
+  m.transmission = transmittance;
+  return m;
+}
+Material make_phong(RGB kd, RGB ks, float exponent) {
+  Material m;
+  m.type = MaterialType::kPhong;
+  m.diffuse = kd;
+  m.specular = ks;
+  m.exponent = exponent;
+  return m;
+}
+
+float diffuse_fresnel_reflectance(float eta) {
+  // Midpoint rule in mu; F is smooth except at the critical angle, and 4096
+  // steps put the error far below float precision of its use.
+  const int n = 4096;
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    double mu = (i + 0.5) / n;
+    sum += fresnel_dielectric(float(mu), eta) * mu;
+  }
+  return float(2.0 * sum / n);
+}
+
+Camera make_camera(const CameraDesc& c) {
+  Camera cam;
+  cam.position = c.position;
+  cam.forward = normalize(c.target - c.position);
+  cam.right = normalize(cross(cam.forward, c.up));
+  cam.up = cross(cam.right, cam.forward);
+  cam.width = c.width;
+  cam.height = c.height;
+  float t = std::tan(0.5f * c.fov_degrees * kPi / 180.f);
+  float aspect = float(c.width) / float(c.height);
+  bool x_axis = c.fov_axis == CameraDesc::FovAxis::kX ||
+                (c.fov_axis == CameraDesc::FovAxis::kSmaller && c.width < c.height);
+  if (x_axis) {
+    cam.tan_half_x = t;
+    cam.tan_half_y = t / aspect;
+  } else {
+    cam.tan_half_y = t;
+    cam.tan_half_x = t * aspect;
+  }
+  cam.aperture_radius = c.aperture_radius;
+  cam.focus_distance = c.focus_distance > 0.f ? c.focus_distance : length(c.target - c.position);
+  return cam;
+}
+
+float light_power(const SceneView& s, const Light& l) {
+  float lum = luminance(l.L);
+  float R = s.bsphere_radius;
+  switch (l.type) {
+    case LightType::kTriangle: {
+      const uint32_t* ix = s.indices + 3 * l.prim;
+      float a = triangle_area(s.positions[ix[0]], s.positions[ix[1]], s.positions[ix[2]]);
+      return kPi * a * lum * (l.two_sided ? 2.f : 1.f);
+    }
+    case LightType::kSphere: {
+      float r = s.spheres[l.prim - s.num_triangles].radius;
+      return kPi * 4.f * kPi * r * r * lum * (l.two_sided ? 2.f : 1.f);
+    }
+    case LightType::kPoint: return 4.f * kPi * lum;
+    case LightType::kSpot: return 2.f * kPi * lum * (1.f - 0.5f * (l.cos_falloff_start + l.cos_total));
+    case LightType::kDirectional: return kPi * R * R * lum;
+    case LightType::kEnvironment: return 4.f * kPi * kPi * R * R * lum;
+  }
+  return 0.f;
+}
+
+namespace {
+
+struct Mat3 {
+  double m[3][3];
+};
+Mat3 linear_part(const Affine& a) {
+  Mat3 r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r.m[i][j] = a.m[i][j];
+  return r;
+}
+double det3(const Mat3& a) {
+  const auto& m = a.m;
+  return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+         m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+// Inverse transpose (cofactor matrix / det), for normals.
+Mat3 inverse_transpose(const Mat3& a) {
+  const auto& m = a.m;
+  double d = det3(a);
+  Mat3 c;
+  c.m[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / d;
+  c.m[0][1] = -(m[1][0] * m[2][2] - m[1][2] * m[2][0]) / d;
+  c.m[0][2] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) / d;
+  c.m[1][0] = -(m[0][1] * m[2][2] - m[0][2] * m[2][1]) / d;
+  c.m[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / d;
+  c.m[1][2] = -(m[0][0] * m[2][1] - m[0][1] * m[2][0]) / d;
+  c.m[2][0] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / d;
+  c.m[2][1] = -(m[0][0] * m[1][2] - m[0][2] * m[1][0]) / d;
+  c.m[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / d;
+  return c;
+}
+Vec3f apply(const Mat3& a, Vec3f v) {
+  return Vec3f(float(a.m[0][0] * v.x + a.m[0][1] * v.y + a.m[0][2] * v.z),
+               float(a.m[1][0] * v.x + a.m[1][1] * v.y + a.m[1][2] * v.z),
+               float(a.m[2][0] * v.x + a.m[2][1] * v.y + a.m[2][2] * v.z));
+}
+
+// Local meshes of the parametric shapes.
+MeshDesc rectangle_mesh() {
+  MeshDesc m;
+  m.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+  m.indices = {0, 1, 2, 0, 2, 3};
+  return m;
+}
+MeshDesc cube_mesh() {
+  MeshDesc m;
+  const Vec3f axes[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (int a = 0; a < 3; ++a) {
+    for (int sgn = -1; sgn <= 1; sgn += 2) {
+      Vec3f n = axes[a] * float(sgn);
+      Vec3f u = axes[(a + 1) % 3], v = cross(n, u);  // u x v = n
+      uint32_t base = uint32_t(m.positions.size());
+      m.positions.push_back(n - u - v);
+      m.positions.push_back(n + u - v);
+      m.positions.push_back(n + u + v);
+      m.positions.push_back(n - u + v);
+      for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) m.indices.push_back(base + i);
+    }
+  }
+  return m;
+}
+MeshDesc disk_mesh() {
+  MeshDesc m;
+  const int n = 128;
+  m.positions.push_back({0, 0, 0});
+  for (int i = 0; i < n; ++i) {
+    float phi = 2.f * kPi * i / n;
+    m.positions.push_back({std::cos(phi), std::sin(phi), 0.f});
+  }
+  for (int i = 0; i < n; ++i) {
+    m.indices.push_back(0);
+    m.indices.push_back(1 + i);
+    m.indices.push_back(1 + (i + 1) % n);
+  }
+  return m;
+}
+
+// Walker/Vose alias table over non-negative weights.
+void build_alias(const std::vector<float>& w, std::vector<float>& prob, std::vector<uint32_t>& alias,
+                 std::vector<float>& pmf) {
+  size_t n = w.size();
+  prob.assign(n, 1.f);
+  alias.resize(n);
+  pmf.resize(n);
+  double total = 0.0;
+  for (float x : w) total += x;
+  std::vector<double> scaled(n);
+  for (size_t i = 0; i < n; ++i) {
+    pmf[i] = total > 0 ? float(w[i] / total) : 1.f / float(n);
+    scaled[i] = total > 0 ? w[i] * n / total : 1.0;
+    alias[i] = uint32_t(i);
+  }
+  std::vector<uint32_t> small, large;
+  for (size_t i = 0; i < n; ++i) (scaled[i] < 1.0 ? small : large).push_back(uint32_t(i));
+  while (!small.empty() && !large.empty()) {
+    uint32_t s = small.back(), l = large.back();
+    small.pop_back();
+    large.pop_back();
+    prob[s] = float(scaled[s]);
+    alias[s] = l;
+    scaled[l] = (scaled[l] + scaled[s]) - 1.0;
+    (scaled[l] < 1.0 ? small : large).push_back(l);
+  }
+  for (uint32_t i : large) prob[i] = 1.f;
+  for (uint32_t i : small) prob[i] = 1.f;
+}
+
+}  // namespace
+
+Scene::~Scene() = default;
+
+std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
+  std::shared_ptr<Scene> sc(new Scene());
+  Scene& s = *sc;
+  s.desc_ = desc;
+  s.materials = desc.materials;
+  if (s.materials.empty()) throw InputError("scene '" + desc.name + "' has no materials");
+  for (Material& m : s.materials)
+    if (m.type == MaterialType::kPlastic) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
+
+  struct PendingArea {
+    uint32_t prim;  // triangle index or sphere index (offset later)
+    bool sphere;
+    RGB L;
+    bool two_sided;
+  };
+  std::vector<PendingArea> area;
+  std::vector<uint32_t> sphere_material;
+  std::vector<int> sphere_shape;
+  const MeshDesc rect = rectangle_mesh(), cube = cube_mesh(), disk = disk_mesh();
+
+  for (size_t si = 0; si < desc.shapes.size(); ++si) {
+    const ShapeDesc& sh = desc.shapes[si];
+    if (sh.material < 0 || size_t(sh.material) >= desc.materials.size())
+      throw InputError("shape '" + sh.name + "': material index " + std::to_string(sh.material) + " out of range");
+    bool emissive = max_component(sh.emission) > 0.f;
+    if (sh.type == ShapeType::kSphere) {
+      Mat3 l = linear_part(sh.to_world);
+      Vec3f sx = apply(l, {1, 0, 0}), sy = apply(l, {0, 1, 0}), sz = apply(l, {0, 0, 1});
+      float a = length(sx), b = length(sy), c = length(sz);
+      if (std::fabs(a - b) > 1e-4f * a || std::fabs(a - c) > 1e-4f * a)
+        throw InputError("shape '" + sh.name + "': a sphere's transform must scale uniformly");
+      Sphere sp{sh.to_world.point(sh.center), sh.radius * a};
+      if (emissive) area.push_back({uint32_t(s.spheres.size()), true, sh.emission, sh.emission_two_sided});
+      s.spheres.push_back(sp);
+      sphere_material.push_back(uint32_t(sh.material));
+      continue;
+    }
+    const MeshDesc* mesh = nullptr;
+    switch (sh.type) {
+      case ShapeType::kRectangle: mesh = &rect; break;
+      case ShapeType::kCube: mesh = &cube; break;
+      case ShapeType::kDisk: mesh = &disk; break;
+      default:
+        if (sh.mesh < 0 || size_t(sh.mesh) >= desc.meshes.size())
+          throw InputError("shape '" + sh.name + "': mesh index out of range");
+        mesh = &desc.meshes[sh.mesh];
+    }
+    Mat3 lin = linear_part(sh.to_world);
+    bool flip = (det3(lin) < 0.0) != sh.flip_normals;
+    Mat3 nrm = inverse_transpose(lin);
+    uint32_t base = uint32_t(s.positions.size());
+    for (Vec3f p : mesh->positions) s.positions.push_back(sh.to_world.point(p));
+    bool has_n = !mesh->normals.empty();
+    if (has_n || !s.normals.empty()) {
+      // Keep normals aligned with positions: meshes without them get zero
+      // normals, which the interaction code treats as "use the geometric normal".
+      s.normals.resize(base, Vec3f(0.f));
+      for (size_t i = 0; i < mesh->positions.size(); ++i) {
+        Vec3f n = has_n ? normalize(apply(nrm, mesh->normals[i])) : Vec3f(0.f);
+        s.normals.push_back(sh.flip_normals ? -n : n);
+      }
+    }
+    for (size_t t = 0; t + 2 < mesh->indices.size(); t += 3) {
+      uint32_t i0 = mesh->indices[t], i1 = mesh->indices[t + 1], i2 = mesh->indices[t + 2];
+      if (flip) std::swap(i1, i2);
+      uint32_t tri = uint32_t(s.indices.size() / 3);
+      s.indices.push_back(base + i0);
+      s.indices.push_back(base + i1);
+      s.indices.push_back(base + i2);
+      s.prim_material.push_back(uint32_t(sh.material));
+      if (emissive) area.push_back({tri, false, sh.emission, sh.emission_two_sided});
+    }
+  }
+  if (!s.normals.empty()) s.normals.resize(s.positions.size(), Vec3f(0.f));
+  uint32_t num_tri = uint32_t(s.indices.size() / 3);
+  for (uint32_t m : sphere_material) s.prim_material.push_back(m);
+  s.prim_light.assign(s.prim_material.size(), -1);
+
+  for (const PendingArea& a : area) {
+    Light l;
+    l.type = a.sphere ? LightType::kSphere : LightType::kTriangle;
+    l.prim = a.sphere ? num_tri + a.prim : a.prim;
+    l.L = a.L;
+    l.two_sided = a.two_sided ? 1u : 0u;
+    s.prim_light[l.prim] = int32_t(s.lights.size());
+    s.lights.push_back(l);
+  }
+  int env = -1;
+  for (const Light& l : desc.lights) {
+    if (l.type == LightType::kTriangle || l.type == LightType::kSphere)
+      throw InputError("area lights are given as emissive shapes");
+    if (l.type == LightType::kEnvironment) {
+      if (env >= 0) throw InputError("scene '" + desc.name + "' has more than one environment light");
+      env = int(s.lights.size());
+    }
+    Light c = l;
+    if (c.type == LightType::kSpot || c.type == LightType::kDirectional) c.dir = normalize(c.dir);
+    s.lights.push_back(c);
+  }
+
+  // Bounds and the bounding sphere.
+  std::vector<Bounds3> pb;
+  pb.reserve(s.prim_material.size());
+  for (uint32_t t = 0; t < num_tri; ++t) {
+    Bounds3 b;
+    for (int k = 0; k < 3; ++k) b.extend(s.positions[s.indices[3 * t + k]]);
+    pb.push_back(b);
+  }
+  for (const Sphere& sp : s.spheres) pb.push_back(sphere_bounds(sp));
+  for (const Bounds3& b : pb) s.view_.bounds.extend(b);
+  if (pb.empty()) throw InputError("scene '" + desc.name + "' has no shapes");
+  s.bvh = build_bvh(pb);
+  s.view_.camera = make_camera(desc.camera);
+  s.view_.filter = desc.filter;
+  s.view_.environment_light = env;
+  s.update_view();
+
+  std::vector<float> power;
+  for (const Light& l : s.lights) power.push_back(light_power(s.view_, l));
+  if (!s.lights.empty()) build_alias(power, s.alias_prob, s.alias_index, s.light_pmf);
+  s.update_view();
+  s.embree_ = std::make_unique<EmbreeAccel>(s.view_);
+  return sc;
+}
+
+void Scene::update_view() {
+  SceneView& v = view_;
+  v.positions = positions.data();
+  v.normals = normals.empty() ? nullptr : normals.data();
+  v.indices = indices.data();
+  v.num_triangles = uint32_t(indices.size() / 3);
+  v.spheres = spheres.data();
+  v.num_spheres = uint32_t(spheres.size());
+  v.prim_material = prim_material.data();
+  v.prim_light = prim_light.data();
+  v.materials = materials.data();
+  v.lights = lights.data();
+  v.num_lights = uint32_t(lights.size());
+  v.light_sampler = {alias_prob.data(), alias_index.data(), light_pmf.data(), uint32_t(light_pmf.size())};
+  v.bsphere_center = v.bounds.centroid();
+  v.bsphere_radius = 0.5f * length(v.bounds.diagonal());
+  v.bvh = bvh.view();
+}
+
+void Scene::set_resolution(int width, int height) {
+  desc_.camera.width = width;
+  desc_.camera.height = height;
+  view_.camera = make_camera(desc_.camera);
+}
+
+}  // namespace caustica

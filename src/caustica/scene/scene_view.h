@@ -1,0 +1,59 @@
+// The renderable scene as flat arrays and plain structs: what every
+// integrator reads, on the CPU and (copied to device memory) on the GPU.
+// Primitive ids: triangles 0 .. num_triangles-1, then spheres.
+#pragma once
+#include <cstdint>
+#include "../camera/camera.h"
+#include "../film/filter.h"
+#include "../geometry/bvh.h"
+#include "../geometry/shapes.h"
+#include "../light/light.h"
+#include "../material/material.h"
+
+namespace caustica {
+
+// Power-proportional light selection with Walker's alias method (Walker 1977;
+// Vose 1991 construction on the host): O(1) sampling from one uniform number.
+struct LightSamplerView {
+  const float* prob = nullptr;     // acceptance probability of each bucket
+  const uint32_t* alias = nullptr; // the alternative of each bucket
+  const float* pmf = nullptr;      // selection probability of each light
+  uint32_t count = 0;
+
+  CHD uint32_t sample(float u, float& pmf_out) const {
+    float x = u * float(count);
+    uint32_t i = x >= float(count) ? count - 1 : uint32_t(x);
+    float frac = x - float(i);
+    uint32_t l = frac < prob[i] ? i : alias[i];
+    pmf_out = pmf[l];
+    return l;
+  }
+};
+
+struct SceneView {
+  // Triangles
+  const Vec3f* positions = nullptr;
+  const Vec3f* normals = nullptr;  // per vertex, or null
+  const uint32_t* indices = nullptr;  // 3 per triangle
+  uint32_t num_triangles = 0;
+  // Spheres
+  const Sphere* spheres = nullptr;
+  uint32_t num_spheres = 0;
+  // Per primitive
+  const uint32_t* prim_material = nullptr;
+  const int32_t* prim_light = nullptr;  // light index of an emissive primitive, else -1
+  // Shading
+  const Material* materials = nullptr;
+  const Light* lights = nullptr;
+  uint32_t num_lights = 0;
+  LightSamplerView light_sampler;
+  int32_t environment_light = -1;  // index into lights, or -1
+  Camera camera;
+  FilterType filter = FilterType::kBox;
+  Bounds3 bounds;
+  Vec3f bsphere_center;
+  float bsphere_radius = 1.f;
+  BVHView bvh;  // the portable BVH (always built; CPU default traversal is Embree)
+};
+
+}  // namespace caustica
