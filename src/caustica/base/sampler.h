@@ -46,15 +46,26 @@ CHD uint32_t nested_uniform_scramble(uint32_t x, uint32_t seed) {
   return reverse_bits32(lk_permutation(reverse_bits32(x), seed));
 }
 
-// First two Sobol dimensions for index i: van der Corput (bit reversal) and
-// the dimension with primitive polynomial x + 1, whose direction numbers obey
-// v_k = v_{k-1} ^ (v_{k-1} >> 1), v_0 = 2^31.
-CHD void sobol_2d(uint32_t i, uint32_t& x, uint32_t& y) {
-  x = reverse_bits32(i);
+// The second Sobol dimension (primitive polynomial x + 1) has the Pascal
+// matrix mod 2 as generator: by Lucas' theorem, output bit j (from the top)
+// is the parity of the index bits at positions k that contain j as a bit
+// submask. That superset-sum over the 5-bit position lattice takes five masked
+// shift-xors; the result is in reversed bit order (bit j = 2^-(j+1)).
+CHD uint32_t sobol_dim1_reversed(uint32_t i) {
+  i ^= (i >> 1) & 0x55555555u;
+  i ^= (i >> 2) & 0x33333333u;
+  i ^= (i >> 4) & 0x0F0F0F0Fu;
+  i ^= (i >> 8) & 0x00FF00FFu;
+  i ^= (i >> 16) & 0x0000FFFFu;
+  return i;
+}
+// Reference form with the direction numbers v_k = v_{k-1} ^ (v_{k-1} >> 1),
+// v_0 = 2^31 (used by the tests).
+CHD uint32_t sobol_dim1_reference(uint32_t i) {
   uint32_t v = 1u << 31, r = 0;
   for (; i; i >>= 1, v ^= v >> 1)
     if (i & 1u) r ^= v;
-  y = r;
+  return r;
 }
 
 struct Sampler {
@@ -71,6 +82,9 @@ struct Sampler {
     pixel_seed = hash3(seed, pixel, 0x5ca1ab1eULL);
     rng.set_sequence(hash3(seed, pixel, sample_index), mix64(sample_index ^ (uint64_t(pixel) << 32)));
   }
+  // Owen scrambling acts on reversed bits: scramble(x) = rev(lk(rev(x))). Both
+  // Sobol dimensions are produced in reversed order, so each point costs one
+  // permutation and one reversal per coordinate.
   CHD Vec2f next_2d() {
     if (type == SamplerType::kIndependent) {
       float a = rng.next_float();
@@ -78,17 +92,16 @@ struct Sampler {
     }
     uint64_t h = mix64(pixel_seed + dimension++);
     uint32_t shuffled = nested_uniform_scramble(index, uint32_t(h));
-    uint32_t x, y;
-    sobol_2d(shuffled, x, y);
-    x = nested_uniform_scramble(x, uint32_t(h >> 32));
-    y = nested_uniform_scramble(y, uint32_t(mix64(h)));
+    uint32_t h2 = uint32_t(mix64(h));
+    uint32_t x = reverse_bits32(lk_permutation(shuffled, uint32_t(h >> 32)));
+    uint32_t y = reverse_bits32(lk_permutation(sobol_dim1_reversed(shuffled), h2));
     return {u32_to_unit_float(x), u32_to_unit_float(y)};
   }
   CHD float next_1d() {
     if (type == SamplerType::kIndependent) return rng.next_float();
     uint64_t h = mix64(pixel_seed + dimension++);
     uint32_t shuffled = nested_uniform_scramble(index, uint32_t(h));
-    return u32_to_unit_float(nested_uniform_scramble(reverse_bits32(shuffled), uint32_t(h >> 32)));
+    return u32_to_unit_float(reverse_bits32(lk_permutation(shuffled, uint32_t(h >> 32))));
   }
 };
 

@@ -41,4 +41,17 @@ CHD Vec3f offset_ray_origin(Vec3f p, Vec3f ng, Vec3f w) {
   return dot(w, ng) < 0.f ? p - off : p + off;
 }
 
+// A shadow ray from a point already offset off its surface (`o`) to a point on
+// a light, offset along its own normal towards `o` (pbrt-v4's SpawnRayTo): the
+// unnormalised direction spans the segment, which ends just short of the
+// target (tmax = 1 - 1e-4). A zero n_to means a point light (no offset).
+CHD Ray spawn_ray_to(Vec3f o, Vec3f p_to, Vec3f n_to) {
+  Ray r;
+  r.o = o;
+  Vec3f target = (n_to.x == 0.f && n_to.y == 0.f && n_to.z == 0.f) ? p_to : offset_ray_origin(p_to, n_to, o - p_to);
+  r.d = target - o;
+  r.tmax = 1.f - 1e-4f;
+  return r;
+}
+
 }  // namespace caustica

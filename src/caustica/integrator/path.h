@@ -103,6 +103,12 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   Frame frame(sh.ns);
   Vec3f wo = frame.to_local(wo_world);
 
+  // All rays leaving this vertex on the side of wo start from one point p_front,
+  // offset off the surface, and NEE measures light densities from that same
+  // point; so the light pdf that MIS evaluates for a BSDF-sampled hit (from
+  // prev_p, the ray origin) matches what NEE would have used for that direction.
+  Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
+
   // Next-event estimation: a path of depth + 1 segments.
   float u_light = st.sampler.next_1d();
   Vec2f u_light2 = st.sampler.next_2d();
@@ -111,16 +117,22 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     uint32_t li = s.light_sampler.sample(u_light, pmf);
     const Light& l = s.lights[li];
     LightSample ls;
-    if (sample_light(s, l, sh.p, u_light2, ls)) {
+    if (sample_light(s, l, p_front, u_light2, ls)) {
       Vec3f wi = frame.to_local(ls.wi);
       RGB f = bsdf_eval(m, wo, wi);
       if (!is_black(f)) {
         float w = 1.f;
         if (!ls.delta) w = power_heuristic(pmf * ls.pdf, bsdf_pdf(m, wo, wi));
         sr.contrib = st.beta * f * ls.Li * (abs_cos_theta(wi) * w / (pmf * ls.pdf));
-        sr.ray.o = offset_ray_origin(sh.p, sh.ng, ls.wi);
-        sr.ray.d = ls.wi;
-        sr.ray.tmax = std::isfinite(ls.dist) ? ls.dist * (1.f - 2e-4f) : kInf;
+        // Light behind the surface (transmission): start on the other side.
+        Vec3f o = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);
+        if (std::isfinite(ls.dist)) {
+          sr.ray = spawn_ray_to(o, ls.p_l, ls.n_l);
+        } else {
+          sr.ray.o = o;
+          sr.ray.d = ls.wi;
+          sr.ray.tmax = kInf;
+        }
         sr.active = !is_black(sr.contrib) && isfinite3(sr.contrib);
       }
     }
@@ -139,10 +151,10 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   st.eta_scale *= bs.eta * bs.eta;
   st.prev_pdf = bs.pdf;
   st.prev_delta = bs.delta;
-  st.prev_p = sh.p;
-  st.ray.o = offset_ray_origin(sh.p, sh.ng, wi_world);
+  st.ray.o = dot(wi_world, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, wi_world);
   st.ray.d = wi_world;
   st.ray.tmax = kInf;
+  st.prev_p = st.ray.o;
   if (is_black(st.beta)) { st.active = false; return; }
   if (st.depth >= pp.rr_depth) {
     float q = minf(max_component(st.beta) * st.eta_scale, 0.95f);

@@ -12,6 +12,7 @@ struct LightSample {
   float dist = kInf;  // distance to the light point (infinite for distant lights)
   float pdf = 0.f;  // solid-angle density (1 for delta lights)
   bool delta = false;
+  Vec3f p_l, n_l;   // area lights: the sampled point and its geometric normal (else n_l = 0)
 };
 
 CHD float sphere_cos_theta_max(const Sphere& sp, Vec3f ref, bool& inside) {
@@ -66,6 +67,8 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       ls.pdf = d2 / (c * triangle_area(p0, p1, p2));
       ls.Li = area_le(l, n, -ls.wi);
       ls.delta = false;
+      ls.p_l = p;
+      ls.n_l = n;
       return ls.pdf > 0.f && !is_black(ls.Li);
     }
     case LightType::kSphere: {
@@ -97,6 +100,8 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       ls.pdf = light_pdf(s, l, ref, p, n);
       ls.Li = area_le(l, n, -ls.wi);
       ls.delta = false;
+      ls.p_l = p;
+      ls.n_l = n;
       return ls.pdf > 0.f && !is_black(ls.Li);
     }
     case LightType::kPoint:
@@ -110,6 +115,8 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       ls.Li = l.L * (falloff / d2);
       ls.pdf = 1.f;
       ls.delta = true;
+      ls.p_l = l.p;
+      ls.n_l = Vec3f(0.f);
       return falloff > 0.f;
     }
     case LightType::kDirectional: {

@@ -1,0 +1,18 @@
+import os
+import sys
+
+import numpy as np
+import pytest
+
+BIN = os.path.join(os.path.dirname(sys.executable), "caustica")
+
+
+def mean_and_se(values):
+    """Mean and standard error of independent estimates."""
+    v = np.asarray(values, dtype=np.float64).ravel()
+    return v.mean(), v.std(ddof=1) / np.sqrt(v.size)
+
+
+@pytest.fixture
+def caustica_bin():
+    return BIN
