@@ -1,0 +1,117 @@
+import os
+import threading
+
+import numpy as np
+import pytest
+
+import caustica
+
+
+def test_render_returns_float32_hw3():
+    img = caustica.render("cornell", spp=2)
+    assert img.dtype == np.float32 and img.shape == (256, 256, 3)
+    assert np.isfinite(img).all() and img.mean() > 0
+
+
+def test_load_scene_overrides_and_info():
+    s = caustica.load_scene("smallvcm-spheres", width=40, height=30, filter="tent")
+    assert (s.width, s.height, s.filter) == (40, 30, "tent")
+    assert s.num_spheres == 2 and s.num_lights == 2
+    names = [n for n, _ in caustica.builtin_scenes()]
+    assert names[0] == caustica.default_scene_name() == "smallvcm-spheres"
+    assert {"cornell", "smallvcm-sun", "smallvcm-mirror-ball", "smallvcm-point", "smallvcm-env"} <= set(names)
+
+
+@pytest.mark.parametrize("name", ["smallvcm-sun", "smallvcm-mirror-ball", "smallvcm-point", "smallvcm-env"])
+def test_every_builtin_renders(name):
+    img = caustica.render(caustica.load_scene(name, width=32, height=32), spp=2)
+    assert np.isfinite(img).all() and img.mean() > 0
+
+
+def test_progress_called_and_can_stop():
+    calls = []
+    img = caustica.render(caustica.load_scene("cornell", width=64, height=64), spp=64,
+                          progress=lambda st: calls.append(dict(st)))
+    assert calls and calls[-1]["passes"] == 64 and calls[-1]["done"]
+    r = caustica.render_job(caustica.load_scene("cornell", width=64, height=64), spp=100000,
+                            progress=lambda st: False)
+    assert 0 < r.stats["passes"] < 100000 and r.stats["cancelled"]
+    assert np.isfinite(r.image).all() and r.image.mean() > 0
+
+
+def test_gil_released_while_rendering():
+    ticks = []
+    stop = threading.Event()
+
+    def spin():
+        while not stop.is_set():
+            ticks.append(1)
+            stop.wait(0.001)
+
+    t = threading.Thread(target=spin)
+    t.start()
+    try:
+        caustica.render(caustica.load_scene("cornell", width=128, height=128), spp=32)
+    finally:
+        stop.set()
+        t.join()
+    assert len(ticks) > 10
+
+
+def test_write_and_read_back(tmp_path):
+    img = caustica.render(caustica.load_scene("cornell", width=20, height=10), spp=2)
+    for ext in ("exr", "pfm"):
+        p = tmp_path / f"a.{ext}"
+        caustica.write_image(p, img)
+        back = caustica.read_image(p)
+        assert back.shape == img.shape and np.array_equal(back, img)
+    caustica.write_image(tmp_path / "a.png", img, exposure=1.0)
+    assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not [f for f in os.listdir(tmp_path) if "tmp" in f]
+
+
+@pytest.mark.parametrize("kwargs,needle", [
+    (dict(integrator="nope"), "unknown integrator 'nope'"),
+    (dict(spp=0), "spp must be a positive integer"),
+    (dict(spp=-3), "spp must be a positive integer"),
+    (dict(time=-1.0), "time must be a positive number"),
+    (dict(max_depth=0), "max_depth must be a positive integer"),
+    (dict(sampler="halton"), "unknown sampler 'halton'"),
+    (dict(accel="optix"), "unknown accelerator 'optix'"),
+    (dict(threads=-1), "threads must be a non-negative integer"),
+])
+def test_bad_render_arguments(kwargs, needle):
+    with pytest.raises(caustica.InputError, match=needle):
+        caustica.render("cornell", **kwargs)
+
+
+def test_bad_scenes():
+    with pytest.raises(caustica.InputError, match="unknown scene 'nope'.*cornell"):
+        caustica.load_scene("nope")
+    with pytest.raises(caustica.InputError, match="no such file"):
+        caustica.load_scene("missing/scene.json")
+    with pytest.raises(caustica.InputError, match=r"<dict>: /shapes/0/radius: expected a number, got string"):
+        caustica.load_scene({"camera": {}, "shapes": [{"type": "sphere", "radius": "big"}]})
+    with pytest.raises(caustica.InputError, match=r"<dict>: /materials/m/type: unknown material type 'velvet'"):
+        caustica.load_scene({"camera": {}, "materials": {"m": {"type": "velvet"}}, "shapes": [{"type": "cube"}]})
+    with pytest.raises(caustica.InputError, match=r"/shapes/0/material: no material named 'x'"):
+        caustica.load_scene({"camera": {}, "shapes": [{"type": "cube", "material": "x"}]})
+    with pytest.raises(caustica.InputError, match="unknown filter"):
+        caustica.load_scene("cornell", filter="mitchell")
+    with pytest.raises(caustica.InputError, match="width must be a positive integer"):
+        caustica.load_scene("cornell", width=0)
+
+
+def test_bad_json_file_names_line(tmp_path):
+    p = tmp_path / "bad.json"
+    p.write_text('{\n  "camera": {},\n  "shapes": [\n    {"type": "cube",,}\n  ]\n}\n')
+    with pytest.raises(caustica.InputError, match=r"bad\.json:4: invalid JSON"):
+        caustica.load_scene(p)
+
+
+def test_unsupported_output(tmp_path):
+    img = np.zeros((2, 2, 3), np.float32)
+    with pytest.raises(caustica.InputError, match=r"unknown output format '\.jpg'"):
+        caustica.write_image(tmp_path / "a.jpg", img)
+    with pytest.raises(caustica.InputError, match="does not exist"):
+        caustica.write_image(tmp_path / "no" / "a.exr", img)
