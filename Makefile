@@ -1,7 +1,7 @@
 # caustica: `make render` and `make test` install what is missing, build, and run.
 VENV    := .venv
 PY      := $(VENV)/bin/python
-NVCC     = $(shell ls $(VENV)/lib/python3*/site-packages/nvidia/cu13/bin/nvcc 2>/dev/null | head -n1)
+NVCC     = $(abspath $(shell ls $(VENV)/lib/python3*/site-packages/nvidia/cu13/bin/nvcc 2>/dev/null | head -n1))
 SCENE   ?= smallvcm-spheres
 SPP     ?= 64
 JOBS    ?= $(shell nproc)
@@ -32,7 +32,7 @@ test-python:
 # nvcc (CUDA 13.0 from PyPI): compile only, no GPU needed.
 cuda-check: deps
 	$(VENV)/bin/cmake -S . -B build/cuda -G Ninja -DCAUSTICA_CUDA_CHECK_ONLY=ON \
-	  -DCMAKE_CUDA_COMPILER=$(NVCC) -DCMAKE_MAKE_PROGRAM=$(abspath $(VENV)/bin/ninja) > build-cuda.log 2>&1 \
+	  -DCMAKE_CUDA_COMPILER=$(NVCC) -DCUDAToolkit_ROOT=$(dir $(NVCC)).. -DCMAKE_MAKE_PROGRAM=$(abspath $(VENV)/bin/ninja) > build-cuda.log 2>&1 \
 	  || (cat build-cuda.log; exit 1)
 	$(VENV)/bin/cmake --build build/cuda
 	@echo "cuda-check: device code compiles with $$($(NVCC) --version | tail -n 2 | head -n 1)"

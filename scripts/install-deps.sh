@@ -32,3 +32,9 @@ if [ ! -f "$stamp" ]; then
   rm -f .venv/.requirements-*
   touch "$stamp"
 fi
+
+# nvcc from PyPI looks for its libraries in lib64/, the wheel ships lib/.
+for cu in .venv/lib/python3*/site-packages/nvidia/cu13; do
+  [ -d "$cu/lib" ] && [ ! -e "$cu/lib64" ] && ln -s lib "$cu/lib64"
+done
+exit 0

@@ -24,7 +24,7 @@ CHD float lerpf(float t, float a, float b) { return (1.f - t) * a + t * b; }
 
 struct Vec2f {
   float x = 0, y = 0;
-  CHD Vec2f() = default;
+  Vec2f() = default;
   CHD Vec2f(float x_, float y_) : x(x_), y(y_) {}
 };
 CHD Vec2f operator+(Vec2f a, Vec2f b) { return {a.x + b.x, a.y + b.y}; }
@@ -33,7 +33,7 @@ CHD Vec2f operator*(Vec2f a, float s) { return {a.x * s, a.y * s}; }
 
 struct Vec3f {
   float x = 0, y = 0, z = 0;
-  CHD Vec3f() = default;
+  Vec3f() = default;
   CHD explicit Vec3f(float v) : x(v), y(v), z(v) {}
   CHD Vec3f(float x_, float y_, float z_) : x(x_), y(y_), z(z_) {}
   CHD float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }

@@ -28,7 +28,7 @@ struct PCG32 {
   uint64_t state = 0x853c49e6748fea9bULL;
   uint64_t inc = 0xda3e39cb94b95bdbULL;
 
-  CHD PCG32() = default;
+  PCG32() = default;
   CHD PCG32(uint64_t seq_index, uint64_t seed) { set_sequence(seq_index, seed); }
   CHD void set_sequence(uint64_t seq_index, uint64_t seed) {
     state = 0u;
