@@ -53,8 +53,11 @@ void sphere_occluded_fn(const RTCOccludedFunctionNArguments* args) {
   if (intersect_sphere(r, spheres[args->primID], t)) ray->tfar = -kInf;
 }
 
-void error_fn(void*, RTCError code, const char* str) {
-  throw std::runtime_error(std::string("Embree error ") + std::to_string(int(code)) + ": " + (str ? str : ""));
+// Embree reports errors through the device; checked after each setup step
+// (a callback must not throw through Embree's C frames).
+void check(RTCDevice device, const char* what) {
+  RTCError e = rtcGetDeviceError(device);
+  if (e != RTC_ERROR_NONE) throw std::runtime_error(std::string("Embree: ") + what + " failed (error " + std::to_string(int(e)) + ")");
 }
 
 inline void fill_ray(RTCRay& rr, const Ray& ray) {
@@ -77,10 +80,8 @@ inline void fill_ray(RTCRay& rr, const Ray& ray) {
 EmbreeAccel::EmbreeAccel(const SceneView& v) : num_triangles_(v.num_triangles), spheres_(v.spheres) {
   device_ = rtcNewDevice(nullptr);
   if (!device_) throw std::runtime_error("Embree: could not create a device");
-  rtcSetDeviceErrorFunction(device_, error_fn, nullptr);
   scene_ = rtcNewScene(device_);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
-  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   if (v.num_triangles > 0) {
     RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
     // Copies (Embree reads 16 bytes past the last vertex, so no shared buffer).
@@ -108,6 +109,7 @@ EmbreeAccel::EmbreeAccel(const SceneView& v) : num_triangles_(v.num_triangles), 
     rtcReleaseGeometry(g);
   }
   rtcCommitScene(scene_);
+  check(device_, "building the scene");
 }
 
 EmbreeAccel::~EmbreeAccel() {
