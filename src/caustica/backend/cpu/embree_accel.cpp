@@ -82,6 +82,7 @@ EmbreeAccel::EmbreeAccel(const SceneView& v) : num_triangles_(v.num_triangles), 
   if (!device_) throw std::runtime_error("Embree: could not create a device");
   scene_ = rtcNewScene(device_);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   if (v.num_triangles > 0) {
     RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
     // Copies (Embree reads 16 bytes past the last vertex, so no shared buffer).
