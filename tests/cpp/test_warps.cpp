@@ -36,22 +36,22 @@ chi2::Options options() {
 }
 
 // |integral - 1| <= 4 x the quadrature's error estimate + 1e-6: the estimate
-// is the sum of |Simpson(children) - Simpson(cell)| (over 15 where Richardson
-// extrapolation converged); 1e-6 covers the single-precision pdf values (each
+// sums |Gauss(children) - Gauss(cell)| over the cells (over 255 where the
+// refinement converged); 1e-6 covers the single-precision pdf values (each
 // relative error <= 2^-24, so their weighted sum is within ~1e-7 of exact).
 void expect_normalised(const chi2::Result& r, const char* what) {
   EXPECT_NEAR(r.pdf_integral, 1.0, 4.0 * r.quad_error + 1e-6) << what << ": " << r.report;
 }
 
 template <class Warp, class Pdf>
-chi2::Result sphere_warp_test(uint64_t seed, Warp&& warp, Pdf&& pdf, chi2::Options o = options()) {
+chi2::Result sphere_warp_test(uint64_t seed, Warp&& warp, Pdf&& pdf, chi2::Options o = options(), int res = kRes) {
   PCG32 rng(seed, 0x1234);
   auto sample = [&]() {
     float a = rng.next_float();
     float b = rng.next_float();
     return chi2::SampleDir{true, warp(Vec2f(a, b)), false};
   };
-  return chi2::test_sphere(kRes, sample, pdf, o);
+  return chi2::test_sphere(res, sample, pdf, o);
 }
 
 }  // namespace
@@ -87,9 +87,10 @@ TEST(Chi2Helper, RejectsASlightlyWrongPdf) {
 
 TEST(Chi2Helper, RejectsADistortedWarp) {
   // Negative control: a uniform-sphere warp with cos theta = 1 - 2u displaced by
-  // 0.004 sin(2 pi u) (at most 0.2 % of its range) must be rejected.
+  // 0.01 sin(2 pi u) (at most 0.5 % of its range; the density is off by up to
+  // 3 %) must be rejected.
   auto warp = [](Vec2f u) {
-    float z = 1.f - 2.f * u.x + 0.004f * std::sin(2.f * kPi * u.x);
+    float z = 1.f - 2.f * u.x + 0.01f * std::sin(2.f * kPi * u.x);
     z = clampf(z, -1.f, 1.f);
     float r = safe_sqrt(1.f - z * z), phi = 2.f * kPi * u.y;
     return Vec3f(r * std::cos(phi), r * std::sin(phi), z);
@@ -109,6 +110,23 @@ TEST(Chi2Helper, RejectsMissingDiscreteMass) {
   };
   chi2::Result r = chi2::test_sphere(kRes, sample, cosine_hemisphere_pdf, options());
   EXPECT_LT(r.p_value, r.alpha) << r.report;
+}
+
+TEST(Chi2Helper, RejectsSamplesWherePdfIsZero) {
+  // Negative control: cosine-weighted samples, one in 10^4 mirrored below the
+  // horizon where the pdf is 0. The 100 stray samples exceed the 1e-5 N
+  // allowance.
+  PCG32 rng(14, 0x1234);
+  long k = 0;
+  auto sample = [&]() {
+    float a = rng.next_float(), b = rng.next_float();
+    Vec3f w = square_to_cosine_hemisphere(Vec2f(a, b));
+    if (++k % 10000 == 0) w.z = -w.z;
+    return chi2::SampleDir{true, w, false};
+  };
+  chi2::Result r = chi2::test_sphere(kRes, sample, cosine_hemisphere_pdf, options());
+  EXPECT_EQ(r.zero_pdf_samples, 100);
+  EXPECT_FALSE(r.passed) << r.report;
 }
 
 // ---------------------------------------------------------------------------
@@ -134,18 +152,21 @@ TEST(Warps, UniformHemisphere) {
 }
 
 TEST(Warps, UniformCone) {
-  // Cone edges that fall between the grid's dyadic quadrature points (a step
-  // on a Simpson node biases the integral), from wider than a hemisphere to
-  // narrow; the edge is a step of the pdf, so quadrature refines deeper.
+  // From wider than a hemisphere to narrow. The cone's edge is a step of the
+  // pdf; it is put on a bin edge (cos theta = -1 + 2 j / res), where the
+  // Gauss-Legendre nodes, all inside the bins, integrate it exactly. The
+  // narrowest cone gets a finer grid so that it spans more than one bin.
+  struct Cone {
+    float cos_max;
+    int res;
+  };
   uint64_t seed = 4;
-  for (float cos_max : {-0.3f, 0.3f, 0.77f, 0.95f}) {
-    auto warp = [&](Vec2f u) { return square_to_uniform_cone(u, cos_max); };
-    auto pdf = [&](Vec3f w) { return w.z >= cos_max ? uniform_cone_pdf(cos_max) : 0.f; };
-    chi2::Options o = options();
-    o.quad.max_depth = 10;
-    chi2::Result r = sphere_warp_test(seed++, warp, pdf, o);
+  for (Cone c : {Cone{-0.5f, kRes}, Cone{0.25f, kRes}, Cone{0.75f, kRes}, Cone{0.9375f, 2 * kRes}}) {
+    auto warp = [&](Vec2f u) { return square_to_uniform_cone(u, c.cos_max); };
+    auto pdf = [&](Vec3f w) { return w.z >= c.cos_max ? uniform_cone_pdf(c.cos_max) : 0.f; };
+    chi2::Result r = sphere_warp_test(seed++, warp, pdf, options(), c.res);
     expect_normalised(r, "uniform cone");
-    EXPECT_TRUE(r.passed) << "cos_theta_max = " << cos_max << ": " << r.report;  // p >= Sidak-corrected alpha
+    EXPECT_TRUE(r.passed) << "cos_theta_max = " << c.cos_max << ": " << r.report;  // p >= Sidak-corrected alpha
   }
 }
 
@@ -188,9 +209,9 @@ double area_below_antidiagonal(double x0, double x1, double y0, double y1) {
 
 TEST(Warps, UniformTriangle) {
   // Barycentrics (b1, b2) on a 24 x 24 grid over [0, 1]^2; uniform over the
-  // triangle means density 2 on b1 + b2 <= 1. The antidiagonal runs through
-  // bin corners, where adaptive Simpson is biased (its nodes lie on the step),
-  // so expected masses are the exact clipped areas instead.
+  // triangle means density 2 on b1 + b2 <= 1. The antidiagonal cuts bins in
+  // half, a step that quadrature only approximates, so the expected masses
+  // are the exact clipped areas instead.
   chi2::Grid g{0.0, 1.0, 0.0, 1.0, 24, 24};
   PCG32 rng(6, 0x1234);
   long outside = 0;
@@ -283,6 +304,19 @@ TEST(Sobol, EveryDimensionIsStratified) {
             ASSERT_EQ(count[d][j], 1) << "seed " << seed << " pixel " << pixel << " k " << k << " dim " << d;
       }
     }
+}
+
+TEST(Sobol, FastSecondDimensionMatchesDirectionNumbers) {
+  // sobol_dim1_reversed (the Pascal-matrix bit trick) must be the bit reversal
+  // of the direction-number construction, for all indices below 2^20 and for
+  // a million random 32-bit indices.
+  for (uint32_t i = 0; i < (1u << 20); ++i)
+    ASSERT_EQ(sobol_dim1_reversed(i), reverse_bits32(sobol_dim1_reference(i))) << i;
+  PCG32 rng(9, 0x1234);
+  for (int k = 0; k < 1000000; ++k) {
+    uint32_t i = rng.next_u32();
+    ASSERT_EQ(sobol_dim1_reversed(i), reverse_bits32(sobol_dim1_reference(i))) << i;
+  }
 }
 
 TEST(Sobol, PixelsAreDecorrelated) {
