@@ -70,9 +70,19 @@ class RenderResult:
 def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time: Optional[float] = None,
                seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: int = 5,
                sampler: str = "sobol", accel: str = "embree",
-               progress: Optional[Callable[[dict], Any]] = None, poll: float = 0.1) -> RenderResult:
+               progress: Optional[Callable[[dict], Any]] = None, poll: float = 0.1,
+               photons: Optional[int] = None, radius: Optional[float] = None, alpha: float = 0.7,
+               pass_offset: int = 0, stochastic_hash: bool = False,
+               checkpoint: Optional[Callable[[np.ndarray], Any]] = None,
+               checkpoint_interval: Optional[float] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
-    returns what was accumulated so far with interrupted=True."""
+    returns what was accumulated so far with interrupted=True.
+
+    Photon integrators (sppm, ppm, pppm): `spp` counts passes; `photons` photon paths per
+    pass (default one per pixel); `radius` the initial gather radius (default automatic,
+    reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
+    passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
+    `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far."""
     scene = load_scene(scene)
     if integrator not in integrators():
         raise InputError(f"unknown integrator '{integrator}' (allowed: {', '.join(integrators())})")
@@ -89,18 +99,30 @@ def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time:
         md = -1
     else:
         md = _positive_int("max_depth", max_depth)
-    for name, v in (("seed", seed), ("threads", threads)):
+    if photons is not None:
+        _positive_int("photons", photons)
+    if radius is not None and (not isinstance(radius, (int, float)) or not radius > 0):
+        raise InputError(f"radius must be a positive number, got {radius!r}")
+    if not isinstance(alpha, (int, float)) or not 0 < alpha < 1:
+        raise InputError(f"alpha must be in (0, 1), got {alpha!r}")
+    for name, v in (("seed", seed), ("threads", threads), ("pass_offset", pass_offset)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
             raise InputError(f"{name} must be a non-negative integer, got {v!r}")
     job = _native.RenderJob(scene, integrator=integrator, spp=spp_i, time=float(time or 0.0), seed=int(seed),
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
-                            sampler=sampler, accel=accel)
+                            sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),
+                            alpha=float(alpha), pass_offset=int(pass_offset), stochastic_hash=bool(stochastic_hash))
     interrupted = False
     job.start()
+    last_checkpoint = _time.monotonic()
     try:
         while not job.wait(poll):
             if progress is not None and progress(job.stats()) is False:
                 job.cancel()
+            if checkpoint is not None and checkpoint_interval and _time.monotonic() - last_checkpoint >= checkpoint_interval:
+                if job.stats()["passes"] > 0:
+                    checkpoint(job.image())
+                last_checkpoint = _time.monotonic()
     except KeyboardInterrupt:
         interrupted = True
         job.cancel()
@@ -115,7 +137,7 @@ def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time:
 def render(scene, integrator: str = "path", spp: Optional[int] = None, time: Optional[float] = None,
            seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: int = 5,
            sampler: str = "sobol", accel: str = "embree",
-           progress: Optional[Callable[[dict], Any]] = None) -> np.ndarray:
+           progress: Optional[Callable[[dict], Any]] = None, **photon_options) -> np.ndarray:
     """Renders `scene` (a name, a path, a dict or a loaded scene) and returns linear RGB
     radiance as a float32 NumPy array of shape (H, W, 3).
 
@@ -123,8 +145,10 @@ def render(scene, integrator: str = "path", spp: Optional[int] = None, time: Opt
     16 spp. progress(stats) is called about ten times a second with a dict of counters
     (passes, target_passes, samples, rays, shadow_rays, seconds); returning False stops
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
-    after stopping the render."""
-    r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress)
+    after stopping the render. Photon integrators take photons=, radius=, alpha=,
+    pass_offset=, stochastic_hash= (see render_job)."""
+    r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
+                   **photon_options)
     if r.interrupted:
         raise KeyboardInterrupt
     return r.image

@@ -73,6 +73,18 @@ def _seconds(s):
     return v
 
 
+def _seconds_named(name):
+    def conv(s):
+        try:
+            v = float(s)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} expects a positive number of seconds, got '{s}'")
+        if not (v > 0 and math.isfinite(v)):
+            raise argparse.ArgumentTypeError(f"{name} expects a positive number of seconds, got '{s}'")
+        return v
+    return conv
+
+
 def _float(name):
     def conv(s):
         try:
@@ -113,6 +125,17 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--accel", default="embree", help="embree, or bvh (the portable BVH the GPU uses)")
     r.add_argument("--exposure", type=_float("--exposure"), default=0.0,
                    help="PNG only: scale by 2^exposure before sRGB encoding")
+    r.add_argument("--photons", type=_positive_int("--photons"), default=None,
+                   help="photon integrators: photon paths per pass (default: one per pixel)")
+    r.add_argument("--radius", type=_float("--radius"), default=None,
+                   help="photon integrators: initial gather radius (default: automatic, printed)")
+    r.add_argument("--alpha", type=_float("--alpha"), default=0.7, help="photon integrators: radius reduction, in (0, 1)")
+    r.add_argument("--pass-offset", type=_nonneg_int("--pass-offset"), default=0,
+                   help="pppm: first pass index (independent passes can be rendered apart and averaged)")
+    r.add_argument("--stochastic-hash", action="store_true",
+                   help="photon maps keep one photon per hash cell (Hachisuka & Jensen 2010)")
+    r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
+                   help="write the image so far every S seconds (atomically)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("scenes", help="list the built-in scenes")
     return p
@@ -159,7 +182,10 @@ class _Progress:
         n = min(elapsed, self.bar.total) if self.by_time else st["passes"]
         self.bar.n = n
         rate = st["samples"] / elapsed if elapsed > 0 else 0.0
-        self.bar.set_postfix_str(f"{rate / 1e6:.2f} M samples/s", refresh=False)
+        post = f"{rate / 1e6:.2f} M samples/s"
+        if st.get("photons"):
+            post = f"{st['passes'] / elapsed if elapsed > 0 else 0:.2f} passes/s, {st['photons'] / elapsed / 1e6:.2f} M photons/s"
+        self.bar.set_postfix_str(post, refresh=False)
         self.bar.refresh()
         return True
 
@@ -180,20 +206,34 @@ def cmd_render(a) -> int:
     scene_name = a.scene or _api.default_scene_name()
     scene = _api.load_scene(scene_name, width=a.width, height=a.height, filter=a.filter)
     spp = a.spp if (a.spp is not None or a.time is not None) else 16
+    if a.radius is not None and not a.radius > 0:
+        raise _api.InputError(f"--radius expects a positive number, got '{a.radius}'")
+    if not 0 < a.alpha < 1:
+        raise _api.InputError(f"--alpha expects a number in (0, 1), got '{a.alpha}'")
     prog = _Progress(spp, a.time, enabled=not a.quiet)
+
+    def write_all(image):
+        for o in outputs:
+            _api.write_image(o, image, exposure=a.exposure)
+
     try:
         res = _api.render_job(scene, integrator=a.integrator, spp=spp, time=a.time, seed=a.seed,
                               threads=a.threads, max_depth=a.max_depth, rr_depth=a.rr_depth,
-                              sampler=a.sampler, accel=a.accel, progress=prog)
+                              sampler=a.sampler, accel=a.accel, progress=prog, photons=a.photons,
+                              radius=a.radius, alpha=a.alpha, pass_offset=a.pass_offset,
+                              stochastic_hash=a.stochastic_hash, checkpoint=write_all if a.checkpoint else None,
+                              checkpoint_interval=a.checkpoint)
     finally:
         prog.close()
     st = res.stats
-    for o in outputs:
-        _api.write_image(o, res.image, exposure=a.exposure)
+    write_all(res.image)
     secs = max(st["seconds"], 1e-9)
     msg = (f"{scene.name}: {st['passes']} spp, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
            f"{st['samples'] / secs / 1e6:.2f} M samples/s, "
            f"{(st['rays'] + st['shadow_rays']) / secs / 1e6:.2f} M rays/s -> {', '.join(outputs)}")
+    if st.get("photons"):
+        msg += (f"; {st['photons']} photon paths ({st['photons'] / secs / 1e6:.2f} M/s), "
+                f"initial radius {st['radius']:.4g}")
     if res.interrupted:
         msg = "interrupted: wrote the image accumulated so far. " + msg
     print(msg, file=sys.stderr)

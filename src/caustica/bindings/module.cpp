@@ -78,7 +78,8 @@ NB_MODULE(_native, m) {
       .def("__init__",
            [](RenderJob* self, std::shared_ptr<Scene> scene, const std::string& integrator, int64_t spp, double time,
               uint64_t seed, int threads, int max_depth, int rr_depth, const std::string& sampler,
-              const std::string& accel) {
+              const std::string& accel, int64_t photons, float radius, float alpha, int64_t pass_offset,
+              bool stochastic_hash) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -91,11 +92,19 @@ NB_MODULE(_native, m) {
              else if (sampler == "independent") o.sampler = SamplerType::kIndependent;
              else throw InputError("unknown sampler '" + sampler + "' (allowed: sobol, independent)");
              o.accel = accel;
+             o.photons = photons;
+             o.radius = radius;
+             o.alpha = alpha;
+             o.pass_offset = pass_offset;
+             o.stochastic_hash = stochastic_hash;
+             nb::gil_scoped_release release;
              new (self) RenderJob(std::move(scene), o);
            },
            nb::arg("scene"), nb::arg("integrator") = "path", nb::arg("spp") = 0, nb::arg("time") = 0.0,
            nb::arg("seed") = 0, nb::arg("threads") = 0, nb::arg("max_depth") = -2, nb::arg("rr_depth") = 5,
-           nb::arg("sampler") = "sobol", nb::arg("accel") = "embree")
+           nb::arg("sampler") = "sobol", nb::arg("accel") = "embree", nb::arg("photons") = 0,
+           nb::arg("radius") = 0.f, nb::arg("alpha") = 0.7f, nb::arg("pass_offset") = 0,
+           nb::arg("stochastic_hash") = false)
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
@@ -112,6 +121,8 @@ NB_MODULE(_native, m) {
         d["seconds"] = s.seconds;
         d["done"] = s.done;
         d["cancelled"] = s.cancelled;
+        d["photons"] = s.photons;
+        d["radius"] = s.radius;
         return d;
       })
       .def("image", [](const RenderJob& j) {

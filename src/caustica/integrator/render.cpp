@@ -11,11 +11,12 @@
 #include "../backend/cpu/embree_accel.h"
 #include "../base/error.h"
 #include "path.h"
+#include "photon_render.h"
 
 namespace caustica {
 
 const std::vector<std::string>& integrator_names() {
-  static const std::vector<std::string> names = {"path"};
+  static const std::vector<std::string> names = {"path", "sppm", "ppm", "pppm"};
   return names;
 }
 
@@ -44,6 +45,10 @@ void RenderJob::validate(const RenderOptions& o) {
     throw InputError("--max-depth must be a positive integer or -1 (unlimited), got " + std::to_string(o.max_depth));
   if (o.rr_depth < 1) throw InputError("--rr-depth must be a positive integer");
   if (o.threads < 0) throw InputError("--threads must be a positive integer");
+  if (o.photons < 0) throw InputError("--photons must be a positive integer");
+  if (o.radius < 0 || !std::isfinite(o.radius)) throw InputError("--radius must be a positive number");
+  if (!(o.alpha > 0.f && o.alpha < 1.f)) throw InputError("--alpha must be in (0, 1)");
+  if (o.pass_offset < 0) throw InputError("--pass-offset must be a non-negative integer");
   if (o.accel != "embree" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: embree, bvh)");
 }
@@ -53,6 +58,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
       film_(scene_->view().camera.width, scene_->view().camera.height) {
   validate(opt_);
   if (opt_.spp == 0 && opt_.time == 0.0) opt_.spp = 16;
+  if (is_photon_integrator(opt_.integrator)) photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
 }
 
 RenderJob::~RenderJob() {
@@ -121,7 +127,11 @@ void RenderJob::run() {
       {
         std::lock_guard<std::mutex> lock(mutex_);
         arena.execute([&] {
-          if (opt_.accel == "bvh")
+          if (photon_) {
+            if (photon_->render_pass(pass, cancel_)) photons_ += photon_->photons_per_pass();
+            else return;
+            samples_ += uint64_t(film_.width) * film_.height;
+          } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);
           else
             render_pass(scene_->embree(), pass);
@@ -161,6 +171,8 @@ RenderStats RenderJob::stats() const {
   s.shadow_rays = shadow_rays_.load();
   s.invalid_samples = invalid_.load();
   s.seconds = seconds_.load();
+  s.photons = photons_.load();
+  s.radius = photon_ ? photon_->initial_radius() : 0.f;
   s.done = finished_.load();
   s.cancelled = cancel_.load();
   return s;
@@ -168,6 +180,7 @@ RenderStats RenderJob::stats() const {
 
 std::vector<float> RenderJob::image() const {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (photon_) return photon_->image(passes_.load());
   return film_.image();
 }
 

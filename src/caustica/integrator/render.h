@@ -25,6 +25,12 @@ struct RenderOptions {
   int rr_depth = 5;
   SamplerType sampler = SamplerType::kSobol;
   std::string accel = "embree";  // "embree" or "bvh" (the portable BVH)
+  // Photon mapping (ppm, sppm, pppm)
+  int64_t photons = 0;       // photon paths per pass; 0 = one per pixel
+  float radius = 0.f;        // initial gather radius; 0 = automatic (twice the median pixel footprint)
+  float alpha = 0.7f;        // radius reduction (Hachisuka et al. 2008; Knaus & Zwicker 2011)
+  int64_t pass_offset = 0;   // pppm: render passes [pass_offset, pass_offset + spp)
+  bool stochastic_hash = false;  // keep one photon per hash cell (Hachisuka & Jensen 2010)
 };
 
 struct RenderStats {
@@ -34,6 +40,8 @@ struct RenderStats {
   uint64_t rays = 0;         // camera + bounce rays
   uint64_t shadow_rays = 0;
   uint64_t invalid_samples = 0;  // NaN/inf radiance, dropped
+  uint64_t photons = 0;          // photon paths traced (photon integrators)
+  float radius = 0.f;            // initial gather radius (photon integrators)
   double seconds = 0.0;
   bool done = false;
   bool cancelled = false;
@@ -56,6 +64,8 @@ class Film {
   int width, height;
   std::vector<double> sum;  // r, g, b, weight per pixel
 };
+
+class PhotonIntegrator;
 
 class RenderJob {
  public:
@@ -86,6 +96,8 @@ class RenderJob {
   std::atomic<uint64_t> samples_{0}, rays_{0}, shadow_rays_{0}, invalid_{0};
   std::atomic<double> seconds_{0.0};
   std::thread thread_;
+  std::unique_ptr<PhotonIntegrator> photon_;
+  std::atomic<uint64_t> photons_{0};
   std::string error_;
 };
 

@@ -12,6 +12,7 @@ const std::vector<std::pair<std::string, std::string>>& builtin_scenes() {
       {"smallvcm-mirror-ball", "SmallVCM scene 1: glossy floor, large mirror sphere, ceiling area light"},
       {"smallvcm-point", "SmallVCM scene 2: glossy floor, mirror and glass spheres, point light"},
       {"smallvcm-env", "SmallVCM scene 3: glossy floor, mirror and glass spheres, constant environment"},
+      {"point-in-glass", "SDS: SmallVCM's box lit only by a point light inside a glass sphere (path tracing renders it black)"},
   };
   return s;
 }
@@ -31,6 +32,7 @@ SceneDesc builtin_scene(const std::string& name) {
   else if (name == "smallvcm-sun") d = make_smallvcm_cornell(false, true, SmallVCMLight::kSun);
   else if (name == "smallvcm-mirror-ball") d = make_smallvcm_cornell(true, false, SmallVCMLight::kArea);
   else if (name == "smallvcm-point") d = make_smallvcm_cornell(false, true, SmallVCMLight::kPoint);
+  else if (name == "point-in-glass") d = make_point_in_glass();
   else if (name == "smallvcm-env") d = make_smallvcm_cornell(false, true, SmallVCMLight::kBackground);
   else {
     std::string list;

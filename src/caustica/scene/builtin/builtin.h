@@ -17,5 +17,8 @@ SceneDesc builtin_scene(const std::string& name);
 SceneDesc make_cornell_mitsuba();
 enum class SmallVCMLight { kSun, kArea, kPoint, kBackground };
 SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, SmallVCMLight light);
+// SmallVCM's box with a point light inside a glass sphere: all light reaches the room
+// through glass (L S+ D ... E), which path tracing cannot sample.
+SceneDesc make_point_in_glass();
 
 }  // namespace caustica

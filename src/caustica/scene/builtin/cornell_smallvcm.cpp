@@ -113,4 +113,22 @@ SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, Sm
   return d;
 }
 
+SceneDesc make_point_in_glass() {
+  // SmallVCM's box without spheres and with the point light, a glass sphere
+  // (IOR 1.5) of radius 0.3 put around the light: every photon leaves through
+  // the glass, and every light path to the camera is L S+ D (S|D)* E.
+  SceneDesc d = make_smallvcm_cornell(false, false, SmallVCMLight::kPoint);
+  d.lights[0].p = {0.f, 0.f, 0.4f};
+  int glass = d.add_material("glass-shell", make_dielectric(1.5f));
+  ShapeDesc s;
+  s.name = "glass-shell";
+  s.type = ShapeType::kSphere;
+  s.center = d.lights[0].p;
+  s.radius = 0.3f;
+  s.material = glass;
+  d.shapes.push_back(s);
+  d.max_depth = 12;
+  return d;
+}
+
 }  // namespace caustica

@@ -1,0 +1,312 @@
+#include "photon_render.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "../base/error.h"
+#include "../base/sampler.h"
+#include "../light/light_sample.h"
+#include "../material/bsdf.h"
+#include <tbb/parallel_sort.h>
+#include "../photon/trace.h"
+#include "path.h"
+
+namespace caustica {
+
+bool is_photon_integrator(const std::string& n) { return n == "ppm" || n == "sppm" || n == "pppm"; }
+
+namespace {
+
+// Stand-in until photon/hash_grid.h lands: photons sorted by hashed cell.
+struct PhotonGridView {
+  const Photon* photons;
+  const uint32_t* cell_start;  // size table + 1
+  uint32_t table;
+  float cell;
+  Vec3f lo;
+};
+inline uint32_t grid_hash(int x, int y, int z, uint32_t table) {
+  return uint32_t((uint32_t(x) * 73856093u) ^ (uint32_t(y) * 19349663u) ^ (uint32_t(z) * 83492791u)) & (table - 1);
+}
+class PhotonHashGrid {
+ public:
+  void build(const std::vector<Photon>& ph, const Bounds3& b, float cell, bool, uint64_t) {
+    cell_ = cell;
+    lo_ = b.lo;
+    table_ = 1;
+    while (table_ < 2 * ph.size() + 1) table_ <<= 1;
+    std::vector<std::pair<uint32_t, uint32_t>> keys(ph.size());
+    for (size_t i = 0; i < ph.size(); ++i) {
+      Vec3f q = (ph[i].p - lo_) / cell_;
+      keys[i] = {grid_hash(int(std::floor(q.x)), int(std::floor(q.y)), int(std::floor(q.z)), table_), uint32_t(i)};
+    }
+    tbb::parallel_sort(keys.begin(), keys.end());
+    sorted_.resize(ph.size());
+    start_.assign(table_ + 1, 0);
+    for (size_t i = 0; i < keys.size(); ++i) { sorted_[i] = ph[keys[i].second]; start_[keys[i].first + 1]++; }
+    for (uint32_t t = 0; t < table_; ++t) start_[t + 1] += start_[t];
+  }
+  PhotonGridView view() const { return {sorted_.data(), start_.data(), table_, cell_, lo_}; }
+ private:
+  std::vector<Photon> sorted_;
+  std::vector<uint32_t> start_;
+  uint32_t table_ = 1;
+  float cell_ = 1;
+  Vec3f lo_;
+};
+template <typename F>
+void photon_grid_query(const PhotonGridView& g, Vec3f p, float r, F&& f) {
+  Vec3f q = (p - g.lo) / g.cell;
+  int x0 = int(std::floor(q.x - r / g.cell)), y0 = int(std::floor(q.y - r / g.cell)), z0 = int(std::floor(q.z - r / g.cell));
+  uint32_t seen[8];
+  int ns = 0;
+  for (int dz = 0; dz < 2; ++dz)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) {
+        uint32_t h = grid_hash(x0 + dx, y0 + dy, z0 + dz, g.table);
+        bool dup = false;
+        for (int k = 0; k < ns; ++k) dup |= seen[k] == h;
+        if (dup) continue;
+        seen[ns++] = h;
+        for (uint32_t i = g.cell_start[h]; i < g.cell_start[h + 1]; ++i)
+          if (length_sq(g.photons[i].p - p) <= r * r) f(g.photons[i]);
+      }
+}
+
+// Follows a camera ray through specular bounces to the first non-specular
+// surface, adding emission seen along the way (no MIS: the specular chain has no
+// light-sampling alternative) and NEE at the visible point. Returns the point.
+template <typename Accel>
+VisiblePoint trace_camera(const SceneView& s, const Accel& accel, Ray ray, RGB beta, Sampler& smp, uint32_t max_depth,
+                          RGB& L) {
+  VisiblePoint vp;
+  for (uint32_t depth = 1; depth <= max_depth; ++depth) {
+    Hit hit;
+    if (!accel.intersect(ray, hit)) {
+      if (s.environment_light >= 0) L += beta * s.lights[s.environment_light].L;
+      return vp;
+    }
+    SurfaceHit sh = make_surface_hit(s, ray, hit);
+    Vec3f wo_world = -ray.d;
+    if (sh.light >= 0) L += beta * area_le(s.lights[sh.light], sh.ng, wo_world);
+    const Material& m = s.materials[sh.material];
+    Frame frame(sh.ns);
+    Vec3f wo = frame.to_local(wo_world);
+    float u_l = smp.next_1d();
+    Vec2f u_l2 = smp.next_2d();
+    if (!material_is_delta(m)) {
+      // Direct light by NEE (photons of the first hit are not stored).
+      if (depth < max_depth && s.num_lights > 0) {
+        float pmf;
+        const Light& l = s.lights[s.light_sampler.sample(u_l, pmf)];
+        Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
+        LightSample ls;
+        if (sample_light(s, l, p_front, u_l2, ls)) {
+          RGB f = bsdf_eval(m, wo, frame.to_local(ls.wi));
+          if (!is_black(f)) {
+            Vec3f o = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);
+            Ray sray;
+            if (std::isfinite(ls.dist)) sray = spawn_ray_to(o, ls.p_l, ls.n_l);
+            else sray = Ray{o, ls.wi, kInf};
+            if (!accel.occluded(sray)) L += beta * f * ls.Li * (abs_cos_theta(frame.to_local(ls.wi)) / (pmf * ls.pdf));
+          }
+        }
+      }
+      vp.p = sh.p;
+      vp.ng = sh.ng;
+      vp.ns = sh.ns;
+      vp.wo = wo_world;
+      vp.beta = beta;
+      vp.material = sh.material;
+      vp.valid = depth < max_depth;  // a photon adds at least one more segment
+      return vp;
+    }
+    BSDFSample bs;
+    float uc = smp.next_1d();
+    Vec2f u = smp.next_2d();
+    if (!bsdf_sample(m, wo, uc, u, bs)) return vp;
+    Vec3f wi = frame.to_world(bs.wi);
+    beta *= bs.weight;
+    ray.o = offset_ray_origin(sh.p, sh.ng, wi);
+    ray.d = wi;
+    ray.tmax = kInf;
+  }
+  return vp;
+}
+
+}  // namespace
+
+std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const EmbreeAccel& accel, uint64_t seed,
+                                                    uint32_t pass, uint64_t count, uint32_t max_depth,
+                                                    bool keep_direct, const std::atomic<bool>* cancel) {
+  const uint64_t chunk = 4096;
+  const uint64_t nchunks = (count + chunk - 1) / chunk;
+  std::vector<std::vector<Photon>> parts(nchunks);
+  tbb::parallel_for(tbb::blocked_range<uint64_t>(0, nchunks, 1), [&](const tbb::blocked_range<uint64_t>& r) {
+    for (uint64_t c = r.begin(); c < r.end(); ++c) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) return;
+      auto& out = parts[c];
+      uint64_t end = std::min(count, (c + 1) * chunk);
+      for (uint64_t i = c * chunk; i < end; ++i) {
+        trace_photon(
+            v, seed, pass, uint32_t(i), max_depth, [&](const Ray& ray, Hit& h) { return accel.intersect(ray, h); },
+            [&](const Photon& ph) {
+              if (keep_direct || !(ph.flags & kPhotonDirect)) out.push_back(ph);
+            });
+      }
+    }
+  });
+  size_t total = 0;
+  for (auto& p : parts) total += p.size();
+  std::vector<Photon> all;
+  all.reserve(total);
+  for (auto& p : parts) all.insert(all.end(), p.begin(), p.end());  // chunk order: deterministic
+  return all;
+}
+
+PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt)
+    : scene_(std::move(scene)), opt_(opt) {
+  const SceneView& v = scene_->view();
+  kind_ = opt.integrator == "ppm" ? Kind::kPPM : (opt.integrator == "pppm" ? Kind::kPPPM : Kind::kSPPM);
+  int md = opt.max_depth == -2 ? scene_->desc().max_depth : opt.max_depth;
+  max_depth_ = md < 0 ? 0xffffffffu : uint32_t(md);
+  W_ = v.camera.width;
+  H_ = v.camera.height;
+  photons_per_pass_ = opt.photons > 0 ? uint64_t(opt.photons) : uint64_t(W_) * uint64_t(H_);
+  if (opt.alpha <= 0.f || opt.alpha >= 1.f) throw InputError("--alpha must be in (0, 1), got " + std::to_string(opt.alpha));
+  // Initial radius: twice the median pixel footprint (distance x pixel angle) of
+  // camera rays to their first hit, if not given.
+  r0_ = opt.radius;
+  if (!(r0_ > 0.f)) {
+    std::vector<float> fp;
+    const float pixel_angle = 2.f * v.camera.tan_half_y / float(H_);
+    for (int y = 0; y < H_; y += std::max(1, H_ / 32))
+      for (int x = 0; x < W_; x += std::max(1, W_ / 32)) {
+        Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
+        Hit h;
+        if (scene_->embree().intersect(r, h)) fp.push_back(h.t * pixel_angle);
+      }
+    if (fp.empty()) r0_ = 1e-3f * v.bsphere_radius;
+    else {
+      std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
+      r0_ = 2.f * fp[fp.size() / 2];
+    }
+  }
+  size_t n = size_t(W_) * H_;
+  vp_.assign(n, VisiblePoint());
+  direct_.assign(3 * n, 0.0);
+  if (kind_ == Kind::kPPPM) indirect_.assign(3 * n, 0.0);
+  else {
+    N_.assign(n, 0.0);
+    tau_.assign(3 * n, 0.0);
+    R_.assign(n, r0_);
+  }
+}
+
+float PhotonIntegrator::pppm_radius(int64_t abs_pass) const {
+  // Knaus & Zwicker 2011 Eq. 15 with i = 1, 2, ...: r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1).
+  double r2 = double(r0_) * r0_;
+  for (int64_t i = 1; i <= abs_pass; ++i) r2 *= (double(i) + opt_.alpha) / double(i + 1);
+  return float(std::sqrt(r2));
+}
+
+void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
+  const SceneView& v = scene_->view();
+  const EmbreeAccel& accel = scene_->embree();
+  PathParams pp;
+  pp.seed = opt_.seed;
+  pp.sampler = opt_.sampler;
+  tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
+    for (int y = r.begin(); y < r.end(); ++y)
+      for (int x = 0; x < W_; ++x) {
+        PathState st;
+        path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
+        RGB L(0.f);
+        size_t i = size_t(y) * W_ + x;
+        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L);
+        if (kind_ != Kind::kPPM || abs_pass == opt_.pass_offset) vp_[i] = vp;
+        if (!isfinite3(L)) continue;
+        for (int c = 0; c < 3; ++c) direct_[3 * i + c] += L[c];
+      }
+  });
+}
+
+bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
+  const SceneView& v = scene_->view();
+  const int64_t abs_pass = opt_.pass_offset + pass;
+  // PPM keeps the measurement points of its first pass (Hachisuka et al. 2008,
+  // Sec. 4.1) and re-estimates only their direct light; SPPM and PPPM draw new ones.
+  std::vector<double> direct_backup = direct_;
+  trace_visible_points(abs_pass);
+  // A photon stored after k segments completes a path of k + 1 segments with a
+  // visible point at the camera's first hit: limit photon paths to max_depth - 1
+  // so path lengths match the path tracer's (exact for first-hit visible points;
+  // points behind specular chains may exceed it by the chain's extra segments).
+  uint32_t photon_depth = max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1;
+  std::vector<Photon> photons = trace_photons(v, scene_->embree(), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
+                                              photon_depth, false, &cancel);
+  if (cancel.load()) {
+    direct_.swap(direct_backup);
+    return false;
+  }
+  float rmax = kind_ == Kind::kPPPM ? pppm_radius(abs_pass) : *std::max_element(R_.begin(), R_.end());
+  PhotonHashGrid grid;
+  // Cells of twice the largest radius: a query sphere then overlaps at most 2x2x2 cells.
+  grid.build(photons, v.bounds, 2.f * rmax, opt_.stochastic_hash, hash3(opt_.seed, uint64_t(abs_pass), 0x9d));
+  const PhotonGridView gv = grid.view();
+  const double inv_np = 1.0 / double(photons_per_pass_);
+  tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
+    for (int y = r.begin(); y < r.end(); ++y)
+      for (int x = 0; x < W_; ++x) {
+        size_t i = size_t(y) * W_ + x;
+        const VisiblePoint& vp = vp_[i];
+        if (!vp.valid) continue;
+        const Material& m = v.materials[vp.material];
+        Frame frame(vp.ns);
+        Vec3f wo = frame.to_local(vp.wo);
+        float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
+        double phi[3] = {0, 0, 0};
+        uint64_t M = 0;
+        photon_grid_query(gv, vp.p, radius, [&](const Photon& ph) {
+          // Photons on surfaces facing away (e.g. the other side of a thin wall) are
+          // filtered by the one-sided BSDF; also require the photon's surface to face
+          // the same way as the point's.
+          RGB f = bsdf_eval(m, wo, frame.to_local(ph.wi), TransportMode::kRadiance);
+          ++M;
+          for (int c = 0; c < 3; ++c) phi[c] += double(f[c]) * ph.power[c];
+        });
+        if (kind_ == Kind::kPPPM) {
+          double k = inv_np / (double(kPi) * double(radius) * radius);
+          for (int c = 0; c < 3; ++c) indirect_[3 * i + c] += double(vp.beta[c]) * phi[c] * k;
+        } else if (M > 0) {
+          // Hachisuka & Jensen 2009 Eqs. 5-8 / Hachisuka et al. 2008 Eqs. 6-11.
+          double N = N_[i], Nn = N + opt_.alpha * double(M);
+          double ratio = Nn / (N + double(M));
+          for (int c = 0; c < 3; ++c) tau_[3 * i + c] = (tau_[3 * i + c] + double(vp.beta[c]) * phi[c]) * ratio;
+          N_[i] = Nn;
+          R_[i] = float(R_[i] * std::sqrt(ratio));
+        }
+      }
+  });
+  return true;
+}
+
+std::vector<float> PhotonIntegrator::image(int64_t passes) const {
+  size_t n = size_t(W_) * H_;
+  std::vector<float> img(3 * n, 0.f);
+  if (passes <= 0) return img;
+  double emitted = double(passes) * double(photons_per_pass_);
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      double L = direct_[3 * i + c] / double(passes);
+      if (kind_ == Kind::kPPPM) L += indirect_[3 * i + c] / double(passes);
+      else L += tau_[3 * i + c] / (emitted * double(kPi) * double(R_[i]) * R_[i]);
+      img[3 * i + c] = float(L);
+    }
+  return img;
+}
+
+}  // namespace caustica

@@ -1,0 +1,64 @@
+// The photon-mapping integrators on the CPU (docs/integrators.md):
+//   ppm  - Hachisuka, Ogaki & Jensen 2008, "Progressive Photon Mapping":
+//          measurement points traced once (through specular bounces to the first
+//          non-specular hit), then photon passes; per point N, R, tau updated with
+//          alpha (Sec. 4.1-4.3, Eqs. 6-11); L = tau / (pi R^2 N_emitted) (Eq. 12).
+//   sppm - Hachisuka & Jensen 2009, "Stochastic Progressive Photon Mapping": new
+//          visible points every pass, the same statistics shared per pixel
+//          (Sec. 4, Eqs. 5-8); direct light by NEE at the visible points.
+//   pppm - Knaus & Zwicker 2011, "Progressive Photon Mapping: A Probabilistic
+//          Approach": every pass an independent image with the global radius of
+//          Eq. 15, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1); images averaged.
+//          Passes are memoryless, so passes [i0, i0 + k) can be rendered anywhere
+//          and averaged later (RenderOptions::pass_offset).
+#pragma once
+#include <memory>
+#include <vector>
+
+#include "../backend/cpu/embree_accel.h"
+#include "../photon/photon.h"
+#include "render.h"
+
+namespace caustica {
+
+struct VisiblePoint {
+  Vec3f p, ng, ns, wo;  // wo in world space
+  RGB beta{0.f};        // camera throughput to the point
+  uint32_t material = 0;
+  bool valid = false;
+};
+
+class PhotonIntegrator {
+ public:
+  PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt);
+  // Renders pass `pass` (0-based, counted from pass_offset); returns false if cancelled midway
+  // (the pass is then discarded and the statistics are unchanged).
+  bool render_pass(int64_t pass, const std::atomic<bool>& cancel);
+  std::vector<float> image(int64_t passes_done) const;
+  float initial_radius() const { return r0_; }
+  uint64_t photons_per_pass() const { return photons_per_pass_; }
+  // Traces one pass of photons in deterministic order (also used by tests).
+  static std::vector<Photon> trace_photons(const SceneView& v, const EmbreeAccel& accel, uint64_t seed, uint32_t pass,
+                                           uint64_t count, uint32_t max_depth, bool keep_direct,
+                                           const std::atomic<bool>* cancel = nullptr);
+
+ private:
+  enum class Kind { kPPM, kSPPM, kPPPM } kind_;
+  void trace_visible_points(int64_t abs_pass);
+  float pppm_radius(int64_t abs_pass) const;
+  std::shared_ptr<Scene> scene_;
+  RenderOptions opt_;
+  uint32_t max_depth_;
+  uint64_t photons_per_pass_;
+  float r0_;
+  int W_, H_;
+  std::vector<VisiblePoint> vp_;
+  std::vector<double> direct_;    // 3 per pixel: sum over passes of emitted + NEE direct radiance
+  std::vector<double> N_, tau_;   // ppm/sppm: photon count and flux per pixel (tau: 3 per pixel)
+  std::vector<float> R_;          // ppm/sppm: radius per pixel
+  std::vector<double> indirect_;  // pppm: sum over passes of the per-pass photon estimates (3 per pixel)
+};
+
+bool is_photon_integrator(const std::string& name);
+
+}  // namespace caustica

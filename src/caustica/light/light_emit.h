@@ -1,0 +1,83 @@
+// Emission sampling for photon tracing: a ray leaving a light with its flux
+// weight Le cos / (pdf_pos pdf_dir) (pbrt-v4 Sec. 12.x "SampleLe"; Jensen 2001
+// Ch. 5 photon emission). Area lights emit cosine-weighted from a uniformly
+// chosen point; point lights uniformly over the sphere; spot lights uniformly
+// in their cone; directional and environment lights from a disk of the scene's
+// bounding radius perpendicular to the direction of travel.
+#pragma once
+#include "../base/sampling.h"
+#include "../scene/interaction.h"
+#include "light.h"
+
+namespace caustica {
+
+struct EmitSample {
+  Ray ray;
+  RGB weight{0.f};  // flux carried by the photon, before dividing by the light's selection pmf
+  Vec3f n{0.f};     // surface normal of area lights (offset direction), zero otherwise
+};
+
+CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f u_dir, float u_side, EmitSample& e) {
+  const float R = s.bsphere_radius;
+  switch (l.type) {
+    case LightType::kTriangle:
+    case LightType::kSphere: {
+      Vec3f p, n;
+      float area;
+      if (l.type == LightType::kTriangle) {
+        Vec3f p0, p1, p2;
+        triangle_vertices(s, l.prim, p0, p1, p2);
+        Vec2f b = square_to_uniform_triangle(u_pos);
+        p = p0 * (1.f - b.x - b.y) + p1 * b.x + p2 * b.y;
+        n = normalize(cross(p1 - p0, p2 - p0));
+        area = triangle_area(p0, p1, p2);
+      } else {
+        const Sphere& sp = s.spheres[l.prim - s.num_triangles];
+        n = square_to_uniform_sphere(u_pos);
+        p = sp.center + n * sp.radius;
+        area = 4.f * kPi * sp.radius * sp.radius;
+      }
+      float sides = 1.f;
+      if (l.two_sided) {
+        sides = 2.f;
+        if (u_side < 0.5f) n = -n;
+      }
+      Vec3f d = Frame(n).to_world(square_to_cosine_hemisphere(u_dir));
+      e.ray.o = offset_ray_origin(p, n, n);
+      e.ray.d = d;
+      e.ray.tmax = kInf;
+      e.n = n;
+      e.weight = l.L * (kPi * area * sides);  // Le cos / (1/A * cos/pi) per side
+      return true;
+    }
+    case LightType::kPoint:
+      e.ray.o = l.p;
+      e.ray.d = square_to_uniform_sphere(u_dir);
+      e.ray.tmax = kInf;
+      e.weight = l.L * (4.f * kPi);
+      return true;
+    case LightType::kSpot: {
+      Vec3f w = square_to_uniform_cone(u_dir, l.cos_total);
+      e.ray.o = l.p;
+      e.ray.d = Frame(l.dir).to_world(w);
+      e.ray.tmax = kInf;
+      e.weight = l.L * (spot_falloff(l, w.z) / uniform_cone_pdf(l.cos_total));
+      return true;
+    }
+    case LightType::kDirectional:
+    case LightType::kEnvironment: {
+      Vec3f dir = l.type == LightType::kDirectional ? l.dir : -square_to_uniform_sphere(u_dir);
+      Frame f(dir);
+      Vec2f d = square_to_concentric_disk(u_pos) * R;
+      e.ray.o = s.bsphere_center + f.to_world(Vec3f(d.x, d.y, -R));
+      e.ray.d = dir;
+      e.ray.tmax = kInf;
+      float disk = kPi * R * R;
+      e.weight = l.type == LightType::kDirectional ? l.L * disk : l.L * (disk * 4.f * kPi);
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace caustica

@@ -1,0 +1,21 @@
+// The photon record shared by photon tracing and the photon maps.
+#pragma once
+#include <cstdint>
+#include "../base/math.h"
+
+namespace caustica {
+
+enum PhotonFlags : uint32_t {
+  kPhotonCaustic = 1u,  // the light path was L S+ D: at least one specular bounce, no diffuse one, before this hit
+  kPhotonDirect = 2u,   // first hit after leaving the light (L D)
+};
+
+// Working record written by photon tracing (photon/trace.h) at non-specular hits.
+struct Photon {
+  Vec3f p;          // position on the surface
+  Vec3f wi;         // unit direction towards where the photon came from (away from the surface)
+  RGB power{0.f};   // flux carried; density estimates divide by the number of emitted photon paths
+  uint32_t flags = 0;
+};
+
+}  // namespace caustica
