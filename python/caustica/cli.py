@@ -228,12 +228,15 @@ def cmd_render(a) -> int:
     st = res.stats
     write_all(res.image)
     secs = max(st["seconds"], 1e-9)
-    msg = (f"{scene.name}: {st['passes']} spp, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
-           f"{st['samples'] / secs / 1e6:.2f} M samples/s, "
-           f"{(st['rays'] + st['shadow_rays']) / secs / 1e6:.2f} M rays/s -> {', '.join(outputs)}")
-    if st.get("photons"):
-        msg += (f"; {st['photons']} photon paths ({st['photons'] / secs / 1e6:.2f} M/s), "
-                f"initial radius {st['radius']:.4g}")
+    if st.get("photons") or a.integrator != "path":
+        msg = (f"{scene.name}: {a.integrator}, {st['passes']} passes, {scene.width}x{scene.height}, "
+               f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "
+               f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g} "
+               f"-> {', '.join(outputs)}")
+    else:
+        msg = (f"{scene.name}: {st['passes']} spp, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
+               f"{st['samples'] / secs / 1e6:.2f} M samples/s, "
+               f"{(st['rays'] + st['shadow_rays']) / secs / 1e6:.2f} M rays/s -> {', '.join(outputs)}")
     if res.interrupted:
         msg = "interrupted: wrote the image accumulated so far. " + msg
     print(msg, file=sys.stderr)
