@@ -111,3 +111,15 @@ def test_cli_photon_integrator_and_checkpoint(caustica_bin, tmp_path):
     r = subprocess.run([caustica_bin, "render", "cornell", "--integrator", "sppm", "--alpha", "2", "-o",
                         str(tmp_path / "d.exr")], capture_output=True, text=True)
     assert r.returncode == 2 and "--alpha expects a number in (0, 1)" in r.stderr
+
+
+def test_stochastic_hashing_converges(cornell, pt_reference):
+    # One photon per grid cell, its power scaled by the cell's count: unbiased per cell, so
+    # the energy is kept (mean within 1%) and the error still falls with passes, though
+    # with more noise than the full grid.
+    e = {}
+    for passes in (4, 64):
+        img = caustica.render(cornell, integrator="pppm", spp=passes, photons=20000, seed=5, stochastic_hash=True)
+        e[passes] = relmse(img, pt_reference)
+    assert e[64] < 0.5 * e[4], e
+    assert abs(img.mean() / pt_reference.mean() - 1) < 0.01

@@ -10,7 +10,7 @@
 #include "../base/sampler.h"
 #include "../light/light_sample.h"
 #include "../material/bsdf.h"
-#include <tbb/parallel_sort.h>
+#include "../photon/hash_grid.h"
 #include "../photon/trace.h"
 #include "path.h"
 
@@ -19,62 +19,6 @@ namespace caustica {
 bool is_photon_integrator(const std::string& n) { return n == "ppm" || n == "sppm" || n == "pppm"; }
 
 namespace {
-
-// Stand-in until photon/hash_grid.h lands: photons sorted by hashed cell.
-struct PhotonGridView {
-  const Photon* photons;
-  const uint32_t* cell_start;  // size table + 1
-  uint32_t table;
-  float cell;
-  Vec3f lo;
-};
-inline uint32_t grid_hash(int x, int y, int z, uint32_t table) {
-  return uint32_t((uint32_t(x) * 73856093u) ^ (uint32_t(y) * 19349663u) ^ (uint32_t(z) * 83492791u)) & (table - 1);
-}
-class PhotonHashGrid {
- public:
-  void build(const std::vector<Photon>& ph, const Bounds3& b, float cell, bool, uint64_t) {
-    cell_ = cell;
-    lo_ = b.lo;
-    table_ = 1;
-    while (table_ < 2 * ph.size() + 1) table_ <<= 1;
-    std::vector<std::pair<uint32_t, uint32_t>> keys(ph.size());
-    for (size_t i = 0; i < ph.size(); ++i) {
-      Vec3f q = (ph[i].p - lo_) / cell_;
-      keys[i] = {grid_hash(int(std::floor(q.x)), int(std::floor(q.y)), int(std::floor(q.z)), table_), uint32_t(i)};
-    }
-    tbb::parallel_sort(keys.begin(), keys.end());
-    sorted_.resize(ph.size());
-    start_.assign(table_ + 1, 0);
-    for (size_t i = 0; i < keys.size(); ++i) { sorted_[i] = ph[keys[i].second]; start_[keys[i].first + 1]++; }
-    for (uint32_t t = 0; t < table_; ++t) start_[t + 1] += start_[t];
-  }
-  PhotonGridView view() const { return {sorted_.data(), start_.data(), table_, cell_, lo_}; }
- private:
-  std::vector<Photon> sorted_;
-  std::vector<uint32_t> start_;
-  uint32_t table_ = 1;
-  float cell_ = 1;
-  Vec3f lo_;
-};
-template <typename F>
-void photon_grid_query(const PhotonGridView& g, Vec3f p, float r, F&& f) {
-  Vec3f q = (p - g.lo) / g.cell;
-  int x0 = int(std::floor(q.x - r / g.cell)), y0 = int(std::floor(q.y - r / g.cell)), z0 = int(std::floor(q.z - r / g.cell));
-  uint32_t seen[8];
-  int ns = 0;
-  for (int dz = 0; dz < 2; ++dz)
-    for (int dy = 0; dy < 2; ++dy)
-      for (int dx = 0; dx < 2; ++dx) {
-        uint32_t h = grid_hash(x0 + dx, y0 + dy, z0 + dz, g.table);
-        bool dup = false;
-        for (int k = 0; k < ns; ++k) dup |= seen[k] == h;
-        if (dup) continue;
-        seen[ns++] = h;
-        for (uint32_t i = g.cell_start[h]; i < g.cell_start[h + 1]; ++i)
-          if (length_sq(g.photons[i].p - p) <= r * r) f(g.photons[i]);
-      }
-}
 
 // Follows a camera ray through specular bounces to the first non-specular
 // surface, adding emission seen along the way (no MIS: the specular chain has no
@@ -270,10 +214,9 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
         float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
         double phi[3] = {0, 0, 0};
         uint64_t M = 0;
-        photon_grid_query(gv, vp.p, radius, [&](const Photon& ph) {
-          // Photons on surfaces facing away (e.g. the other side of a thin wall) are
-          // filtered by the one-sided BSDF; also require the photon's surface to face
-          // the same way as the point's.
+        gv.query(vp.p, radius, [&](const Photon& ph) {
+          // Photons on the far side of a thin wall arrive from below the point's
+          // surface and are filtered by the (one-sided) BSDF.
           RGB f = bsdf_eval(m, wo, frame.to_local(ph.wi), TransportMode::kRadiance);
           ++M;
           for (int c = 0; c < 3; ++c) phi[c] += double(f[c]) * ph.power[c];

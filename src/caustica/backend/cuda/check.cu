@@ -4,6 +4,8 @@
 // `make cuda-check` compiles this with nvcc; the CUDA backend (issue 7) builds
 // its drivers on exactly these kernels.
 #include "../../integrator/path.h"
+#include "../../photon/hash_grid.h"
+#include "../../photon/trace.h"
 #include "../../scene/intersect.h"
 
 namespace caustica {
@@ -41,6 +43,33 @@ __global__ void k_accumulate(const PathState* states, float4* film, uint32_t n) 
   float4 f = film[st.pixel];
   film[st.pixel] = make_float4(f.x + st.L.x * st.weight, f.y + st.L.y * st.weight, f.z + st.L.z * st.weight,
                                f.w + st.weight);
+}
+
+// Photon tracing with the portable BVH: one thread per photon path, stored
+// photons appended through an atomic counter (order fixed later by the grid's sort).
+__global__ void k_trace_photons(SceneView s, uint64_t seed, uint32_t pass, uint32_t count, uint32_t max_depth,
+                                Photon* out, uint32_t capacity, uint32_t* n_out) {
+  uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  trace_photon(
+      s, seed, pass, i, max_depth, [&](const Ray& r, Hit& h) { return scene_intersect(s, r, h); },
+      [&](const Photon& ph) {
+        uint32_t k = atomicAdd(n_out, 1u);
+        if (k < capacity) out[k] = ph;
+      });
+}
+
+// Photon gather at visible points from the sorted hash grid (Hachisuka & Jensen 2010).
+__global__ void k_gather(SceneView s, PhotonGridView grid, const Vec3f* points, const uint32_t* materials,
+                         const Vec3f* normals, const Vec3f* wo, const float* radius, float3* flux, uint32_t n) {
+  uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const Material& m = s.materials[materials[i]];
+  Frame frame(normals[i]);
+  Vec3f wol = frame.to_local(wo[i]);
+  RGB phi(0.f);
+  grid.query(points[i], radius[i], [&](const Photon& ph) { phi += bsdf_eval(m, wol, frame.to_local(ph.wi)) * ph.power; });
+  flux[i] = make_float3(phi.x, phi.y, phi.z);
 }
 
 }  // namespace caustica
