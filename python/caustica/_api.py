@@ -72,7 +72,7 @@ def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time:
                sampler: str = "sobol", accel: str = "embree",
                progress: Optional[Callable[[dict], Any]] = None, poll: float = 0.1,
                photons: Optional[int] = None, radius: Optional[float] = None, alpha: float = 0.7,
-               pass_offset: int = 0, stochastic_hash: bool = False,
+               pass_offset: int = 0, stochastic_hash: bool = False, k: int = 50,
                checkpoint: Optional[Callable[[np.ndarray], Any]] = None,
                checkpoint_interval: Optional[float] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
@@ -82,6 +82,7 @@ def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time:
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
+    `k` (pm): photons per k-nearest density estimate (default 50).
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far."""
     scene = load_scene(scene)
     if integrator not in integrators():
@@ -111,7 +112,8 @@ def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time:
     job = _native.RenderJob(scene, integrator=integrator, spp=spp_i, time=float(time or 0.0), seed=int(seed),
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
                             sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),
-                            alpha=float(alpha), pass_offset=int(pass_offset), stochastic_hash=bool(stochastic_hash))
+                            alpha=float(alpha), pass_offset=int(pass_offset), stochastic_hash=bool(stochastic_hash),
+                            k=_positive_int("k", k))
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()

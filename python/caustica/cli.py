@@ -132,6 +132,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--alpha", type=_float("--alpha"), default=0.7, help="photon integrators: radius reduction, in (0, 1)")
     r.add_argument("--pass-offset", type=_nonneg_int("--pass-offset"), default=0,
                    help="pppm: first pass index (independent passes can be rendered apart and averaged)")
+    r.add_argument("--k", type=_positive_int("--k"), default=50,
+                   help="pm: photons per k-nearest-neighbour density estimate")
     r.add_argument("--stochastic-hash", action="store_true",
                    help="photon maps keep one photon per hash cell (Hachisuka & Jensen 2010)")
     r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
@@ -221,7 +223,7 @@ def cmd_render(a) -> int:
                               threads=a.threads, max_depth=a.max_depth, rr_depth=a.rr_depth,
                               sampler=a.sampler, accel=a.accel, progress=prog, photons=a.photons,
                               radius=a.radius, alpha=a.alpha, pass_offset=a.pass_offset,
-                              stochastic_hash=a.stochastic_hash, checkpoint=write_all if a.checkpoint else None,
+                              stochastic_hash=a.stochastic_hash, k=a.k, checkpoint=write_all if a.checkpoint else None,
                               checkpoint_interval=a.checkpoint)
     finally:
         prog.close()

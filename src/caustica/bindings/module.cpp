@@ -79,7 +79,7 @@ NB_MODULE(_native, m) {
            [](RenderJob* self, std::shared_ptr<Scene> scene, const std::string& integrator, int64_t spp, double time,
               uint64_t seed, int threads, int max_depth, int rr_depth, const std::string& sampler,
               const std::string& accel, int64_t photons, float radius, float alpha, int64_t pass_offset,
-              bool stochastic_hash) {
+              bool stochastic_hash, int k) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -97,6 +97,7 @@ NB_MODULE(_native, m) {
              o.alpha = alpha;
              o.pass_offset = pass_offset;
              o.stochastic_hash = stochastic_hash;
+             o.k = k;
              nb::gil_scoped_release release;
              new (self) RenderJob(std::move(scene), o);
            },
@@ -104,7 +105,7 @@ NB_MODULE(_native, m) {
            nb::arg("seed") = 0, nb::arg("threads") = 0, nb::arg("max_depth") = -2, nb::arg("rr_depth") = 5,
            nb::arg("sampler") = "sobol", nb::arg("accel") = "embree", nb::arg("photons") = 0,
            nb::arg("radius") = 0.f, nb::arg("alpha") = 0.7f, nb::arg("pass_offset") = 0,
-           nb::arg("stochastic_hash") = false)
+           nb::arg("stochastic_hash") = false, nb::arg("k") = 50)
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())

@@ -16,7 +16,7 @@
 
 namespace caustica {
 
-bool is_photon_integrator(const std::string& n) { return n == "ppm" || n == "sppm" || n == "pppm"; }
+bool is_photon_integrator(const std::string& n) { return n == "ppm" || n == "sppm" || n == "pppm" || n == "pm"; }
 
 namespace {
 
@@ -114,7 +114,11 @@ std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const Em
 PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt)
     : scene_(std::move(scene)), opt_(opt) {
   const SceneView& v = scene_->view();
-  kind_ = opt.integrator == "ppm" ? Kind::kPPM : (opt.integrator == "pppm" ? Kind::kPPPM : Kind::kSPPM);
+  kind_ = opt.integrator == "ppm"    ? Kind::kPPM
+          : opt.integrator == "pppm" ? Kind::kPPPM
+          : opt.integrator == "pm"   ? Kind::kPM
+                                     : Kind::kSPPM;
+  if (opt.k < 1) throw InputError("--k must be a positive integer");
   int md = opt.max_depth == -2 ? scene_->desc().max_depth : opt.max_depth;
   max_depth_ = md < 0 ? 0xffffffffu : uint32_t(md);
   W_ = v.camera.width;
@@ -143,7 +147,8 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   vp_.assign(n, VisiblePoint());
   direct_.assign(3 * n, 0.0);
   if (kind_ == Kind::kPPPM) indirect_.assign(3 * n, 0.0);
-  else {
+  else if (kind_ == Kind::kPM) {
+  } else {
     N_.assign(n, 0.0);
     tau_.assign(3 * n, 0.0);
     R_.assign(n, r0_);
@@ -178,9 +183,100 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
   });
 }
 
+RGB PhotonIntegrator::pm_estimate(const PhotonKdTree& map, uint64_t paths, const Material& m, const Frame& frame,
+                                  Vec3f wo, Vec3f p, uint32_t* idx, float* d2) const {
+  // Jensen 2001 Eq. 7.6 with the cone filter (Eq. 7.7, k_cone = 1): weights
+  // w = 1 - d / r over the k nearest photons within radius r = distance of the kth.
+  size_t n = map.knn(p, size_t(opt_.k), kInf, idx, d2);
+  if (n == 0) return RGB(0.f);
+  float r2 = d2[n - 1];
+  if (!(r2 > 0.f)) return RGB(0.f);
+  float r = std::sqrt(r2);
+  RGB sum(0.f);
+  for (size_t j = 0; j < n; ++j) {
+    const Photon& ph = map.photon(idx[j]);
+    float w = 1.f - std::sqrt(d2[j]) / r;
+    sum += bsdf_eval(m, wo, frame.to_local(ph.wi)) * ph.power * w;
+  }
+  return sum / ((1.f - 2.f / 3.f) * kPi * r2 * float(paths));
+}
+
+void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
+  const SceneView& v = scene_->view();
+  const EmbreeAccel& accel = scene_->embree();
+  if (global_paths_ == 0) {
+    // The maps are built once (two-pass photon mapping): all stored photons in the
+    // global map, L S+ D photons in the caustic map, from the same photon paths.
+    std::vector<Photon> all = trace_photons(v, accel, opt_.seed, 0xfffffffu, photons_per_pass_,
+                                            max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, true);
+    std::vector<Photon> caustic;
+    for (const Photon& ph : all)
+      if (ph.flags & kPhotonCaustic) caustic.push_back(ph);
+    global_.build(all);
+    caustic_.build(caustic);
+    global_paths_ = photons_per_pass_;
+    traced_ += photons_per_pass_;
+  }
+  PathParams pp;
+  pp.seed = opt_.seed;
+  pp.sampler = opt_.sampler;
+  tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
+    std::vector<uint32_t> idx(size_t(opt_.k));
+    std::vector<float> d2(size_t(opt_.k));
+    for (int y = r.begin(); y < r.end(); ++y)
+      for (int x = 0; x < W_; ++x) {
+        PathState st;
+        path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
+        RGB L(0.f);
+        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L);
+        if (vp.valid) {
+          const Material& m = v.materials[vp.material];
+          Frame frame(vp.ns);
+          Vec3f wo = frame.to_local(vp.wo);
+          L += vp.beta * pm_estimate(caustic_, global_paths_, m, frame, wo, vp.p, idx.data(), d2.data());
+          // Final gathering: one BSDF-sampled ray; radiance at its non-specular hit
+          // (through specular bounces) from the global map. Emission seen by it is
+          // direct light, already counted by NEE.
+          BSDFSample bs;
+          float uc = st.sampler.next_1d();
+          Vec2f u = st.sampler.next_2d();
+          if (bsdf_sample(m, wo, uc, u, bs) && !bs.delta) {
+            Vec3f wi = frame.to_world(bs.wi);
+            Ray ray{offset_ray_origin(vp.p, vp.ng, wi), wi, kInf};
+            RGB beta = vp.beta * bs.weight;
+            for (int bounce = 0; bounce < 8; ++bounce) {
+              Hit hit;
+              if (!accel.intersect(ray, hit)) break;
+              SurfaceHit sh = make_surface_hit(v, ray, hit);
+              const Material& gm = v.materials[sh.material];
+              Frame gf(sh.ns);
+              Vec3f gwo = gf.to_local(-ray.d);
+              if (!material_is_delta(gm)) {
+                L += beta * pm_estimate(global_, global_paths_, gm, gf, gwo, sh.p, idx.data(), d2.data());
+                break;
+              }
+              BSDFSample gs;
+              if (!bsdf_sample(gm, gwo, st.sampler.next_1d(), st.sampler.next_2d(), gs)) break;
+              Vec3f gwi = gf.to_world(gs.wi);
+              beta *= gs.weight;
+              ray = Ray{offset_ray_origin(sh.p, sh.ng, gwi), gwi, kInf};
+            }
+          }
+        }
+        if (!isfinite3(L)) continue;
+        size_t i = size_t(y) * W_ + x;
+        for (int c = 0; c < 3; ++c) direct_[3 * i + c] += L[c];
+      }
+  });
+}
+
 bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const SceneView& v = scene_->view();
   const int64_t abs_pass = opt_.pass_offset + pass;
+  if (kind_ == Kind::kPM) {
+    render_pm_pass(abs_pass);  // runs to the end: its pixels are never half-updated
+    return true;
+  }
   // PPM keeps the measurement points of its first pass (Hachisuka et al. 2008,
   // Sec. 4.1) and re-estimates only their direct light; SPPM and PPPM draw new ones.
   std::vector<double> direct_backup = direct_;
@@ -196,6 +292,7 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
     direct_.swap(direct_backup);
     return false;
   }
+  traced_ += photons_per_pass_;
   float rmax = kind_ == Kind::kPPPM ? pppm_radius(abs_pass) : *std::max_element(R_.begin(), R_.end());
   PhotonHashGrid grid;
   // Cells of twice the largest radius: a query sphere then overlaps at most 2x2x2 cells.
@@ -246,7 +343,8 @@ std::vector<float> PhotonIntegrator::image(int64_t passes) const {
     for (int c = 0; c < 3; ++c) {
       double L = direct_[3 * i + c] / double(passes);
       if (kind_ == Kind::kPPPM) L += indirect_[3 * i + c] / double(passes);
-      else L += tau_[3 * i + c] / (emitted * double(kPi) * double(R_[i]) * R_[i]);
+      else if (kind_ == Kind::kPM) {
+      } else L += tau_[3 * i + c] / (emitted * double(kPi) * double(R_[i]) * R_[i]);
       img[3 * i + c] = float(L);
     }
   return img;

@@ -11,11 +11,19 @@
 //          Eq. 15, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1); images averaged.
 //          Passes are memoryless, so passes [i0, i0 + k) can be rendered anywhere
 //          and averaged later (RenderOptions::pass_offset).
+//   pm   - Jensen 1996, "Global Illumination using Photon Maps" (and Jensen 2001
+//          Ch. 7-9): a global and a caustic photon map built once (kd-trees),
+//          then per pass one camera sample per pixel: emission and specular
+//          reflection by recursion, direct light by NEE, caustics by a k-nearest
+//          density estimate of the caustic map with the cone filter (Jensen 2001
+//          Eq. 7.7, normalisation 1 - 2/(3k)), indirect diffuse by final gathering:
+//          a cosine-sampled ray whose hit is estimated from the global map.
 #pragma once
 #include <memory>
 #include <vector>
 
 #include "../backend/cpu/embree_accel.h"
+#include "../photon/kdtree.h"
 #include "../photon/photon.h"
 #include "render.h"
 
@@ -37,13 +45,20 @@ class PhotonIntegrator {
   std::vector<float> image(int64_t passes_done) const;
   float initial_radius() const { return r0_; }
   uint64_t photons_per_pass() const { return photons_per_pass_; }
+  uint64_t photons_traced() const { return traced_; }
   // Traces one pass of photons in deterministic order (also used by tests).
   static std::vector<Photon> trace_photons(const SceneView& v, const EmbreeAccel& accel, uint64_t seed, uint32_t pass,
                                            uint64_t count, uint32_t max_depth, bool keep_direct,
                                            const std::atomic<bool>* cancel = nullptr);
 
  private:
-  enum class Kind { kPPM, kSPPM, kPPPM } kind_;
+  enum class Kind { kPPM, kSPPM, kPPPM, kPM } kind_;
+  void render_pm_pass(int64_t abs_pass);
+  RGB pm_estimate(const PhotonKdTree& map, uint64_t paths, const Material& m, const Frame& frame, Vec3f wo, Vec3f p,
+                  uint32_t* idx, float* d2) const;
+  PhotonKdTree global_, caustic_;
+  uint64_t global_paths_ = 0;
+  uint64_t traced_ = 0;
   void trace_visible_points(int64_t abs_pass);
   float pppm_radius(int64_t abs_pass) const;
   std::shared_ptr<Scene> scene_;

@@ -16,7 +16,7 @@
 namespace caustica {
 
 const std::vector<std::string>& integrator_names() {
-  static const std::vector<std::string> names = {"path", "sppm", "ppm", "pppm"};
+  static const std::vector<std::string> names = {"path", "sppm", "ppm", "pppm", "pm"};
   return names;
 }
 
@@ -128,8 +128,9 @@ void RenderJob::run() {
         std::lock_guard<std::mutex> lock(mutex_);
         arena.execute([&] {
           if (photon_) {
-            if (photon_->render_pass(pass, cancel_)) photons_ += photon_->photons_per_pass();
-            else return;
+            bool complete = photon_->render_pass(pass, cancel_);
+            photons_ = photon_->photons_traced();
+            if (!complete) return;
             samples_ += uint64_t(film_.width) * film_.height;
           } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);

@@ -31,6 +31,7 @@ struct RenderOptions {
   float alpha = 0.7f;        // radius reduction (Hachisuka et al. 2008; Knaus & Zwicker 2011)
   int64_t pass_offset = 0;   // pppm: render passes [pass_offset, pass_offset + spp)
   bool stochastic_hash = false;  // keep one photon per hash cell (Hachisuka & Jensen 2010)
+  int k = 50;                // pm: photons per k-nearest density estimate
 };
 
 struct RenderStats {
