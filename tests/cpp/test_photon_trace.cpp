@@ -79,3 +79,66 @@ TEST(PhotonTrace, DeterministicAcrossThreadCounts) {
     ASSERT_EQ(a[i].power.y, b[i].power.y);
   }
 }
+
+namespace {
+// Mean and standard error of the first-hit power per photon path (green channel).
+void direct_power(const SceneDesc& d, uint64_t n, double& mean, double& se) {
+  auto sc = Scene::build(d);
+  auto photons = PhotonIntegrator::trace_photons(sc->view(), sc->embree(), 5, 0, n, 1, true);
+  double s = 0, s2 = 0;
+  for (const Photon& p : photons) {  // max_depth 1: only first hits, at most one per path
+    s += p.power.y;
+    s2 += double(p.power.y) * p.power.y;
+  }
+  mean = s / double(n);
+  se = std::sqrt(std::max(0.0, s2 / double(n) - mean * mean) / double(n));
+}
+SceneDesc box_with(const Light& l, bool inside) {
+  SceneDesc d = closed_box(0.5f, 0.f);
+  d.shapes[0].flip_normals = inside;
+  d.lights.push_back(l);
+  return d;
+}
+}  // namespace
+
+TEST(PhotonEmission, EveryLightTypeDeliversItsPower) {
+  const double A = 2 * (2 * 4 + 4 * 6 + 2 * 6);  // the 2 x 4 x 6 box
+  double m, se;
+  Light pt;
+  pt.type = LightType::kPoint;
+  pt.p = {0.1f, -0.3f, 0.5f};
+  pt.L = RGB(3.f);
+  direct_power(box_with(pt, true), 100000, m, se);
+  EXPECT_NEAR(m, 4 * kPi * 3.0, 1e-4 * 4 * kPi * 3.0);  // every photon lands: exactly 4 pi I
+
+  Light spot = pt;
+  spot.type = LightType::kSpot;
+  spot.dir = normalize(Vec3f(0.3f, 0.f, -1.f));
+  spot.cos_total = std::cos(40.f * kPi / 180.f);
+  spot.cos_falloff_start = std::cos(25.f * kPi / 180.f);
+  double integral = 0;  // 2 pi I int_{cos_total}^1 falloff(c) dc, midpoint rule (error < 1e-7)
+  const int steps = 100000;
+  for (int i = 0; i < steps; ++i) {
+    double c = spot.cos_total + (1 - spot.cos_total) * (i + 0.5) / steps;
+    integral += spot_falloff(spot, float(c)) * (1 - spot.cos_total) / steps;
+  }
+  direct_power(box_with(spot, true), 200000, m, se);
+  EXPECT_NEAR(m, 2 * kPi * 3.0 * integral, 4 * se + 1e-4 * m);  // 4 standard errors
+
+  Light sun;
+  sun.type = LightType::kDirectional;
+  sun.dir = normalize(Vec3f(1.f, -2.f, -3.f));
+  sun.L = RGB(2.f);
+  // Projected area of the box along the beam: sum over faces of A_f |n_f . d| / 2.
+  Vec3f dd = sun.dir;
+  double proj = 24 * std::fabs(dd.x) + 12 * std::fabs(dd.y) + 8 * std::fabs(dd.z);
+  direct_power(box_with(sun, false), 200000, m, se);
+  EXPECT_NEAR(m, 2.0 * proj, 4 * se) << se;  // E x projected area, 4 standard errors
+
+  Light env;
+  env.type = LightType::kEnvironment;
+  env.L = RGB(0.5f);
+  // Each point of a convex surface receives E = pi L from its open hemisphere.
+  direct_power(box_with(env, false), 400000, m, se);
+  EXPECT_NEAR(m, kPi * 0.5 * A, 4 * se) << se;
+}
