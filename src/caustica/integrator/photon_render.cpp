@@ -81,6 +81,52 @@ VisiblePoint trace_camera(const SceneView& s, const Accel& accel, Ray ray, RGB b
   return vp;
 }
 
+// PPM's measurement points (Hachisuka et al. 2008, Sec. 4.1): the camera ray is
+// traced through every specular branch, splitting at dielectrics into reflection
+// and refraction weighted by their Fresnel probabilities, so a pixel's fixed points
+// carry the exact specular weights; up to `cap` points, deepest branches dropped.
+template <typename Accel>
+int trace_measurement_points(const SceneView& s, const Accel& accel, Ray ray, uint32_t max_depth, VisiblePoint* out,
+                             int cap) {
+  struct Item { Ray ray; RGB beta; uint32_t depth; };
+  Item stack[16];
+  int sp = 0, n = 0;
+  stack[sp++] = {ray, RGB(1.f), 1};
+  while (sp > 0 && n < cap) {
+    Item it = stack[--sp];
+    Hit hit;
+    if (!accel.intersect(it.ray, hit)) continue;
+    SurfaceHit sh = make_surface_hit(s, it.ray, hit);
+    const Material& m = s.materials[sh.material];
+    Vec3f wo_world = -it.ray.d;
+    if (!material_is_delta(m)) {
+      if (it.depth < max_depth) {
+        VisiblePoint& vp = out[n++];
+        vp.p = sh.p; vp.ng = sh.ng; vp.ns = sh.ns; vp.wo = wo_world; vp.beta = it.beta;
+        vp.material = sh.material; vp.valid = true;
+      }
+      continue;
+    }
+    if (it.depth >= max_depth) continue;
+    Frame frame(sh.ns);
+    Vec3f wo = frame.to_local(wo_world);
+    // The two discrete choices of a delta BSDF: lobe sample u = 0 (reflection)
+    // and u -> 1 (transmission); each branch carries weight x probability.
+    BSDFSample a, b;
+    bool ha = bsdf_sample(m, wo, 0.f, Vec2f(0.5f, 0.5f), a);
+    bool hb = bsdf_sample(m, wo, kOneMinusEpsilon, Vec2f(0.5f, 0.5f), b);
+    if (hb && ha && length_sq(a.wi - b.wi) < 1e-12f) hb = false;  // one lobe only (mirror)
+    const BSDFSample* ch[2] = {ha ? &a : nullptr, hb ? &b : nullptr};
+    for (const BSDFSample* c : ch) {
+      if (!c || sp >= 16) continue;
+      Vec3f wi = frame.to_world(c->wi);
+      float p = ch[0] && ch[1] ? c->pdf : 1.f;
+      stack[sp++] = {Ray{offset_ray_origin(sh.p, sh.ng, wi), wi, kInf}, it.beta * c->weight * p, it.depth + 1};
+    }
+  }
+  return n;
+}
+
 }  // namespace
 
 std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const EmbreeAccel& accel, uint64_t seed,
@@ -144,14 +190,15 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
     }
   }
   size_t n = size_t(W_) * H_;
-  vp_.assign(n, VisiblePoint());
+  K_ = kind_ == Kind::kPPM ? 8 : 1;
+  vp_.assign(n * K_, VisiblePoint());
   direct_.assign(3 * n, 0.0);
   if (kind_ == Kind::kPPPM) indirect_.assign(3 * n, 0.0);
   else if (kind_ == Kind::kPM) {
   } else {
-    N_.assign(n, 0.0);
-    tau_.assign(3 * n, 0.0);
-    R_.assign(n, r0_);
+    N_.assign(n * K_, 0.0);
+    tau_.assign(3 * n * K_, 0.0);
+    R_.assign(n * K_, r0_);
   }
 }
 
@@ -175,8 +222,11 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
         path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
         RGB L(0.f);
         size_t i = size_t(y) * W_ + x;
+        Ray camera_ray = st.ray;
         VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L);
-        if (kind_ != Kind::kPPM || abs_pass == opt_.pass_offset) vp_[i] = vp;
+        if (kind_ != Kind::kPPM) vp_[i] = vp;
+        else if (abs_pass == opt_.pass_offset)
+          trace_measurement_points(v, accel, camera_ray, max_depth_, &vp_[i * K_], K_);
         if (!isfinite3(L)) continue;
         for (int c = 0; c < 3; ++c) direct_[3 * i + c] += L[c];
       }
@@ -301,8 +351,8 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   const double inv_np = 1.0 / double(photons_per_pass_);
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
     for (int y = r.begin(); y < r.end(); ++y)
-      for (int x = 0; x < W_; ++x) {
-        size_t i = size_t(y) * W_ + x;
+      for (int x = 0; x < W_ * K_; ++x) {
+        size_t i = size_t(y) * W_ * K_ + x;  // visible point index (pixel i / K_)
         const VisiblePoint& vp = vp_[i];
         if (!vp.valid) continue;
         const Material& m = v.materials[vp.material];
@@ -344,7 +394,11 @@ std::vector<float> PhotonIntegrator::image(int64_t passes) const {
       double L = direct_[3 * i + c] / double(passes);
       if (kind_ == Kind::kPPPM) L += indirect_[3 * i + c] / double(passes);
       else if (kind_ == Kind::kPM) {
-      } else L += tau_[3 * i + c] / (emitted * double(kPi) * double(R_[i]) * R_[i]);
+      } else
+        for (int k = 0; k < K_; ++k) {
+          size_t j = i * K_ + k;
+          L += tau_[3 * j + c] / (emitted * double(kPi) * double(R_[j]) * R_[j]);
+        }
       img[3 * i + c] = float(L);
     }
   return img;

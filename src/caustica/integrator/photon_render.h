@@ -67,10 +67,11 @@ class PhotonIntegrator {
   uint64_t photons_per_pass_;
   float r0_;
   int W_, H_;
-  std::vector<VisiblePoint> vp_;
+  int K_ = 1;  // visible points per pixel: 1, or up to kPPMPoints for ppm's split specular chains
+  std::vector<VisiblePoint> vp_;  // K_ per pixel
   std::vector<double> direct_;    // 3 per pixel: sum over passes of emitted + NEE direct radiance
-  std::vector<double> N_, tau_;   // ppm/sppm: photon count and flux per pixel (tau: 3 per pixel)
-  std::vector<float> R_;          // ppm/sppm: radius per pixel
+  std::vector<double> N_, tau_;   // ppm/sppm: photon count and flux per visible point (tau: 3 each)
+  std::vector<float> R_;          // ppm/sppm: radius per visible point
   std::vector<double> indirect_;  // pppm: sum over passes of the per-pass photon estimates (3 per pixel)
 };
 
