@@ -29,72 +29,37 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
-def _positive_int(name):
+def _number(name, parse, ok, expects):
+    """An argparse type: parse, check, and on failure one line naming the option and what it expects."""
     def conv(s):
         try:
-            v = int(s)
+            v = parse(s)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} expects a positive integer, got '{s}'")
-        if v <= 0:
-            raise argparse.ArgumentTypeError(f"{name} expects a positive integer, got '{s}'")
+            raise argparse.ArgumentTypeError(f"{name} expects {expects}, got '{s}'")
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"{name} expects {expects}, got '{s}'")
         return v
     return conv
+
+
+def _positive_int(name):
+    return _number(name, int, lambda v: v > 0, "a positive integer")
 
 
 def _nonneg_int(name):
-    def conv(s):
-        try:
-            v = int(s)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} expects a non-negative integer, got '{s}'")
-        if v < 0:
-            raise argparse.ArgumentTypeError(f"{name} expects a non-negative integer, got '{s}'")
-        return v
-    return conv
-
-
-def _depth(s):
-    try:
-        v = int(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--max-depth expects a positive integer or -1 (unlimited), got '{s}'")
-    if v == 0 or v < -1:
-        raise argparse.ArgumentTypeError(f"--max-depth expects a positive integer or -1 (unlimited), got '{s}'")
-    return v
-
-
-def _seconds(s):
-    try:
-        v = float(s)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--time expects a positive number of seconds, got '{s}'")
-    if not (v > 0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"--time expects a positive number of seconds, got '{s}'")
-    return v
+    return _number(name, int, lambda v: v >= 0, "a non-negative integer")
 
 
 def _seconds_named(name):
-    def conv(s):
-        try:
-            v = float(s)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} expects a positive number of seconds, got '{s}'")
-        if not (v > 0 and math.isfinite(v)):
-            raise argparse.ArgumentTypeError(f"{name} expects a positive number of seconds, got '{s}'")
-        return v
-    return conv
+    return _number(name, float, lambda v: v > 0 and math.isfinite(v), "a positive number of seconds")
 
 
 def _float(name):
-    def conv(s):
-        try:
-            v = float(s)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} expects a number, got '{s}'")
-        if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"{name} expects a finite number, got '{s}'")
-        return v
-    return conv
+    return _number(name, float, math.isfinite, "a finite number")
+
+
+_depth = _number("--max-depth", int, lambda v: v == -1 or v > 0, "a positive integer or -1 (unlimited)")
+_seconds = _seconds_named("--time")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -13,6 +13,11 @@ def mean_and_se(values):
     return v.mean(), v.std(ddof=1) / np.sqrt(v.size)
 
 
+def relmse(x, ref):
+    """Mean over pixels and channels of (x - r)^2 / (r^2 + 0.01) (shared/scenes/cornell-box.md)."""
+    return float(np.mean((x - ref) ** 2 / (ref ** 2 + 0.01)))
+
+
 @pytest.fixture
 def caustica_bin():
     return BIN
