@@ -21,6 +21,7 @@ struct Light {
   Vec3f p;         // point, spot: position
   Vec3f dir{0, 0, -1};  // spot: axis; directional: the direction light travels
   float cos_total = 0.f, cos_falloff_start = 1.f;  // spot cone
+  int32_t texture = -1;  // area: emission texture (multiplies L); environment: equirectangular map
 };
 
 CHD bool light_is_delta(const Light& l) {

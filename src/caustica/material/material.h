@@ -18,6 +18,7 @@ enum class MaterialType : uint32_t {
   kPlastic,              // smooth dielectric coat over a diffuse base
   kDiffuseTransmission,  // Lambertian reflection r/pi and transmission t/pi
   kPhong,                // SmallVCM's Lambert + modified Phong lobe
+  kMetallicRoughness,    // glTF 2.0 PBR: GGX conductor / dielectric-over-diffuse / rough glass blend
   kCount
 };
 
@@ -41,6 +42,16 @@ struct Material {
   float alpha_x = 0.1f, alpha_y = 0.1f;  // GGX roughness
   float exponent = 90.f;    // Phong exponent
   float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed)
+  float metallic = 0.f;     // metallic-roughness: metal weight
+  float transmission_weight = 0.f;  // metallic-roughness: KHR_materials_transmission
+  // Textures (indices into SceneView::textures, -1 = none), applied at the hit:
+  //   tex_color multiplies the main colour (diffuse/base colour; a tinted
+  //     mirror's or conductor's `specular`; a dielectric's `transmission`);
+  //   tex_roughness: metallic-roughness reads roughness from G (alpha =
+  //     (G * roughness)^2) and metallic from B; other rough types read alpha from R;
+  //   tex_normal: a tangent-space normal map (RGB in [0,1] -> [-1,1]).
+  int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1;
+  float normal_scale = 1.f;
 };
 
 CHD bool material_is_transmissive(const Material& m) {

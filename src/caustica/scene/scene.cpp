@@ -70,6 +70,18 @@ Material make_phong(RGB kd, RGB ks, float exponent) {
   return m;
 }
 
+Material make_metallic_roughness(RGB base_color, float metallic, float roughness, float transmission, float ior) {
+  Material m;
+  m.type = MaterialType::kMetallicRoughness;
+  m.diffuse = base_color;
+  m.metallic = metallic;
+  float a = roughness * roughness;
+  m.alpha_x = m.alpha_y = a;
+  m.transmission_weight = transmission;
+  m.eta = ior;
+  return m;
+}
+
 float diffuse_fresnel_reflectance(float eta) {
   // Midpoint rule in mu; F is smooth except at the critical angle, and 4096
   // steps put the error far below float precision of its use.
@@ -88,6 +100,7 @@ Camera make_camera(const CameraDesc& c) {
   cam.forward = normalize(c.target - c.position);
   cam.right = normalize(cross(cam.forward, c.up));
   cam.up = cross(cam.right, cam.forward);
+  if (c.flip_x) cam.right = -cam.right;
   cam.width = c.width;
   cam.height = c.height;
   float t = std::tan(0.5f * c.fov_degrees * kPi / 180.f);

@@ -15,7 +15,25 @@ struct MeshDesc {
   std::string name;
   std::vector<Vec3f> positions;
   std::vector<Vec3f> normals;  // empty, or one per position
+  std::vector<Vec2f> uvs;      // empty, or one per position; (0,0) = bottom-left of a texture image
   std::vector<uint32_t> indices;  // 3 per triangle
+};
+
+// An image texture: linear RGBA floats, row 0 = the TOP row of the image (as
+// stored in files). Lookups use uv with v = 0 at the BOTTOM (OBJ, Mitsuba and
+// pbrt convention; the glTF loader flips v). Colour textures are decoded from
+// sRGB to linear when loaded; data textures (roughness, normals) are not.
+enum class TexWrap : uint32_t { kRepeat = 0, kClamp, kMirror };
+struct TextureDesc {
+  std::string name;  // the file it came from (the cache key) or a generated name
+  int width = 0, height = 0;
+  std::vector<float> rgba;  // width * height * 4
+  bool srgb = false;        // what the loader was asked for (part of the cache key)
+  TexWrap wrap = TexWrap::kRepeat;
+  bool nearest = false;     // nearest-texel lookup instead of bilinear
+  // uv' = R(rotation) * (scale * uv) + offset (KHR_texture_transform order).
+  Vec2f uv_offset{0.f, 0.f}, uv_scale{1.f, 1.f};
+  float uv_rotation = 0.f;  // radians
 };
 
 enum class ShapeType { kMesh, kSphere, kRectangle, kCube, kDisk };
@@ -29,28 +47,38 @@ struct ShapeDesc {
   float radius = 1.f;        // kSphere
   int material = 0;
   RGB emission{0.f};         // radiance; non-zero makes the shape an area light
+  int emission_texture = -1; // multiplies `emission` (index into SceneDesc::textures)
   bool emission_two_sided = false;
   bool flip_normals = false;
 };
 
 struct CameraDesc {
+  std::string name;  // glTF / XML camera name (for --camera NAME)
   Vec3f position{0, 0, 0}, target{0, 0, -1}, up{0, 1, 0};
   float fov_degrees = 39.3077f;
   enum class FovAxis { kSmaller, kX, kY } fov_axis = FovAxis::kSmaller;
   float aperture_radius = 0.f;
   float focus_distance = 0.f;  // 0: distance to target
   int width = 256, height = 256;
+  bool flip_x = false;  // mirror the image horizontally (a camera matrix with negative determinant)
 };
 
 struct SceneDesc {
   std::string name;
-  CameraDesc camera;
+  CameraDesc camera;               // the camera used
+  std::vector<CameraDesc> cameras; // all named cameras of the file (glTF, XML); may be empty
   FilterType filter = FilterType::kBox;
   std::vector<std::string> material_names;
   std::vector<Material> materials;
   std::vector<MeshDesc> meshes;
   std::vector<ShapeDesc> shapes;
   std::vector<Light> lights;  // point, spot, directional, environment (area lights come from shapes)
+  // An environment light with Light::texture >= 0 is an equirectangular map
+  // (Mitsuba's envmap convention in its local frame, y up); this rotation
+  // (linear part only) takes the local frame to the world.
+  Affine environment_to_world;
+  std::vector<TextureDesc> textures;
+  std::vector<std::string> warnings;  // one line each, shown once by the front ends
   int max_depth = -1;  // the scene's preferred default (-1: unlimited)
 
   int add_material(const std::string& name, const Material& m) {
@@ -58,6 +86,28 @@ struct SceneDesc {
     materials.push_back(m);
     return int(materials.size()) - 1;
   }
+  int material_index(const std::string& name) const {
+    for (size_t i = 0; i < material_names.size(); ++i)
+      if (material_names[i] == name) return int(i);
+    return -1;
+  }
+};
+
+// Loads an image file (PNG, JPEG, BMP, TGA, HDR, EXR, PFM) as a texture once:
+// a second request for the same (path, srgb) returns the same index. Errors
+// throw InputError naming `referrer` (the scene file) and the image.
+int load_texture(SceneDesc& desc, const std::string& path, bool srgb, const std::string& referrer);
+// The same from an encoded image in memory (PNG/JPEG/... bytes, e.g. a GLB
+// buffer or a data URI); `name` is the cache key.
+int load_texture_from_memory(SceneDesc& desc, const std::string& name, const unsigned char* bytes, size_t size,
+                             bool srgb, const std::string& referrer);
+// Picks the camera called `name` from desc.cameras (InputError listing the names otherwise).
+void select_camera(SceneDesc& desc, const std::string& name);
+// Counts and bounds for `scene.describe()` / `caustica info`.
+struct SceneStats {
+  size_t shapes = 0, meshes = 0, triangles = 0, spheres = 0, materials = 0, lights = 0, area_lights = 0,
+         textures = 0;
+  Vec3f lo{0.f}, hi{0.f};
 };
 
 // Material constructors with the parameters people know.
@@ -69,6 +119,11 @@ Material make_thin_dielectric(float eta);
 Material make_plastic(RGB diffuse, float eta = 1.49f, RGB specular = RGB(1.f));
 Material make_diffuse_transmission(RGB reflectance, RGB transmittance);
 Material make_phong(RGB kd, RGB ks, float exponent);
+// glTF 2.0 metallic-roughness: base colour, metallic in [0,1], perceptual
+// roughness in [0,1] (GGX alpha = roughness^2), KHR_materials_transmission
+// weight, KHR_materials_ior.
+Material make_metallic_roughness(RGB base_color, float metallic, float roughness, float transmission = 0.f,
+                                 float ior = 1.5f);
 // Hemispherical average of dielectric Fresnel reflectance, 2 int_0^1 F(mu) mu dmu.
 float diffuse_fresnel_reflectance(float eta);
 
