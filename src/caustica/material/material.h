@@ -52,6 +52,10 @@ struct Material {
   //   tex_normal: a tangent-space normal map (RGB in [0,1] -> [-1,1]).
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1;
   float normal_scale = 1.f;
+  // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
+  // applied to path segments that end on the back side of this material
+  // (closed, non-nested glass; glTF KHR_materials_volume: -ln(colour)/distance).
+  RGB absorption{0.f};
 };
 
 CHD bool material_is_transmissive(const Material& m) {
