@@ -101,6 +101,13 @@ std::vector<Case> make_cases() {
       {0.9f, 0.5f, 0.1f, -0.5f, -0.9f});
   add("phong_n10", make_phong(RGB(0.3f, 0.2f, 0.1f), RGB(0.6f, 0.7f, 0.8f), 10.f), above);
   add("phong_n90", make_phong(RGB(0.3f, 0.2f, 0.1f), RGB(0.6f, 0.7f, 0.8f), 90.f), above);
+  const RGB base(0.9f, 0.6f, 0.3f);
+  add("mr_metal_r050", make_metallic_roughness(base, 1.f, 0.5f), above);
+  add("mr_dielectric_r030", make_metallic_roughness(base, 0.f, 0.3f), above);
+  add("mr_mix_r040", make_metallic_roughness(base, 0.5f, 0.4f), above);
+  add("mr_smooth_mix", make_metallic_roughness(base, 0.3f, 0.f), above);
+  add("mr_glass_r040", make_metallic_roughness(base, 0.f, 0.4f, 1.f), both);
+  add("mr_all_r060", make_metallic_roughness(base, 0.3f, 0.6f, 0.5f, 1.33f), both);
   return cs;
 }
 
@@ -306,6 +313,8 @@ std::vector<Recip> recip_materials() {
       {"difftrans", make_diffuse_transmission(RGB(0.5f, 0.3f, 0.2f), RGB(0.3f, 0.5f, 0.6f))},
       {"phong_n10", make_phong(RGB(0.3f, 0.2f, 0.1f), RGB(0.6f, 0.7f, 0.8f), 10.f)},
       {"phong_n90", make_phong(RGB(0.3f, 0.2f, 0.1f), RGB(0.6f, 0.7f, 0.8f), 90.f)},
+      {"mr_metal_r050", make_metallic_roughness(RGB(0.9f, 0.6f, 0.3f), 1.f, 0.5f)},
+      {"mr_mix_r040", make_metallic_roughness(RGB(0.9f, 0.6f, 0.3f), 0.5f, 0.4f)},
   };
 }
 // Random direction pairs: uniform on the sphere, so below-surface pairs and

@@ -7,6 +7,7 @@
 #include "dielectric.h"
 #include "diffuse.h"
 #include "diffuse_transmission.h"
+#include "metallic_roughness.h"
 #include "phong.h"
 #include "plastic.h"
 #include "rough_conductor.h"
@@ -35,6 +36,7 @@ CHD RGB bsdf_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode = Tr
     case MaterialType::kPlastic: return plastic_eval(m, wo, wi);
     case MaterialType::kDiffuseTransmission: return difftrans_eval(m, wo, wi);
     case MaterialType::kPhong: return phong_eval(m, wo, wi);
+    case MaterialType::kMetallicRoughness: return metallic_roughness_eval(m, wo, wi, mode);
     default: return RGB(0.f);
   }
 }
@@ -50,6 +52,7 @@ CHD float bsdf_pdf(const Material& m, Vec3f wo, Vec3f wi) {
     case MaterialType::kPlastic: return plastic_pdf(m, wo, wi);
     case MaterialType::kDiffuseTransmission: return difftrans_pdf(m, wo, wi);
     case MaterialType::kPhong: return phong_pdf(m, wo, wi);
+    case MaterialType::kMetallicRoughness: return metallic_roughness_pdf(m, wo, wi);
     default: return 0.f;
   }
 }
@@ -70,6 +73,7 @@ CHD bool bsdf_sample(const Material& m, Vec3f wo, float uc, Vec2f u, BSDFSample&
     case MaterialType::kPlastic: ok = plastic_sample(m, wo, uc, u, s); break;
     case MaterialType::kDiffuseTransmission: ok = difftrans_sample(m, wo, uc, u, s); break;
     case MaterialType::kPhong: ok = phong_sample(m, wo, uc, u, s); break;
+    case MaterialType::kMetallicRoughness: ok = metallic_roughness_sample(m, wo, uc, u, mode, s); break;
     default: break;
   }
   s.wi.z *= side;

@@ -60,12 +60,15 @@ struct Material {
 
 CHD bool material_is_transmissive(const Material& m) {
   return m.type == MaterialType::kDielectric || m.type == MaterialType::kRoughDielectric ||
-         m.type == MaterialType::kThinDielectric || m.type == MaterialType::kDiffuseTransmission;
+         m.type == MaterialType::kThinDielectric || m.type == MaterialType::kDiffuseTransmission ||
+         (m.type == MaterialType::kMetallicRoughness && m.transmission_weight > 0.f && m.metallic < 1.f);
 }
 // True when every lobe is a Dirac delta (NEE is pointless there).
 CHD bool material_is_delta(const Material& m) {
   return m.type == MaterialType::kConductor || m.type == MaterialType::kDielectric ||
-         m.type == MaterialType::kThinDielectric;
+         m.type == MaterialType::kThinDielectric ||
+         (m.type == MaterialType::kMetallicRoughness && m.alpha_x < 1e-3f && m.alpha_y < 1e-3f &&
+          (m.metallic >= 1.f || m.transmission_weight >= 1.f));
 }
 
 struct BSDFSample {

@@ -79,6 +79,7 @@ Material make_metallic_roughness(RGB base_color, float metallic, float roughness
   m.alpha_x = m.alpha_y = a;
   m.transmission_weight = transmission;
   m.eta = ior;
+  m.fdr_int = diffuse_fresnel_reflectance(1.f / ior);
   return m;
 }
 
@@ -259,7 +260,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   s.materials = desc.materials;
   if (s.materials.empty()) throw InputError("scene '" + desc.name + "' has no materials");
   for (Material& m : s.materials)
-    if (m.type == MaterialType::kPlastic) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
+    if (m.type == MaterialType::kPlastic || m.type == MaterialType::kMetallicRoughness) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
 
   struct PendingArea {
     uint32_t prim;  // triangle index or sphere index (offset later)
