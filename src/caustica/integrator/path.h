@@ -20,7 +20,7 @@
 #include "../base/sampler.h"
 #include "../light/light_sample.h"
 #include "../material/bsdf.h"
-#include "../scene/interaction.h"
+#include "../scene/shading.h"
 
 namespace caustica {
 
@@ -73,21 +73,22 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
       const Light& env = s.lights[s.environment_light];
       float w = 1.f;
       if (!st.prev_delta) {
-        float light_pdf_sa = s.light_sampler.pmf[s.environment_light] * uniform_sphere_pdf();
+        float light_pdf_sa = s.light_sampler.pmf[s.environment_light] * environment_pdf(s, env, st.ray.d);
         w = power_heuristic(st.prev_pdf, light_pdf_sa);
       }
-      st.L += st.beta * env.L * w;
+      st.L += st.beta * environment_radiance(s, env, st.ray.d) * w;
     }
     st.active = false;
     return;
   }
   SurfaceHit sh = make_surface_hit(s, st.ray, hit);
   Vec3f wo_world = -st.ray.d;
+  st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
 
   // Emission reached by the BSDF sample (or the camera ray).
   if (sh.light >= 0) {
     const Light& l = s.lights[sh.light];
-    RGB Le = area_le(l, sh.ng, wo_world);
+    RGB Le = area_radiance(s, l, sh.ng, wo_world, sh.uv);
     if (!is_black(Le)) {
       float w = 1.f;
       if (!st.prev_delta) {
@@ -99,7 +100,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   }
   if (st.depth >= pp.max_depth) { st.active = false; return; }
 
-  const Material& m = s.materials[sh.material];
+  const Material m = surface_material(s, sh);
   Frame frame(sh.ns);
   Vec3f wo = frame.to_local(wo_world);
 

@@ -30,13 +30,14 @@ VisiblePoint trace_camera(const SceneView& s, const Accel& accel, Ray ray, RGB b
   for (uint32_t depth = 1; depth <= max_depth; ++depth) {
     Hit hit;
     if (!accel.intersect(ray, hit)) {
-      if (s.environment_light >= 0) L += beta * s.lights[s.environment_light].L;
+      if (s.environment_light >= 0) L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
       return vp;
     }
     SurfaceHit sh = make_surface_hit(s, ray, hit);
     Vec3f wo_world = -ray.d;
-    if (sh.light >= 0) L += beta * area_le(s.lights[sh.light], sh.ng, wo_world);
-    const Material& m = s.materials[sh.material];
+    beta *= segment_transmittance(s, ray.d, hit.t, sh);
+    if (sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
+    const Material m = surface_material(s, sh);
     Frame frame(sh.ns);
     Vec3f wo = frame.to_local(wo_world);
     float u_l = smp.next_1d();
@@ -64,7 +65,7 @@ VisiblePoint trace_camera(const SceneView& s, const Accel& accel, Ray ray, RGB b
       vp.ns = sh.ns;
       vp.wo = wo_world;
       vp.beta = beta;
-      vp.material = sh.material;
+      vp.material = m;
       vp.valid = depth < max_depth;  // a photon adds at least one more segment
       return vp;
     }
@@ -97,13 +98,14 @@ int trace_measurement_points(const SceneView& s, const Accel& accel, Ray ray, ui
     Hit hit;
     if (!accel.intersect(it.ray, hit)) continue;
     SurfaceHit sh = make_surface_hit(s, it.ray, hit);
-    const Material& m = s.materials[sh.material];
+    it.beta *= segment_transmittance(s, it.ray.d, hit.t, sh);
+    const Material m = surface_material(s, sh);
     Vec3f wo_world = -it.ray.d;
     if (!material_is_delta(m)) {
       if (it.depth < max_depth) {
         VisiblePoint& vp = out[n++];
         vp.p = sh.p; vp.ng = sh.ng; vp.ns = sh.ns; vp.wo = wo_world; vp.beta = it.beta;
-        vp.material = sh.material; vp.valid = true;
+        vp.material = m; vp.valid = true;
       }
       continue;
     }
@@ -280,7 +282,7 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
         RGB L(0.f);
         VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L);
         if (vp.valid) {
-          const Material& m = v.materials[vp.material];
+          const Material& m = vp.material;
           Frame frame(vp.ns);
           Vec3f wo = frame.to_local(vp.wo);
           L += vp.beta * pm_estimate(caustic_, global_paths_, m, frame, wo, vp.p, idx.data(), d2.data());
@@ -298,7 +300,8 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
               Hit hit;
               if (!accel.intersect(ray, hit)) break;
               SurfaceHit sh = make_surface_hit(v, ray, hit);
-              const Material& gm = v.materials[sh.material];
+              beta *= segment_transmittance(v, ray.d, hit.t, sh);
+              const Material gm = surface_material(v, sh);
               Frame gf(sh.ns);
               Vec3f gwo = gf.to_local(-ray.d);
               if (!material_is_delta(gm)) {
@@ -355,7 +358,7 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
         size_t i = size_t(y) * W_ * K_ + x;  // visible point index (pixel i / K_)
         const VisiblePoint& vp = vp_[i];
         if (!vp.valid) continue;
-        const Material& m = v.materials[vp.material];
+        const Material& m = vp.material;
         Frame frame(vp.ns);
         Vec3f wo = frame.to_local(vp.wo);
         float radius = kind_ == Kind::kPPPM ? rmax : R_[i];

@@ -32,7 +32,7 @@ namespace caustica {
 struct VisiblePoint {
   Vec3f p, ng, ns, wo;  // wo in world space
   RGB beta{0.f};        // camera throughput to the point
-  uint32_t material = 0;
+  Material material;     // with its textures applied at the point
   bool valid = false;
 };
 

@@ -31,7 +31,8 @@ CHD bool light_is_infinite(const Light& l) {
   return l.type == LightType::kDirectional || l.type == LightType::kEnvironment;
 }
 
-// Radiance leaving an area light at a point with geometric normal n towards w.
+// Radiance leaving an area light at a point with geometric normal n towards w
+// (before its emission texture, see area_radiance in light_sample.h).
 CHD RGB area_le(const Light& l, Vec3f n, Vec3f w) {
   float c = dot(n, w);
   if (c > 0.f || (l.two_sided && c < 0.f)) return l.L;

@@ -6,7 +6,7 @@
 // bounding radius perpendicular to the direction of travel.
 #pragma once
 #include "../base/sampling.h"
-#include "../scene/interaction.h"
+#include "light_sample.h"
 #include "light.h"
 
 namespace caustica {
@@ -23,6 +23,7 @@ CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f 
     case LightType::kTriangle:
     case LightType::kSphere: {
       Vec3f p, n;
+      Vec2f uv;
       float area;
       if (l.type == LightType::kTriangle) {
         Vec3f p0, p1, p2;
@@ -31,11 +32,13 @@ CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f 
         p = p0 * (1.f - b.x - b.y) + p1 * b.x + p2 * b.y;
         n = normalize(cross(p1 - p0, p2 - p0));
         area = triangle_area(p0, p1, p2);
+        uv = triangle_uv(s, l.prim, b.x, b.y);
       } else {
         const Sphere& sp = s.spheres[l.prim - s.num_triangles];
         n = square_to_uniform_sphere(u_pos);
         p = sp.center + n * sp.radius;
         area = 4.f * kPi * sp.radius * sp.radius;
+        uv = sphere_uv(n);
       }
       float sides = 1.f;
       if (l.two_sided) {
@@ -47,8 +50,10 @@ CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f 
       e.ray.d = d;
       e.ray.tmax = kInf;
       e.n = n;
-      e.weight = l.L * (kPi * area * sides);  // Le cos / (1/A * cos/pi) per side
-      return true;
+      RGB Le = l.L;
+      if (l.texture >= 0) Le = Le * texture_lookup(s.textures[l.texture], uv).rgb();
+      e.weight = Le * (kPi * area * sides);  // Le cos / (1/A * cos/pi) per side
+      return !is_black(e.weight);
     }
     case LightType::kPoint:
       e.ray.o = l.p;
@@ -66,15 +71,27 @@ CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f 
     }
     case LightType::kDirectional:
     case LightType::kEnvironment: {
-      Vec3f dir = l.type == LightType::kDirectional ? l.dir : -square_to_uniform_sphere(u_dir);
+      Vec3f dir = l.dir;
+      float dir_pdf = 1.f;
+      if (l.type == LightType::kEnvironment) {
+        Vec3f w;  // towards the sky; the photon travels along -w
+        if (l.texture >= 0) {
+          if (!envmap_sample(s.envmap, u_dir, w, dir_pdf)) return false;
+        } else {
+          w = square_to_uniform_sphere(u_dir);
+          dir_pdf = uniform_sphere_pdf();
+        }
+        dir = -w;
+      }
       Frame f(dir);
       Vec2f d = square_to_concentric_disk(u_pos) * R;
       e.ray.o = s.bsphere_center + f.to_world(Vec3f(d.x, d.y, -R));
       e.ray.d = dir;
       e.ray.tmax = kInf;
       float disk = kPi * R * R;
-      e.weight = l.type == LightType::kDirectional ? l.L * disk : l.L * (disk * 4.f * kPi);
-      return true;
+      e.weight = l.type == LightType::kDirectional ? l.L * disk
+                                                   : environment_radiance(s, l, -dir) * (disk / dir_pdf);
+      return !is_black(e.weight);
     }
   }
   return false;

@@ -15,6 +15,23 @@ struct LightSample {
   Vec3f p_l, n_l;   // area lights: the sampled point and its geometric normal (else n_l = 0)
 };
 
+// Radiance of an area light at surface texture coordinates uv (emission texture applied).
+CHD RGB area_radiance(const SceneView& s, const Light& l, Vec3f n, Vec3f w, Vec2f uv) {
+  RGB Le = area_le(l, n, w);
+  if (l.texture >= 0 && !is_black(Le)) Le = Le * texture_lookup(s.textures[l.texture], uv).rgb();
+  return Le;
+}
+// Radiance of the environment arriving along -w (w points from the scene to the sky).
+CHD RGB environment_radiance(const SceneView& s, const Light& l, Vec3f w) {
+  if (l.texture >= 0) return l.L * envmap_eval(s.envmap, w);
+  return l.L;
+}
+// Solid-angle density of sample_light choosing environment direction w.
+CHD float environment_pdf(const SceneView& s, const Light& l, Vec3f w) {
+  if (l.texture >= 0) return envmap_pdf(s.envmap, w);
+  return uniform_sphere_pdf();
+}
+
 CHD float sphere_cos_theta_max(const Sphere& sp, Vec3f ref, bool& inside) {
   float d2 = length_sq(ref - sp.center);
   float r2 = sp.radius * sp.radius;
@@ -65,7 +82,7 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       float c = absdot(n, ls.wi);
       if (c == 0.f) return false;
       ls.pdf = d2 / (c * triangle_area(p0, p1, p2));
-      ls.Li = area_le(l, n, -ls.wi);
+      ls.Li = area_radiance(s, l, n, -ls.wi, triangle_uv(s, l.prim, b.x, b.y));
       ls.delta = false;
       ls.p_l = p;
       ls.n_l = n;
@@ -98,7 +115,7 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       ls.dist = std::sqrt(d2);
       ls.wi = d / ls.dist;
       ls.pdf = light_pdf(s, l, ref, p, n);
-      ls.Li = area_le(l, n, -ls.wi);
+      ls.Li = area_radiance(s, l, n, -ls.wi, sphere_uv(n));
       ls.delta = false;
       ls.p_l = p;
       ls.n_l = n;
@@ -128,12 +145,16 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       return true;
     }
     case LightType::kEnvironment: {
-      ls.wi = square_to_uniform_sphere(u);
+      if (l.texture >= 0) {
+        if (!envmap_sample(s.envmap, u, ls.wi, ls.pdf)) return false;
+      } else {
+        ls.wi = square_to_uniform_sphere(u);
+        ls.pdf = uniform_sphere_pdf();
+      }
       ls.dist = kInf;
-      ls.Li = l.L;
-      ls.pdf = uniform_sphere_pdf();
+      ls.Li = environment_radiance(s, l, ls.wi);
       ls.delta = false;
-      return true;
+      return !is_black(ls.Li);
     }
   }
   return false;

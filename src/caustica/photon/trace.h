@@ -11,6 +11,7 @@
 #include "../base/rng.h"
 #include "../light/light_emit.h"
 #include "../material/bsdf.h"
+#include "../scene/shading.h"
 #include "photon.h"
 
 namespace caustica {
@@ -36,7 +37,8 @@ CHD void trace_photon(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t
     Hit hit;
     if (!intersect(ray, hit)) return;
     SurfaceHit sh = make_surface_hit(s, ray, hit);
-    const Material& m = s.materials[sh.material];
+    beta *= segment_transmittance(s, ray.d, hit.t, sh);
+    const Material m = surface_material(s, sh);
     Vec3f wo_world = -ray.d;
     if (!material_is_delta(m)) {
       Photon ph;

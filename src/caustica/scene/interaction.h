@@ -8,10 +8,24 @@ struct SurfaceHit {
   Vec3f p;
   Vec3f ng;  // geometric normal (triangle winding / sphere outward)
   Vec3f ns;  // shading normal, on the same side as ng
+  Vec2f uv;  // texture coordinates (v up); barycentrics (b1, b2) on meshes without UVs
   uint32_t prim;
   uint32_t material;
   int32_t light;
 };
+
+// Texture coordinates at barycentrics (b1, b2) of a triangle.
+CHD Vec2f triangle_uv(const SceneView& s, uint32_t tri, float b1, float b2) {
+  if (!s.uvs) return Vec2f(b1, b2);
+  const uint32_t* ix = s.indices + 3 * tri;
+  return s.uvs[ix[0]] * (1.f - b1 - b2) + s.uvs[ix[1]] * b1 + s.uvs[ix[2]] * b2;
+}
+// Sphere parameterisation (Mitsuba's): u = phi / 2pi around +z, v = theta / pi from +z.
+CHD Vec2f sphere_uv(Vec3f n) {
+  float phi = std::atan2(n.y, n.x);
+  if (phi < 0.f) phi += 2.f * kPi;
+  return Vec2f(phi * (0.5f * kInvPi), std::acos(clampf(n.z, -1.f, 1.f)) * kInvPi);
+}
 
 CHD void triangle_vertices(const SceneView& s, uint32_t tri, Vec3f& p0, Vec3f& p1, Vec3f& p2) {
   p0 = s.positions[s.indices[3 * tri + 0]];
@@ -31,6 +45,7 @@ CHD SurfaceHit make_surface_hit(const SceneView& s, const Ray& r, const Hit& h) 
     sh.p = p0 * b0 + p1 * h.b1 + p2 * h.b2;  // barycentric: more accurate than o + t d
     sh.ng = normalize(cross(p1 - p0, p2 - p0));
     sh.ns = sh.ng;
+    sh.uv = triangle_uv(s, h.prim, h.b1, h.b2);
     if (s.normals) {
       const uint32_t* ix = s.indices + 3 * h.prim;
       Vec3f n = s.normals[ix[0]] * b0 + s.normals[ix[1]] * h.b1 + s.normals[ix[2]] * h.b2;
@@ -42,6 +57,7 @@ CHD SurfaceHit make_surface_hit(const SceneView& s, const Ray& r, const Hit& h) 
     sh.ng = normalize(p - sp.center);
     sh.p = sp.center + sh.ng * sp.radius;  // re-project onto the surface
     sh.ns = sh.ng;
+    sh.uv = sphere_uv(sh.ng);
   }
   return sh;
 }

@@ -120,8 +120,23 @@ Camera make_camera(const CameraDesc& c) {
   return cam;
 }
 
+namespace {
+// Mean luminance of a texture's texels (textured area lights' power).
+float texture_mean_luminance(const TextureView& t) {
+  double sum = 0.0;
+  size_t n = size_t(t.width) * size_t(t.height);
+  for (size_t i = 0; i < n; ++i) sum += luminance(RGB(t.rgba[4 * i], t.rgba[4 * i + 1], t.rgba[4 * i + 2]));
+  return n ? float(sum / double(n)) : 0.f;
+}
+}  // namespace
+
 float light_power(const SceneView& s, const Light& l) {
   float lum = luminance(l.L);
+  if (l.type == LightType::kEnvironment && l.texture >= 0) {
+    // Mean radiance over the sphere: (1/4pi) int L dw = (1/4pi) 2 pi^2 int L sin(theta) du dv.
+    lum *= 0.5f * kPi * s.envmap.integral;
+  }
+  // (Textured area lights: Scene::build multiplies by the texture's mean.)
   float R = s.bsphere_radius;
   switch (l.type) {
     case LightType::kTriangle: {
@@ -262,11 +277,15 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   for (Material& m : s.materials)
     if (m.type == MaterialType::kPlastic || m.type == MaterialType::kMetallicRoughness) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
 
+  for (const Material& m : s.materials)
+    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal})
+      if (t >= int(desc.textures.size())) throw InputError("scene '" + desc.name + "': texture index out of range");
   struct PendingArea {
     uint32_t prim;  // triangle index or sphere index (offset later)
     bool sphere;
     RGB L;
     bool two_sided;
+    int texture;
   };
   std::vector<PendingArea> area;
   std::vector<uint32_t> sphere_material;
@@ -275,6 +294,8 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
 
   for (size_t si = 0; si < desc.shapes.size(); ++si) {
     const ShapeDesc& sh = desc.shapes[si];
+    if (sh.emission_texture >= int(desc.textures.size()))
+      throw InputError("shape '" + sh.name + "': emission texture index out of range");
     if (sh.material < 0 || size_t(sh.material) >= desc.materials.size())
       throw InputError("shape '" + sh.name + "': material index " + std::to_string(sh.material) + " out of range");
     bool emissive = max_component(sh.emission) > 0.f;
@@ -285,7 +306,8 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       if (std::fabs(a - b) > 1e-4f * a || std::fabs(a - c) > 1e-4f * a)
         throw InputError("shape '" + sh.name + "': a sphere's transform must scale uniformly");
       Sphere sp{sh.to_world.point(sh.center), sh.radius * a};
-      if (emissive) area.push_back({uint32_t(s.spheres.size()), true, sh.emission, sh.emission_two_sided});
+      if (emissive)
+        area.push_back({uint32_t(s.spheres.size()), true, sh.emission, sh.emission_two_sided, sh.emission_texture});
       s.spheres.push_back(sp);
       sphere_material.push_back(uint32_t(sh.material));
       continue;
@@ -306,6 +328,12 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     uint32_t base = uint32_t(s.positions.size());
     for (Vec3f p : mesh->positions) s.positions.push_back(sh.to_world.point(p));
     bool has_n = !mesh->normals.empty();
+    bool has_uv = !mesh->uvs.empty();
+    if (has_uv || !s.uvs.empty()) {
+      // Meshes without UVs get zeros (a texture shows its corner texel there).
+      s.uvs.resize(base, Vec2f(0.f, 0.f));
+      for (size_t i = 0; i < mesh->positions.size(); ++i) s.uvs.push_back(has_uv ? mesh->uvs[i] : Vec2f(0.f, 0.f));
+    }
     if (has_n || !s.normals.empty()) {
       // Keep normals aligned with positions: meshes without them get zero
       // normals, which the interaction code treats as "use the geometric normal".
@@ -323,10 +351,11 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       s.indices.push_back(base + i1);
       s.indices.push_back(base + i2);
       s.prim_material.push_back(uint32_t(sh.material));
-      if (emissive) area.push_back({tri, false, sh.emission, sh.emission_two_sided});
+      if (emissive) area.push_back({tri, false, sh.emission, sh.emission_two_sided, sh.emission_texture});
     }
   }
   if (!s.normals.empty()) s.normals.resize(s.positions.size(), Vec3f(0.f));
+  if (!s.uvs.empty()) s.uvs.resize(s.positions.size(), Vec2f(0.f, 0.f));
   uint32_t num_tri = uint32_t(s.indices.size() / 3);
   for (uint32_t m : sphere_material) s.prim_material.push_back(m);
   s.prim_light.assign(s.prim_material.size(), -1);
@@ -337,6 +366,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     l.prim = a.sphere ? num_tri + a.prim : a.prim;
     l.L = a.L;
     l.two_sided = a.two_sided ? 1u : 0u;
+    l.texture = a.texture;
     s.prim_light[l.prim] = int32_t(s.lights.size());
     s.lights.push_back(l);
   }
@@ -368,20 +398,115 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   s.view_.camera = make_camera(desc.camera);
   s.view_.filter = desc.filter;
   s.view_.environment_light = env;
+  for (const Light& l : s.lights)
+    if (l.texture >= int(desc.textures.size())) throw InputError("scene '" + desc.name + "': light texture index out of range");
+  for (const TextureDesc& t : s.desc_.textures) {
+    if (t.width <= 0 || t.height <= 0 || t.rgba.size() != size_t(t.width) * size_t(t.height) * 4)
+      throw InputError("texture '" + t.name + "': pixel data does not match its size");
+    TextureView tv;
+    tv.rgba = t.rgba.data();
+    tv.width = t.width;
+    tv.height = t.height;
+    tv.wrap = t.wrap;
+    tv.nearest = t.nearest ? 1u : 0u;
+    tv.uv_offset = t.uv_offset;
+    tv.uv_scale = t.uv_scale;
+    tv.cos_rot = std::cos(t.uv_rotation);
+    tv.sin_rot = std::sin(t.uv_rotation);
+    s.textures.push_back(tv);
+  }
+  if (env >= 0 && s.lights[env].texture >= 0) s.build_envmap(s.textures[s.lights[env].texture], desc.environment_to_world);
   s.update_view();
 
   std::vector<float> power;
-  for (const Light& l : s.lights) power.push_back(light_power(s.view_, l));
+  std::vector<float> tex_mean(s.textures.size(), -1.f);
+  for (const Light& l : s.lights) {
+    float p = light_power(s.view_, l);
+    if (l.texture >= 0 && l.type != LightType::kEnvironment) {
+      float& m = tex_mean[size_t(l.texture)];
+      if (m < 0.f) m = texture_mean_luminance(s.textures[size_t(l.texture)]);
+      p *= m;
+    }
+    power.push_back(p);
+  }
   if (!s.lights.empty()) build_alias(power, s.alias_prob, s.alias_index, s.light_pmf);
   s.update_view();
   s.embree_ = std::make_unique<EmbreeAccel>(s.view_);
   return sc;
 }
 
+// The environment map's sampling distribution (envmap.h): weights luminance *
+// sin(theta) at each texel's centre row, cumulated per row and over rows.
+void Scene::build_envmap(const TextureView& tex, const Affine& to_world) {
+  EnvMapView& e = view_.envmap;
+  e.tex = tex;
+  e.tex.wrap = TexWrap::kRepeat;  // u wraps around; v never leaves [0, 1]
+  int w = tex.width, h = tex.height;
+  e.width = w;
+  e.height = h;
+  env_func.resize(size_t(w) * h);
+  env_cond_cdf.resize(size_t(w + 1) * h);
+  env_marg_cdf.resize(size_t(h) + 1);
+  env_marg_func.resize(size_t(h));
+  for (int y = 0; y < h; ++y) {
+    float st = std::sin(kPi * (y + 0.5f) / float(h));
+    double row = 0.0;
+    float* cdf = &env_cond_cdf[size_t(y) * (w + 1)];
+    cdf[0] = 0.f;
+    for (int x = 0; x < w; ++x) {
+      const float* p = tex.rgba + (size_t(y) * w + x) * 4;
+      float f = maxf(luminance(RGB(p[0], p[1], p[2])), 0.f) * st;
+      if (!std::isfinite(f)) f = 0.f;
+      env_func[size_t(y) * w + x] = f;
+      row += f;
+      cdf[x + 1] = float(row);
+    }
+    for (int x = 1; x <= w; ++x) cdf[x] = row > 0.0 ? float(cdf[x] / row) : float(x) / float(w);
+    cdf[w] = 1.f;
+    env_marg_func[y] = float(row / w);
+  }
+  double total = 0.0;
+  env_marg_cdf[0] = 0.f;
+  for (int y = 0; y < h; ++y) {
+    total += env_marg_func[y];
+    env_marg_cdf[y + 1] = float(total);
+  }
+  for (int y = 1; y <= h; ++y) env_marg_cdf[y] = total > 0.0 ? float(env_marg_cdf[y] / total) : float(y) / float(h);
+  env_marg_cdf[h] = 1.f;
+  e.integral = float(total / h);
+  // Rotation only: normalise the columns' lengths away and invert by transposing
+  // after Gram-Schmidt, so a scaled to_world still maps directions sensibly.
+  Vec3f c0 = to_world.vector(Vec3f(1, 0, 0)), c1 = to_world.vector(Vec3f(0, 1, 0));
+  c0 = normalize(c0);
+  c1 = normalize(c1 - c0 * dot(c1, c0));
+  Vec3f c2 = cross(c0, c1);
+  if (dot(c2, to_world.vector(Vec3f(0, 0, 1))) < 0.f) c2 = -c2;  // keep a mirrored frame mirrored
+  Affine tw, tl;
+  const Vec3f cols[3] = {c0, c1, c2};
+  for (int j = 0; j < 3; ++j) {
+    const float v[3] = {cols[j].x, cols[j].y, cols[j].z};
+    for (int i = 0; i < 3; ++i) {
+      tw.m[i][j] = v[i];
+      tl.m[j][i] = v[i];
+    }
+  }
+  e.to_world = tw;
+  e.to_local = tl;
+}
+
 void Scene::update_view() {
   SceneView& v = view_;
   v.positions = positions.data();
   v.normals = normals.empty() ? nullptr : normals.data();
+  v.uvs = uvs.empty() ? nullptr : uvs.data();
+  v.textures = textures.data();
+  v.num_textures = uint32_t(textures.size());
+  if (v.environment_light >= 0 && lights[v.environment_light].texture >= 0) {
+    v.envmap.func = env_func.data();
+    v.envmap.cond_cdf = env_cond_cdf.data();
+    v.envmap.marg_cdf = env_marg_cdf.data();
+    v.envmap.marg_func = env_marg_func.data();
+  }
   v.indices = indices.data();
   v.num_triangles = uint32_t(indices.size() / 3);
   v.spheres = spheres.data();

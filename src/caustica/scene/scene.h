@@ -24,6 +24,9 @@ class Scene {
   void set_filter(FilterType f) { view_.filter = f; }
 
   std::vector<Vec3f> positions, normals;
+  std::vector<Vec2f> uvs;  // empty, or one per position
+  std::vector<TextureView> textures;  // views into desc().textures
+  std::vector<float> env_func, env_cond_cdf, env_marg_cdf, env_marg_func;
   std::vector<uint32_t> indices;
   std::vector<Sphere> spheres;
   std::vector<uint32_t> prim_material;
@@ -37,6 +40,7 @@ class Scene {
  private:
   Scene() = default;
   void update_view();
+  void build_envmap(const TextureView& tex, const Affine& to_world);
   SceneDesc desc_;
   SceneView view_;
   std::unique_ptr<EmbreeAccel> embree_;

@@ -8,6 +8,7 @@
 #include "../film/filter.h"
 #include "../light/light.h"
 #include "../material/material.h"
+#include "../texture/texture.h"
 
 namespace caustica {
 
@@ -23,7 +24,6 @@ struct MeshDesc {
 // stored in files). Lookups use uv with v = 0 at the BOTTOM (OBJ, Mitsuba and
 // pbrt convention; the glTF loader flips v). Colour textures are decoded from
 // sRGB to linear when loaded; data textures (roughness, normals) are not.
-enum class TexWrap : uint32_t { kRepeat = 0, kClamp, kMirror };
 struct TextureDesc {
   std::string name;  // the file it came from (the cache key) or a generated name
   int width = 0, height = 0;
@@ -80,6 +80,19 @@ struct SceneDesc {
   std::vector<TextureDesc> textures;
   std::vector<std::string> warnings;  // one line each, shown once by the front ends
   int max_depth = -1;  // the scene's preferred default (-1: unlimited)
+  // Integrator defaults from the scene file (JSON "integrator", XML <integrator>/<sampler>): the front
+  // ends use them unless options override them. Empty / 0 = unset (the front end's own default).
+  struct IntegratorDefaults {
+    std::string type;      // "path", "sppm", ...
+    std::string sampler;   // "sobol" or "independent"
+    int64_t spp = 0;       // samples per pixel (photon integrators: passes)
+    double time = 0.0;     // seconds
+    int rr_depth = 0;
+    int64_t photons = 0;   // photon paths per pass
+    float radius = 0.f;    // initial gather radius
+    float alpha = 0.f;     // radius reduction, in (0, 1)
+    int k = 0;             // pm: photons per density estimate
+  } integrator;
 
   int add_material(const std::string& name, const Material& m) {
     material_names.push_back(name);

@@ -7,7 +7,9 @@
 #include "../film/filter.h"
 #include "../geometry/bvh.h"
 #include "../geometry/shapes.h"
+#include "../light/envmap.h"
 #include "../light/light.h"
+#include "../texture/texture.h"
 #include "../material/material.h"
 
 namespace caustica {
@@ -34,6 +36,7 @@ struct SceneView {
   // Triangles
   const Vec3f* positions = nullptr;
   const Vec3f* normals = nullptr;  // per vertex, or null
+  const Vec2f* uvs = nullptr;      // per vertex, or null (then uv = barycentrics (b1, b2))
   const uint32_t* indices = nullptr;  // 3 per triangle
   uint32_t num_triangles = 0;
   // Spheres
@@ -48,6 +51,9 @@ struct SceneView {
   uint32_t num_lights = 0;
   LightSamplerView light_sampler;
   int32_t environment_light = -1;  // index into lights, or -1
+  const TextureView* textures = nullptr;
+  uint32_t num_textures = 0;
+  EnvMapView envmap;  // the environment light's map when its Light::texture >= 0
   Camera camera;
   FilterType filter = FilterType::kBox;
   Bounds3 bounds;

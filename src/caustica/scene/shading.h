@@ -1,0 +1,85 @@
+// The material at a surface hit with its textures applied, and the
+// attenuation of a path segment inside absorbing glass.
+//   tex_color:     multiplies the main colour (see material.h);
+//   tex_roughness: metallic-roughness reads roughness from G and metallic
+//                  from B (glTF 2.0 Sec. 3.9.2), other rough types alpha from R;
+//   tex_normal:    tangent-space normal map (glTF 2.0 Sec. 3.9.3): n =
+//                  normalize(T x s + B y s + N z) with (x, y, z) = 2 rgb - 1,
+//                  s = normal_scale, T = dp/du and B = dp/dv made orthogonal
+//                  to the shading normal N (v up, so green points towards +v).
+#pragma once
+#include "interaction.h"
+
+namespace caustica {
+
+// dp/du and dp/dv of a triangle from its texture coordinates (pbrt-v4 Eq. 6.7);
+// false without UVs or for a degenerate mapping.
+CHD bool triangle_dpduv(const SceneView& s, uint32_t tri, Vec3f& dpdu, Vec3f& dpdv) {
+  if (!s.uvs || tri >= s.num_triangles) return false;
+  const uint32_t* ix = s.indices + 3 * tri;
+  Vec3f p0 = s.positions[ix[0]], p1 = s.positions[ix[1]], p2 = s.positions[ix[2]];
+  Vec2f t0 = s.uvs[ix[0]], t1 = s.uvs[ix[1]], t2 = s.uvs[ix[2]];
+  float du1 = t1.x - t0.x, dv1 = t1.y - t0.y, du2 = t2.x - t0.x, dv2 = t2.y - t0.y;
+  float det = du1 * dv2 - dv1 * du2;
+  if (std::fabs(det) < 1e-12f) return false;
+  float inv = 1.f / det;
+  Vec3f e1 = p1 - p0, e2 = p2 - p0;
+  dpdu = (e1 * dv2 - e2 * dv1) * inv;
+  dpdv = (e2 * du1 - e1 * du2) * inv;
+  return isfinite3(dpdu) && isfinite3(dpdv);
+}
+
+CHD void apply_normal_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
+  Vec3f dpdu, dpdv;
+  if (!triangle_dpduv(s, sh.prim, dpdu, dpdv)) return;
+  Vec3f n = sh.ns;
+  Vec3f t = dpdu - n * dot(n, dpdu);
+  if (length_sq(t) == 0.f) return;
+  t = normalize(t);
+  Vec3f b = cross(n, t);
+  if (dot(b, dpdv) < 0.f) b = -b;  // mirrored UVs
+  RGB c = texture_lookup(s.textures[m.tex_normal], sh.uv).rgb();
+  Vec3f ts((2.f * c.x - 1.f) * m.normal_scale, (2.f * c.y - 1.f) * m.normal_scale, 2.f * c.z - 1.f);
+  Vec3f nn = t * ts.x + b * ts.y + n * ts.z;
+  if (!(length_sq(nn) > 0.f)) return;
+  nn = normalize(nn);
+  if (dot(nn, sh.ng) * dot(n, sh.ng) <= 0.f) return;  // would cross the geometric surface
+  sh.ns = nn;
+}
+
+CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
+  Material m = s.materials[sh.material];
+  if (m.tex_color >= 0) {
+    RGB c = texture_lookup(s.textures[m.tex_color], sh.uv).rgb();
+    switch (m.type) {
+      case MaterialType::kConductor:
+      case MaterialType::kRoughConductor: m.specular = m.specular * c; break;
+      case MaterialType::kDielectric:
+      case MaterialType::kRoughDielectric:
+      case MaterialType::kThinDielectric: m.transmission = m.transmission * c; break;
+      default: m.diffuse = m.diffuse * c; break;
+    }
+  }
+  if (m.tex_roughness >= 0) {
+    RGBA r = texture_lookup(s.textures[m.tex_roughness], sh.uv);
+    if (m.type == MaterialType::kMetallicRoughness) {
+      float rough = std::sqrt(maxf(m.alpha_x, 0.f)) * r.g;
+      m.alpha_x = m.alpha_y = rough * rough;
+      m.metallic *= r.b;
+    } else if (m.type == MaterialType::kRoughConductor || m.type == MaterialType::kRoughDielectric) {
+      m.alpha_x = m.alpha_y = maxf(r.r, 1e-4f);
+    }
+  }
+  if (m.tex_normal >= 0) apply_normal_map(s, m, sh);
+  return m;
+}
+
+// Beer-Lambert transmittance of the segment that ended at `sh` after distance t
+// when it ran inside absorbing glass (the hit is on the glass's back side).
+CHD RGB segment_transmittance(const SceneView& s, Vec3f dir, float t, const SurfaceHit& sh) {
+  const Material& m = s.materials[sh.material];
+  if (is_black(m.absorption) || dot(dir, sh.ng) <= 0.f) return RGB(1.f);
+  return vexp(m.absorption * (-t));
+}
+
+}  // namespace caustica
