@@ -1,5 +1,1230 @@
+// glTF 2.0 / GLB loader. The JSON is parsed and checked here first (with
+// nlohmann::json, so that every error names the file, the glTF object path such
+// as /meshes/3/primitives/0, and what was expected); tinygltf then resolves the
+// buffers (external files, data URIs, the GLB BIN chunk) and the encoded image
+// bytes, which are decoded once per image by load_texture_from_memory. The
+// scene itself is converted from the checked JSON. docs/formats-gltf.md
+// describes the mapping and the conventions.
 #include "gltf_loader.h"
+
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
 #include "../../base/error.h"
+#include "../load.h"
+
 namespace caustica {
-SceneDesc load_gltf_scene(const std::string& path) { throw InputError(path + ": glTF loading is not implemented yet"); }
+namespace {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+// Photometric to radiometric: KHR_lights_punctual intensities are in candela
+// (point, spot) and lux (directional); dividing by 683 lm/W undoes the factor
+// the Blender exporter applies in its default "Standard" lighting mode.
+constexpr float kLumensPerWatt = 683.f;
+
+constexpr int kByte = 5120, kUByte = 5121, kShort = 5122, kUShort = 5123, kUInt = 5125, kFloat = 5126;
+
+const std::set<std::string>& supported_extensions() {
+  static const std::set<std::string> s = {
+      "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
+      "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_texture_transform",
+      "KHR_mesh_quantization"};
+  return s;
+}
+// Known extensions that change only appearance details caustica does not model.
+const std::set<std::string>& ignored_extensions() {
+  static const std::set<std::string> s = {
+      "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",  "KHR_materials_iridescence",
+      "KHR_materials_anisotropy", "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants",
+      "KHR_materials_pbrSpecularGlossiness", "KHR_texture_basisu", "KHR_draco_mesh_compression",
+      "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld",
+      "EXT_mesh_gpu_instancing"};
+  return s;
+}
+
+struct Ctx {
+  std::string file;
+  fs::path base_dir;
+  [[noreturn]] void fail(const std::string& path, const std::string& what) const {
+    throw InputError(file + ": " + (path.empty() ? "/" : path) + ": " + what);
+  }
+};
+
+const json* member(const json& o, const char* key) {
+  if (!o.is_object()) return nullptr;
+  auto it = o.find(key);
+  return it == o.end() ? nullptr : &*it;
+}
+
+std::string P(const std::string& base, const std::string& key) { return base + "/" + key; }
+std::string P(const std::string& base, size_t i) { return base + "/" + std::to_string(i); }
+
+double number(const Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_number()) c.fail(path, std::string("expected a number, got ") + j.type_name());
+  double v = j.get<double>();
+  if (!std::isfinite(v)) c.fail(path, "expected a finite number");
+  return v;
+}
+double number_or(const Ctx& c, const json& o, const char* key, const std::string& path, double def) {
+  const json* m = member(o, key);
+  return m ? number(c, *m, P(path, key)) : def;
+}
+int64_t integer(const Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_number_integer()) c.fail(path, std::string("expected an integer, got ") + j.type_name());
+  return j.get<int64_t>();
+}
+const json& object_at(const Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_object()) c.fail(path, std::string("expected an object, got ") + j.type_name());
+  return j;
+}
+const json& array_at(const Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_array()) c.fail(path, std::string("expected an array, got ") + j.type_name());
+  return j;
+}
+const json& empty_array() {
+  static const json e = json::array();
+  return e;
+}
+// A top-level array such as "meshes" (empty when absent).
+const json& top(const Ctx& c, const json& root, const char* key) {
+  const json* m = member(root, key);
+  return m ? array_at(c, *m, std::string("/") + key) : empty_array();
+}
+const json& lights_array(const Ctx& c, const json& root) {
+  const json* e = member(root, "extensions");
+  const json* k = e ? member(*e, "KHR_lights_punctual") : nullptr;
+  const json* l = k ? member(*k, "lights") : nullptr;
+  return l ? array_at(c, *l, "/extensions/KHR_lights_punctual/lights") : empty_array();
+}
+
+// An index into `arr` (named `arr_path` in messages).
+size_t index_into(const Ctx& c, const json& j, const std::string& path, const json& arr, const std::string& arr_path) {
+  int64_t v = integer(c, j, path);
+  if (v < 0 || size_t(v) >= arr.size())
+    c.fail(path, "index " + std::to_string(v) + " out of range (" + arr_path +
+                     (arr.empty() ? " is empty)" : " has " + std::to_string(arr.size()) + " entries)"));
+  return size_t(v);
+}
+std::vector<double> numbers(const Ctx& c, const json& j, const std::string& path, size_t n) {
+  if (!j.is_array() || j.size() != n) c.fail(path, "expected an array of " + std::to_string(n) + " numbers");
+  std::vector<double> v(n);
+  for (size_t i = 0; i < n; ++i) v[i] = number(c, j[i], P(path, i));
+  return v;
+}
+std::string string_or(const Ctx& c, const json& o, const char* key, const std::string& path, const std::string& def) {
+  const json* m = member(o, key);
+  if (!m) return def;
+  if (!m->is_string()) c.fail(P(path, key), std::string("expected a string, got ") + m->type_name());
+  return m->get<std::string>();
+}
+
+int component_size(int ct) {
+  switch (ct) {
+    case kByte: case kUByte: return 1;
+    case kShort: case kUShort: return 2;
+    case kUInt: case kFloat: return 4;
+    default: return 0;
+  }
+}
+int type_components(const std::string& t) {
+  if (t == "SCALAR") return 1;
+  if (t == "VEC2") return 2;
+  if (t == "VEC3") return 3;
+  if (t == "VEC4") return 4;
+  if (t == "MAT2") return 4;
+  if (t == "MAT3") return 9;
+  if (t == "MAT4") return 16;
+  return 0;
+}
+
+std::string url_decode(const std::string& s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit((unsigned char)s[i + 1]) && std::isxdigit((unsigned char)s[i + 2])) {
+      out += char(std::stoi(s.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+bool is_data_uri(const std::string& u) { return u.rfind("data:", 0) == 0; }
+
+// ---------------------------------------------------------------- checks ----
+// Everything tinygltf would trip over (and every reference the conversion
+// follows) is checked here, so that errors carry a glTF object path.
+void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vector<std::string>& warnings) {
+  if (!root.is_object()) c.fail("/", std::string("expected a JSON object, got ") + root.type_name());
+  const json* asset = member(root, "asset");
+  if (!asset) c.fail("/asset", "missing (every glTF file has an asset object with a version)");
+  object_at(c, *asset, "/asset");
+  std::string version = string_or(c, *asset, "version", "/asset", "");
+  if (version.empty()) c.fail("/asset/version", "missing (expected \"2.0\")");
+  if (version.rfind("2.", 0) != 0) c.fail("/asset/version", "glTF version '" + version + "' is not supported (expected 2.x)");
+
+  // Extensions.
+  if (const json* req = member(root, "extensionsRequired")) {
+    array_at(c, *req, "/extensionsRequired");
+    for (size_t i = 0; i < req->size(); ++i) {
+      std::string e = (*req)[i].is_string() ? (*req)[i].get<std::string>() : "";
+      if (!supported_extensions().count(e)) {
+        std::string list;
+        for (const std::string& s : supported_extensions()) list += (list.empty() ? "" : ", ") + s;
+        c.fail(P("/extensionsRequired", i), "extension '" + e + "' is required but not supported (supported: " + list + ")");
+      }
+    }
+  }
+  if (const json* used = member(root, "extensionsUsed")) {
+    array_at(c, *used, "/extensionsUsed");
+    for (size_t i = 0; i < used->size(); ++i) {
+      std::string e = (*used)[i].is_string() ? (*used)[i].get<std::string>() : "";
+      if (supported_extensions().count(e)) continue;
+      if (ignored_extensions().count(e))
+        warnings.push_back(c.file + ": extension " + e + " is not supported; its properties are ignored");
+      else
+        warnings.push_back(c.file + ": unknown extension " + e + " ignored");
+    }
+  }
+
+  const json& buffers = top(c, root, "buffers");
+  const json& views = top(c, root, "bufferViews");
+  const json& accessors = top(c, root, "accessors");
+  const json& images = top(c, root, "images");
+  const json& samplers = top(c, root, "samplers");
+  const json& textures = top(c, root, "textures");
+  const json& materials = top(c, root, "materials");
+  const json& meshes = top(c, root, "meshes");
+  const json& nodes = top(c, root, "nodes");
+  const json& scenes = top(c, root, "scenes");
+  const json& cameras = top(c, root, "cameras");
+  const json& skins = top(c, root, "skins");
+  const json& lights = lights_array(c, root);
+
+  auto req = [&](const json& o, const char* key, const std::string& path, const std::string& what) -> const json& {
+    const json* m = member(o, key);
+    if (!m) c.fail(P(path, key), "missing (" + what + ")");
+    return *m;
+  };
+
+  // Buffers: external files must exist and be large enough.
+  std::vector<int64_t> buffer_len(buffers.size());
+  for (size_t i = 0; i < buffers.size(); ++i) {
+    std::string p = P("/buffers", i);
+    const json& b = object_at(c, buffers[i], p);
+    buffer_len[i] = integer(c, req(b, "byteLength", p, "the buffer's size in bytes"), P(p, "byteLength"));
+    if (buffer_len[i] < 1) c.fail(P(p, "byteLength"), "expected a positive integer");
+    std::string uri = string_or(c, b, "uri", p, "");
+    if (uri.empty()) {
+      if (i != 0 || !glb_has_bin)
+        c.fail(p, glb_has_bin || i != 0 ? "missing 'uri' (only the first buffer of a GLB file may omit it)"
+                                        : "missing 'uri' (and the file has no GLB binary chunk)");
+    } else if (!is_data_uri(uri)) {
+      fs::path f = c.base_dir / url_decode(uri);
+      std::error_code ec;
+      if (!fs::is_regular_file(f, ec)) c.fail(P(p, "uri"), "buffer file '" + f.string() + "' does not exist");
+      auto size = fs::file_size(f, ec);
+      if (!ec && int64_t(size) < buffer_len[i])
+        c.fail(P(p, "byteLength"), "buffer file '" + f.string() + "' has " + std::to_string(size) +
+                                       " bytes, fewer than byteLength " + std::to_string(buffer_len[i]));
+    }
+  }
+  // Buffer views.
+  std::vector<int64_t> view_len(views.size());
+  for (size_t i = 0; i < views.size(); ++i) {
+    std::string p = P("/bufferViews", i);
+    const json& v = object_at(c, views[i], p);
+    size_t b = index_into(c, req(v, "buffer", p, "an index into /buffers"), P(p, "buffer"), buffers, "/buffers");
+    int64_t off = member(v, "byteOffset") ? integer(c, v["byteOffset"], P(p, "byteOffset")) : 0;
+    int64_t len = integer(c, req(v, "byteLength", p, "the view's size in bytes"), P(p, "byteLength"));
+    if (off < 0) c.fail(P(p, "byteOffset"), "expected a non-negative integer");
+    if (len < 1) c.fail(P(p, "byteLength"), "expected a positive integer");
+    if (off + len > buffer_len[b])
+      c.fail(p, "bytes [" + std::to_string(off) + ", " + std::to_string(off + len) + ") exceed buffer " +
+                    std::to_string(b) + " (" + std::to_string(buffer_len[b]) + " bytes)");
+    if (const json* s = member(v, "byteStride")) {
+      int64_t st = integer(c, *s, P(p, "byteStride"));
+      if (st < 4 || st > 252 || st % 4) c.fail(P(p, "byteStride"), "expected a multiple of 4 in [4, 252]");
+    }
+    view_len[i] = len;
+  }
+  // Accessors (and their byte ranges).
+  auto check_range = [&](const std::string& p, size_t view, int64_t offset, int64_t count, int64_t elem) {
+    int64_t stride = elem;
+    if (const json* s = member(views[view], "byteStride")) stride = std::max<int64_t>(stride, s->get<int64_t>());
+    int64_t end = offset + stride * (count - 1) + elem;
+    if (end > view_len[view])
+      c.fail(p, "needs bytes [" + std::to_string(offset) + ", " + std::to_string(end) + ") of bufferView " +
+                    std::to_string(view) + ", which has " + std::to_string(view_len[view]) + " bytes");
+  };
+  for (size_t i = 0; i < accessors.size(); ++i) {
+    std::string p = P("/accessors", i);
+    const json& a = object_at(c, accessors[i], p);
+    int64_t ct = integer(c, req(a, "componentType", p, "5120, 5121, 5122, 5123, 5125 or 5126"), P(p, "componentType"));
+    if (!component_size(int(ct)))
+      c.fail(P(p, "componentType"), "unknown component type " + std::to_string(ct) + " (expected 5120, 5121, 5122, 5123, 5125 or 5126)");
+    int64_t count = integer(c, req(a, "count", p, "the number of elements"), P(p, "count"));
+    if (count < 1) c.fail(P(p, "count"), "expected a positive integer");
+    const json& tj = req(a, "type", p, "SCALAR, VEC2, VEC3, VEC4, MAT2, MAT3 or MAT4");
+    std::string type = tj.is_string() ? tj.get<std::string>() : "";
+    int nc = type_components(type);
+    if (!nc) c.fail(P(p, "type"), "expected SCALAR, VEC2, VEC3, VEC4, MAT2, MAT3 or MAT4");
+    int64_t off = member(a, "byteOffset") ? integer(c, a["byteOffset"], P(p, "byteOffset")) : 0;
+    if (off < 0) c.fail(P(p, "byteOffset"), "expected a non-negative integer");
+    if (const json* bv = member(a, "bufferView")) {
+      size_t v = index_into(c, *bv, P(p, "bufferView"), views, "/bufferViews");
+      check_range(p, v, off, count, int64_t(nc) * component_size(int(ct)));
+    }
+    if (const json* sp = member(a, "sparse")) {
+      std::string sp_p = P(p, "sparse");
+      object_at(c, *sp, sp_p);
+      int64_t sc = integer(c, req(*sp, "count", sp_p, "the number of sparse elements"), P(sp_p, "count"));
+      if (sc < 1 || sc > count) c.fail(P(sp_p, "count"), "expected an integer in [1, " + std::to_string(count) + "]");
+      const json& ind = object_at(c, req(*sp, "indices", sp_p, "an object"), P(sp_p, "indices"));
+      const json& val = object_at(c, req(*sp, "values", sp_p, "an object"), P(sp_p, "values"));
+      std::string ip = P(sp_p, "indices"), vp = P(sp_p, "values");
+      size_t iv = index_into(c, req(ind, "bufferView", ip, "an index into /bufferViews"), P(ip, "bufferView"), views, "/bufferViews");
+      int64_t ict = integer(c, req(ind, "componentType", ip, "5121, 5123 or 5125"), P(ip, "componentType"));
+      if (ict != kUByte && ict != kUShort && ict != kUInt) c.fail(P(ip, "componentType"), "expected 5121, 5123 or 5125");
+      int64_t ioff = member(ind, "byteOffset") ? integer(c, ind["byteOffset"], P(ip, "byteOffset")) : 0;
+      check_range(ip, iv, ioff, sc, component_size(int(ict)));
+      size_t vv = index_into(c, req(val, "bufferView", vp, "an index into /bufferViews"), P(vp, "bufferView"), views, "/bufferViews");
+      int64_t voff = member(val, "byteOffset") ? integer(c, val["byteOffset"], P(vp, "byteOffset")) : 0;
+      int64_t elem = int64_t(nc) * component_size(int(ct));
+      if (voff < 0 || voff + elem * sc > view_len[vv])
+        c.fail(vp, "needs " + std::to_string(elem * sc) + " bytes at offset " + std::to_string(voff) + " of bufferView " +
+                       std::to_string(vv) + ", which has " + std::to_string(view_len[vv]) + " bytes");
+    }
+  }
+  // Images, samplers, textures.
+  for (size_t i = 0; i < images.size(); ++i) {
+    std::string p = P("/images", i);
+    const json& im = object_at(c, images[i], p);
+    const json* bv = member(im, "bufferView");
+    if (bv) index_into(c, *bv, P(p, "bufferView"), views, "/bufferViews");
+    std::string uri = string_or(c, im, "uri", p, "");
+    if (!bv && uri.empty()) c.fail(p, "expected a 'uri' or a 'bufferView'");
+  }
+  for (size_t i = 0; i < samplers.size(); ++i) object_at(c, samplers[i], P("/samplers", i));
+  for (size_t i = 0; i < textures.size(); ++i) {
+    std::string p = P("/textures", i);
+    const json& t = object_at(c, textures[i], p);
+    if (const json* s = member(t, "source")) index_into(c, *s, P(p, "source"), images, "/images");
+    if (const json* s = member(t, "sampler")) index_into(c, *s, P(p, "sampler"), samplers, "/samplers");
+  }
+  // Materials: texture references.
+  auto check_texinfo = [&](const json& o, const char* key, const std::string& path) {
+    const json* ti = member(o, key);
+    if (!ti) return;
+    std::string p = P(path, key);
+    object_at(c, *ti, p);
+    index_into(c, req(*ti, "index", p, "an index into /textures"), P(p, "index"), textures, "/textures");
+    if (const json* tc = member(*ti, "texCoord")) {
+      if (integer(c, *tc, P(p, "texCoord")) < 0) c.fail(P(p, "texCoord"), "expected a non-negative integer");
+    }
+  };
+  for (size_t i = 0; i < materials.size(); ++i) {
+    std::string p = P("/materials", i);
+    const json& m = object_at(c, materials[i], p);
+    if (const json* pbr = member(m, "pbrMetallicRoughness")) {
+      object_at(c, *pbr, P(p, "pbrMetallicRoughness"));
+      check_texinfo(*pbr, "baseColorTexture", P(p, "pbrMetallicRoughness"));
+      check_texinfo(*pbr, "metallicRoughnessTexture", P(p, "pbrMetallicRoughness"));
+    }
+    check_texinfo(m, "normalTexture", p);
+    check_texinfo(m, "occlusionTexture", p);
+    check_texinfo(m, "emissiveTexture", p);
+    if (const json* ext = member(m, "extensions")) {
+      object_at(c, *ext, P(p, "extensions"));
+      std::string ep = P(p, "extensions");
+      if (const json* t = member(*ext, "KHR_materials_transmission"))
+        check_texinfo(object_at(c, *t, P(ep, "KHR_materials_transmission")), "transmissionTexture", P(ep, "KHR_materials_transmission"));
+      if (const json* t = member(*ext, "KHR_materials_volume"))
+        check_texinfo(object_at(c, *t, P(ep, "KHR_materials_volume")), "thicknessTexture", P(ep, "KHR_materials_volume"));
+    }
+  }
+  // Meshes.
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    std::string p = P("/meshes", i);
+    const json& m = object_at(c, meshes[i], p);
+    const json& prims = array_at(c, req(m, "primitives", p, "an array of primitives"), P(p, "primitives"));
+    if (prims.empty()) c.fail(P(p, "primitives"), "expected at least one primitive");
+    for (size_t k = 0; k < prims.size(); ++k) {
+      std::string pp = P(P(p, "primitives"), k);
+      const json& pr = object_at(c, prims[k], pp);
+      const json& attrs = object_at(c, req(pr, "attributes", pp, "an object of accessor indices"), P(pp, "attributes"));
+      for (auto it = attrs.begin(); it != attrs.end(); ++it)
+        index_into(c, it.value(), P(P(pp, "attributes"), it.key()), accessors, "/accessors");
+      if (const json* ix = member(pr, "indices")) index_into(c, *ix, P(pp, "indices"), accessors, "/accessors");
+      if (const json* mt = member(pr, "material")) index_into(c, *mt, P(pp, "material"), materials, "/materials");
+      if (const json* md = member(pr, "mode")) {
+        int64_t mode = integer(c, *md, P(pp, "mode"));
+        if (mode < 0 || mode > 6) c.fail(P(pp, "mode"), "expected a primitive mode in [0, 6]");
+      }
+      if (const json* tg = member(pr, "targets")) {
+        array_at(c, *tg, P(pp, "targets"));
+        for (size_t t = 0; t < tg->size(); ++t) {
+          const json& o = object_at(c, (*tg)[t], P(P(pp, "targets"), t));
+          for (auto it = o.begin(); it != o.end(); ++it)
+            index_into(c, it.value(), P(P(P(pp, "targets"), t), it.key()), accessors, "/accessors");
+        }
+      }
+    }
+  }
+  // Cameras and lights.
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    std::string p = P("/cameras", i);
+    const json& cam = object_at(c, cameras[i], p);
+    std::string type = string_or(c, cam, "type", p, "");
+    if (type == "perspective") {
+      const json& per = object_at(c, req(cam, "perspective", p, "an object with yfov and znear"), P(p, "perspective"));
+      std::string pp = P(p, "perspective");
+      double yfov = number(c, req(per, "yfov", pp, "the vertical field of view in radians"), P(pp, "yfov"));
+      if (!(yfov > 0.0 && yfov < kPi)) c.fail(P(pp, "yfov"), "expected radians in (0, pi)");
+      number(c, req(per, "znear", pp, "the near plane distance"), P(pp, "znear"));
+      if (const json* ar = member(per, "aspectRatio"))
+        if (!(number(c, *ar, P(pp, "aspectRatio")) > 0.0)) c.fail(P(pp, "aspectRatio"), "expected a positive number");
+    } else if (type == "orthographic") {
+      const json& o = object_at(c, req(cam, "orthographic", p, "an object with xmag, ymag, zfar and znear"), P(p, "orthographic"));
+      for (const char* k : {"xmag", "ymag", "zfar", "znear"})
+        number(c, req(o, k, P(p, "orthographic"), "a number"), P(P(p, "orthographic"), k));
+    } else {
+      c.fail(P(p, "type"), type.empty() ? "missing (expected \"perspective\" or \"orthographic\")"
+                                        : "unknown camera type '" + type + "' (expected perspective or orthographic)");
+    }
+  }
+  for (size_t i = 0; i < lights.size(); ++i) {
+    std::string p = P("/extensions/KHR_lights_punctual/lights", i);
+    const json& l = object_at(c, lights[i], p);
+    std::string type = string_or(c, l, "type", p, "");
+    if (type != "point" && type != "spot" && type != "directional")
+      c.fail(P(p, "type"), type.empty() ? "missing (expected point, spot or directional)"
+                                        : "unknown light type '" + type + "' (expected point, spot or directional)");
+  }
+  // Nodes: references, transforms, and a forest (one parent at most, no cycles).
+  std::vector<int64_t> parent(nodes.size(), -1);
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    std::string p = P("/nodes", i);
+    const json& n = object_at(c, nodes[i], p);
+    if (const json* ch = member(n, "children")) {
+      array_at(c, *ch, P(p, "children"));
+      for (size_t k = 0; k < ch->size(); ++k) {
+        size_t child = index_into(c, (*ch)[k], P(P(p, "children"), k), nodes, "/nodes");
+        if (parent[child] >= 0 || child == i)
+          c.fail(P(P(p, "children"), k), "node " + std::to_string(child) + " already has a parent (" +
+                                             (child == i ? "itself" : "node " + std::to_string(parent[child])) +
+                                             "; nodes must form trees)");
+        parent[child] = int64_t(i);
+      }
+    }
+    if (const json* x = member(n, "mesh")) index_into(c, *x, P(p, "mesh"), meshes, "/meshes");
+    if (const json* x = member(n, "camera")) index_into(c, *x, P(p, "camera"), cameras, "/cameras");
+    if (const json* x = member(n, "skin")) index_into(c, *x, P(p, "skin"), skins, "/skins");
+    if (const json* e = member(n, "extensions")) {
+      if (const json* lp = member(*e, "KHR_lights_punctual")) {
+        std::string lpp = P(P(p, "extensions"), "KHR_lights_punctual");
+        index_into(c, req(object_at(c, *lp, lpp), "light", lpp, "an index into the lights"), P(lpp, "light"), lights,
+                   "/extensions/KHR_lights_punctual/lights");
+      }
+    }
+    if (const json* m = member(n, "matrix")) {
+      numbers(c, *m, P(p, "matrix"), 16);
+      if (member(n, "translation") || member(n, "rotation") || member(n, "scale"))
+        c.fail(P(p, "matrix"), "cannot be combined with translation, rotation or scale");
+    }
+    if (const json* t = member(n, "translation")) numbers(c, *t, P(p, "translation"), 3);
+    if (const json* r = member(n, "rotation")) {
+      std::vector<double> q = numbers(c, *r, P(p, "rotation"), 4);
+      if (!(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] > 0.0))
+        c.fail(P(p, "rotation"), "expected a unit quaternion (x, y, z, w), got all zeros");
+    }
+    if (const json* s = member(n, "scale")) numbers(c, *s, P(p, "scale"), 3);
+  }
+  for (size_t i = 0; i < nodes.size(); ++i) {  // with one parent each, a cycle is a loop of parent links
+    size_t steps = 0;
+    for (int64_t k = parent[i]; k >= 0; k = parent[size_t(k)])
+      if (++steps > nodes.size()) c.fail(P("/nodes", i), "is part of a cycle of children (nodes must form trees)");
+  }
+  for (size_t i = 0; i < scenes.size(); ++i) {
+    std::string p = P("/scenes", i);
+    const json& s = object_at(c, scenes[i], p);
+    if (const json* ns = member(s, "nodes")) {
+      array_at(c, *ns, P(p, "nodes"));
+      for (size_t k = 0; k < ns->size(); ++k) {
+        size_t n = index_into(c, (*ns)[k], P(P(p, "nodes"), k), nodes, "/nodes");
+        if (parent[n] >= 0)
+          c.fail(P(P(p, "nodes"), k), "node " + std::to_string(n) + " is a child of node " + std::to_string(parent[n]) +
+                                          " (a scene lists root nodes only)");
+      }
+    }
+  }
+  if (const json* s = member(root, "scene")) index_into(c, *s, "/scene", scenes, "/scenes");
+}
+
+// ------------------------------------------------------------ conversion ----
+
+struct Mat4 {  // row-major 4x4 (affine)
+  double m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  Mat4 operator*(const Mat4& b) const {
+    Mat4 r;
+    for (int i = 0; i < 4; ++i)
+      for (int k = 0; k < 4; ++k) {
+        double s = 0;
+        for (int j = 0; j < 4; ++j) s += m[i][j] * b.m[j][k];
+        r.m[i][k] = s;
+      }
+    return r;
+  }
+  Affine affine() const {
+    Affine a;
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 4; ++k) a.m[i][k] = float(m[i][k]);
+    return a;
+  }
+  double det3() const {
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  }
+};
+
+Mat4 local_matrix(const json& n) {
+  Mat4 r;
+  if (const json* mj = member(n, "matrix")) {  // column-major in glTF
+    for (int col = 0; col < 4; ++col)
+      for (int row = 0; row < 4; ++row) r.m[row][col] = (*mj)[col * 4 + row].get<double>();
+    return r;
+  }
+  double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+  if (const json* j = member(n, "translation")) for (int i = 0; i < 3; ++i) t[i] = (*j)[i].get<double>();
+  if (const json* j = member(n, "rotation")) for (int i = 0; i < 4; ++i) q[i] = (*j)[i].get<double>();
+  if (const json* j = member(n, "scale")) for (int i = 0; i < 3; ++i) s[i] = (*j)[i].get<double>();
+  double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  double x = q[0] / len, y = q[1] / len, z = q[2] / len, w = q[3] / len;
+  double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                    {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                    {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+  for (int i = 0; i < 3; ++i) {  // T * R * S
+    for (int k = 0; k < 3; ++k) r.m[i][k] = R[i][k] * s[k];
+    r.m[i][3] = t[i];
+  }
+  return r;
+}
+
+// Image loader callback for tinygltf: keep the encoded bytes (decoded later,
+// once per image, by load_texture_from_memory).
+bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                        const unsigned char* bytes, int size, void*) {
+  image->image.assign(bytes, bytes + size);
+  image->as_is = true;
+  return true;
+}
+
+struct TexKey {
+  size_t image;
+  bool srgb, nearest;
+  TexWrap wrap;
+  float ox, oy, sx, sy, rot;
+  bool operator<(const TexKey& o) const {
+    return std::tie(image, srgb, nearest, wrap, ox, oy, sx, sy, rot) <
+           std::tie(o.image, o.srgb, o.nearest, o.wrap, o.ox, o.oy, o.sx, o.sy, o.rot);
+  }
+};
+
+class Converter {
+ public:
+  Converter(const Ctx& c, const json& root, tinygltf::Model& model, SceneDesc& d)
+      : c_(c), root_(root), model_(model), d_(d) {}
+
+  void run();
+
+ private:
+  const Ctx& c_;
+  const json& root_;
+  tinygltf::Model& model_;
+  SceneDesc& d_;
+  std::map<size_t, int> material_of_;  // glTF material -> caustica material
+  struct MatExtra {
+    RGB emission{0.f};
+    int emission_texture = -1;
+    bool two_sided = false;
+  };
+  std::map<size_t, MatExtra> mat_extra_;
+  std::map<std::pair<size_t, size_t>, int> mesh_of_;  // (mesh, primitive) -> meshes index (-1: skipped)
+  std::map<std::pair<bool, size_t>, int> image_tex_;  // (srgb, image) -> decoded texture
+  std::map<TexKey, int> tex_of_;
+  int default_material_ = -1;
+  // Warning counters (reported once each at the end).
+  size_t skipped_points_lines_ = 0, nan_triangles_ = 0, degenerate_triangles_ = 0, bad_index_triangles_ = 0,
+         singular_instances_ = 0, zero_area_lights_ = 0, ortho_cameras_ = 0, skinned_ = 0;
+  std::set<std::string> once_;
+
+  void warn_once(const std::string& w) {
+    if (once_.insert(w).second) d_.warnings.push_back(c_.file + ": " + w);
+  }
+
+  // Reads an accessor as floats (count * ncomp), applying normalization and sparse substitution.
+  std::vector<float> read_floats(size_t ai, const std::string& use_path, const std::vector<std::string>& types,
+                                 size_t& count, int& ncomp);
+  std::vector<uint32_t> read_indices(size_t ai, const std::string& use_path);
+  const unsigned char* view_bytes(size_t view, int64_t& len);
+
+  int texture(const json& info, const std::string& path, bool srgb);
+  int material(size_t i);
+  int mesh(size_t mi, size_t pi);
+  void visit(size_t node, const Mat4& parent_world);
+  std::vector<std::pair<size_t, CameraDesc>> cams_;  // (camera index, camera) in traversal order
+};
+
+const unsigned char* Converter::view_bytes(size_t view, int64_t& len) {
+  const json& v = root_["bufferViews"][view];
+  size_t b = v["buffer"].get<size_t>();
+  int64_t off = member(v, "byteOffset") ? v["byteOffset"].get<int64_t>() : 0;
+  len = v["byteLength"].get<int64_t>();
+  const std::vector<unsigned char>& data = model_.buffers.at(b).data;
+  if (size_t(off + len) > data.size())
+    c_.fail(P("/bufferViews", view), "exceeds the data of buffer " + std::to_string(b) + " (" +
+                                         std::to_string(data.size()) + " bytes)");
+  return data.data() + off;
+}
+
+float read_component(const unsigned char* p, int ct, bool normalized) {
+  switch (ct) {
+    case kFloat: { float f; std::memcpy(&f, p, 4); return f; }
+    case kByte: { int8_t v; std::memcpy(&v, p, 1); return normalized ? std::max(v / 127.f, -1.f) : float(v); }
+    case kUByte: return normalized ? p[0] / 255.f : float(p[0]);
+    case kShort: { int16_t v; std::memcpy(&v, p, 2); return normalized ? std::max(v / 32767.f, -1.f) : float(v); }
+    case kUShort: { uint16_t v; std::memcpy(&v, p, 2); return normalized ? v / 65535.f : float(v); }
+    case kUInt: { uint32_t v; std::memcpy(&v, p, 4); return float(v); }
+  }
+  return 0.f;
+}
+uint32_t read_uint(const unsigned char* p, int ct) {
+  if (ct == kUByte) return p[0];
+  if (ct == kUShort) { uint16_t v; std::memcpy(&v, p, 2); return v; }
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+std::vector<float> Converter::read_floats(size_t ai, const std::string& use_path, const std::vector<std::string>& types,
+                                          size_t& count, int& ncomp) {
+  const json& a = root_["accessors"][ai];
+  std::string type = a["type"].get<std::string>();
+  if (std::find(types.begin(), types.end(), type) == types.end()) {
+    std::string list;
+    for (const std::string& t : types) list += (list.empty() ? "" : " or ") + t;
+    c_.fail(use_path, "expected an accessor of type " + list + ", got accessor " + std::to_string(ai) + " of type " + type);
+  }
+  int ct = a["componentType"].get<int>();
+  bool normalized = member(a, "normalized") && a["normalized"].is_boolean() && a["normalized"].get<bool>();
+  count = a["count"].get<size_t>();
+  ncomp = type_components(type);
+  int elem = ncomp * component_size(ct);
+  std::vector<float> out(count * ncomp, 0.f);
+  if (const json* bv = member(a, "bufferView")) {
+    size_t view = bv->get<size_t>();
+    int64_t len;
+    const unsigned char* base = view_bytes(view, len);
+    int64_t off = member(a, "byteOffset") ? a["byteOffset"].get<int64_t>() : 0;
+    int64_t stride = elem;
+    if (const json* s = member(root_["bufferViews"][view], "byteStride")) stride = std::max<int64_t>(elem, s->get<int64_t>());
+    for (size_t i = 0; i < count; ++i)
+      for (int k = 0; k < ncomp; ++k)
+        out[i * ncomp + k] = read_component(base + off + stride * int64_t(i) + k * component_size(ct), ct, normalized);
+  }
+  if (const json* sp = member(a, "sparse")) {
+    const json& ind = (*sp)["indices"];
+    const json& val = (*sp)["values"];
+    size_t sc = (*sp)["count"].get<size_t>();
+    int ict = ind["componentType"].get<int>();
+    int64_t ilen, vlen;
+    const unsigned char* ib = view_bytes(ind["bufferView"].get<size_t>(), ilen) +
+                              (member(ind, "byteOffset") ? ind["byteOffset"].get<int64_t>() : 0);
+    const unsigned char* vb = view_bytes(val["bufferView"].get<size_t>(), vlen) +
+                              (member(val, "byteOffset") ? val["byteOffset"].get<int64_t>() : 0);
+    for (size_t s = 0; s < sc; ++s) {
+      uint32_t idx = read_uint(ib + s * component_size(ict), ict);
+      if (idx >= count)
+        c_.fail(P(P("/accessors", ai), "sparse"), "sparse index " + std::to_string(idx) + " out of range (the accessor has " +
+                                                      std::to_string(count) + " elements)");
+      for (int k = 0; k < ncomp; ++k)
+        out[idx * ncomp + k] = read_component(vb + s * elem + k * component_size(ct), ct, normalized);
+    }
+  }
+  return out;
+}
+
+std::vector<uint32_t> Converter::read_indices(size_t ai, const std::string& use_path) {
+  const json& a = root_["accessors"][ai];
+  int ct = a["componentType"].get<int>();
+  if (a["type"].get<std::string>() != "SCALAR" || (ct != kUByte && ct != kUShort && ct != kUInt))
+    c_.fail(use_path, "expected an accessor of unsigned byte, short or int scalars (5121, 5123, 5125), got accessor " +
+                          std::to_string(ai) + " of " + a["type"].get<std::string>() + " " + std::to_string(ct));
+  size_t count = a["count"].get<size_t>();
+  std::vector<uint32_t> out(count, 0);
+  if (const json* bv = member(a, "bufferView")) {
+    size_t view = bv->get<size_t>();
+    int64_t len;
+    const unsigned char* base = view_bytes(view, len) + (member(a, "byteOffset") ? a["byteOffset"].get<int64_t>() : 0);
+    int64_t stride = component_size(ct);
+    if (const json* s = member(root_["bufferViews"][view], "byteStride")) stride = std::max<int64_t>(stride, s->get<int64_t>());
+    for (size_t i = 0; i < count; ++i) out[i] = read_uint(base + stride * int64_t(i), ct);
+  }
+  if (member(a, "sparse")) {  // rare for indices; reuse the float path (exact below 2^24)
+    size_t n;
+    int nc;
+    std::vector<float> f = read_floats(ai, use_path, {"SCALAR"}, n, nc);
+    for (size_t i = 0; i < count; ++i) out[i] = uint32_t(f[i]);
+  }
+  return out;
+}
+
+int Converter::texture(const json& info, const std::string& path, bool srgb) {
+  size_t ti = info["index"].get<size_t>();
+  const json& t = root_["textures"][ti];
+  if (const json* tc = member(info, "texCoord"))
+    if (tc->get<int64_t>() != 0) warn_once("texture coordinate sets other than TEXCOORD_0 are not supported; TEXCOORD_0 is used");
+  const json* src = member(t, "source");
+  if (!src) {
+    warn_once(P("/textures", ti) + ": no image source; the texture is ignored");
+    return -1;
+  }
+  size_t ii = src->get<size_t>();
+  // Decode the image once per colour space.
+  auto key = std::make_pair(srgb, ii);
+  auto hit = image_tex_.find(key);
+  int base;
+  if (hit != image_tex_.end()) {
+    base = hit->second;
+  } else {
+    const json& im = root_["images"][ii];
+    const tinygltf::Image& gi = model_.images.at(ii);
+    std::string uri = string_or(c_, im, "uri", P("/images", ii), "");
+    std::string name;
+    if (!member(im, "bufferView") && !is_data_uri(uri)) {
+      fs::path f = c_.base_dir / url_decode(uri);
+      name = f.string();
+      std::error_code ec;
+      if (!fs::is_regular_file(f, ec)) c_.fail(P(P("/images", ii), "uri"), "image file '" + name + "' does not exist");
+    } else {
+      name = c_.file + "#/images/" + std::to_string(ii);
+    }
+    if (gi.image.empty()) c_.fail(P("/images", ii), "no image data could be read");
+    base = load_texture_from_memory(d_, name, gi.image.data(), gi.image.size(), srgb, c_.file + ": " + P("/images", ii));
+    image_tex_[key] = base;
+  }
+  // Sampler and KHR_texture_transform: a copy of the decoded texture when they differ from the defaults.
+  TexKey k{ii, srgb, false, TexWrap::kRepeat, 0.f, 0.f, 1.f, 1.f, 0.f};
+  if (const json* s = member(t, "sampler")) {
+    const json& sm = root_["samplers"][s->get<size_t>()];
+    std::string sp = P("/samplers", s->get<size_t>());
+    auto wrap_of = [&](const char* key) {
+      int64_t w = member(sm, key) ? integer(c_, sm[key], P(sp, key)) : 10497;
+      if (w == 10497) return TexWrap::kRepeat;
+      if (w == 33071) return TexWrap::kClamp;
+      if (w == 33648) return TexWrap::kMirror;
+      c_.fail(P(sp, key), "unknown wrap mode " + std::to_string(w) + " (expected 10497, 33071 or 33648)");
+    };
+    TexWrap ws = wrap_of("wrapS"), wt = wrap_of("wrapT");
+    if (ws != wt) warn_once("samplers with different wrapS and wrapT are not supported; wrapS is used for both");
+    k.wrap = ws;
+    if (const json* mf = member(sm, "magFilter")) k.nearest = integer(c_, *mf, P(sp, "magFilter")) == 9728;
+  }
+  if (const json* ex = member(info, "extensions")) {
+    if (const json* tt = member(*ex, "KHR_texture_transform")) {
+      std::string tp = P(P(path, "extensions"), "KHR_texture_transform");
+      object_at(c_, *tt, tp);
+      std::vector<double> off = member(*tt, "offset") ? numbers(c_, (*tt)["offset"], P(tp, "offset"), 2) : std::vector<double>{0, 0};
+      std::vector<double> sc = member(*tt, "scale") ? numbers(c_, (*tt)["scale"], P(tp, "scale"), 2) : std::vector<double>{1, 1};
+      double rot = number_or(c_, *tt, "rotation", tp, 0.0);
+      if (member(*tt, "texCoord") && (*tt)["texCoord"] != 0)
+        warn_once("KHR_texture_transform texCoord overrides are not supported; TEXCOORD_0 is used");
+      // glTF applies uv' = T R(rot) S uv with v pointing down the image; caustica's v'
+      // = 1 - v points up. Conjugating with F(u, v) = (u, 1 - v) gives the same
+      // form in caustica's uv: rotation -rot, the same scale, and the offset below.
+      double s = std::sin(rot), co = std::cos(rot);
+      k.sx = float(sc[0]);
+      k.sy = float(sc[1]);
+      k.rot = float(-rot);
+      k.ox = float(off[0] - sc[1] * s);
+      k.oy = float(1.0 - off[1] - sc[1] * co);
+    }
+  }
+  if (!k.nearest && k.wrap == TexWrap::kRepeat && k.ox == 0.f && k.oy == 0.f && k.sx == 1.f && k.sy == 1.f && k.rot == 0.f)
+    return base;
+  auto it = tex_of_.find(k);
+  if (it != tex_of_.end()) return it->second;
+  TextureDesc copy = d_.textures[size_t(base)];
+  std::ostringstream nm;
+  nm << copy.name << "#sampler" << int(k.wrap) << (k.nearest ? "n" : "l") << "#" << k.ox << "," << k.oy << "," << k.sx
+     << "," << k.sy << "," << k.rot;
+  copy.name = nm.str();
+  copy.wrap = k.wrap;
+  copy.nearest = k.nearest;
+  copy.uv_offset = Vec2f(k.ox, k.oy);
+  copy.uv_scale = Vec2f(k.sx, k.sy);
+  copy.uv_rotation = k.rot;
+  d_.textures.push_back(std::move(copy));
+  int idx = int(d_.textures.size()) - 1;
+  tex_of_[k] = idx;
+  return idx;
+}
+
+RGB nonneg_color(const Ctx& c, const json& j, const std::string& path, size_t n) {
+  std::vector<double> v = numbers(c, j, path, n);
+  for (size_t i = 0; i < n; ++i)
+    if (v[i] < 0.0) c.fail(path, "expected non-negative colour values");
+  return RGB(float(v[0]), float(v[1]), float(v[2]));
+}
+float unit_interval(const Ctx& c, const json& o, const char* key, const std::string& path, float def) {
+  double v = number_or(c, o, key, path, def);
+  if (v < 0.0 || v > 1.0) c.fail(P(path, key), "expected a number in [0, 1]");
+  return float(v);
+}
+
+int Converter::material(size_t i) {
+  auto hit = material_of_.find(i);
+  if (hit != material_of_.end()) return hit->second;
+  std::string p = P("/materials", i);
+  const json& m = root_["materials"][i];
+  const json empty = json::object();
+  const json* pbr = member(m, "pbrMetallicRoughness");
+  const json& pb = pbr ? *pbr : empty;
+  std::string pp = P(p, "pbrMetallicRoughness");
+  RGB base(1.f);
+  if (const json* bc = member(pb, "baseColorFactor")) {
+    base = nonneg_color(c_, *bc, P(pp, "baseColorFactor"), 4);
+    if ((*bc)[3].get<double>() < 1.0) warn_once("base colour alpha (opacity) is not supported and is ignored");
+  }
+  float metallic = unit_interval(c_, pb, "metallicFactor", pp, 1.f);
+  float roughness = unit_interval(c_, pb, "roughnessFactor", pp, 1.f);
+  float transmission = 0.f, ior = 1.5f;
+  RGB absorption(0.f);
+  MatExtra ex;
+  if (const json* e = member(m, "emissiveFactor")) ex.emission = nonneg_color(c_, *e, P(p, "emissiveFactor"), 3);
+  if (const json* exts = member(m, "extensions")) {
+    std::string ep = P(p, "extensions");
+    if (const json* t = member(*exts, "KHR_materials_transmission")) {
+      transmission = unit_interval(c_, *t, "transmissionFactor", P(ep, "KHR_materials_transmission"), 0.f);
+      if (member(*t, "transmissionTexture")) warn_once("transmissionTexture is not supported; transmissionFactor is used");
+    }
+    if (const json* t = member(*exts, "KHR_materials_ior")) {
+      object_at(c_, *t, P(ep, "KHR_materials_ior"));
+      double v = number_or(c_, *t, "ior", P(ep, "KHR_materials_ior"), 1.5);
+      if (v < 1.0) c_.fail(P(P(ep, "KHR_materials_ior"), "ior"), "expected an index of refraction >= 1");
+      ior = float(v);
+    }
+    if (const json* t = member(*exts, "KHR_materials_volume")) {
+      std::string vp = P(ep, "KHR_materials_volume");
+      object_at(c_, *t, vp);
+      double thickness = number_or(c_, *t, "thicknessFactor", vp, 0.0);
+      RGB att(1.f);
+      if (const json* a = member(*t, "attenuationColor")) att = nonneg_color(c_, *a, P(vp, "attenuationColor"), 3);
+      double dist = kInf;
+      if (const json* a = member(*t, "attenuationDistance")) {
+        dist = number(c_, *a, P(vp, "attenuationDistance"));
+        if (!(dist > 0.0)) c_.fail(P(vp, "attenuationDistance"), "expected a positive distance");
+      }
+      if (thickness > 0.0 && std::isfinite(dist)) {
+        for (int k = 0; k < 3; ++k) {
+          double col = std::clamp(double(att[k]), 1e-6, 1.0);  // a zero colour absorbs everything: clamp
+          absorption[k] = float(-std::log(col) / dist);
+        }
+      }
+    }
+    if (const json* t = member(*exts, "KHR_materials_emissive_strength")) {
+      std::string sp = P(ep, "KHR_materials_emissive_strength");
+      object_at(c_, *t, sp);
+      double s = number_or(c_, *t, "emissiveStrength", sp, 1.0);
+      if (s < 0.0) c_.fail(P(sp, "emissiveStrength"), "expected a non-negative number");
+      ex.emission = ex.emission * float(s);
+    }
+  }
+  Material mat = make_metallic_roughness(base, metallic, roughness, transmission, ior);
+  mat.absorption = absorption;
+  if (const json* t = member(pb, "baseColorTexture")) mat.tex_color = texture(*t, P(pp, "baseColorTexture"), true);
+  if (const json* t = member(pb, "metallicRoughnessTexture"))
+    mat.tex_roughness = texture(*t, P(pp, "metallicRoughnessTexture"), false);
+  if (const json* t = member(m, "normalTexture")) {
+    mat.tex_normal = texture(*t, P(p, "normalTexture"), false);
+    mat.normal_scale = float(number_or(c_, *t, "scale", P(p, "normalTexture"), 1.0));
+  }
+  if (member(m, "emissiveTexture") && max_component(ex.emission) > 0.f)
+    ex.emission_texture = texture(m["emissiveTexture"], P(p, "emissiveTexture"), true);
+  if (const json* ds = member(m, "doubleSided")) {
+    if (!ds->is_boolean()) c_.fail(P(p, "doubleSided"), std::string("expected true or false, got ") + ds->type_name());
+    ex.two_sided = ds->get<bool>();
+  }
+  if (ex.two_sided) mat.flags |= kTwoSided;
+  std::string mode = string_or(c_, m, "alphaMode", p, "OPAQUE");
+  if (mode != "OPAQUE") warn_once("alphaMode " + mode + " is not supported; materials are opaque");
+  std::string name = string_or(c_, m, "name", p, "");
+  int idx = d_.add_material(name.empty() ? "material" + std::to_string(i) : name, mat);
+  material_of_[i] = idx;
+  mat_extra_[i] = ex;
+  return idx;
+}
+
+int Converter::mesh(size_t mi, size_t pi) {
+  auto key = std::make_pair(mi, pi);
+  auto hit = mesh_of_.find(key);
+  if (hit != mesh_of_.end()) return hit->second;
+  std::string p = P(P(P("/meshes", mi), "primitives"), pi);
+  const json& pr = root_["meshes"][mi]["primitives"][pi];
+  int mode = member(pr, "mode") ? pr["mode"].get<int>() : 4;
+  if (mode < 4) {
+    ++skipped_points_lines_;
+    mesh_of_[key] = -1;
+    return -1;
+  }
+  const json& attrs = pr["attributes"];
+  if (!member(attrs, "POSITION")) c_.fail(P(p, "attributes"), "missing POSITION");
+  size_t n;
+  int nc;
+  std::vector<float> pos = read_floats(attrs["POSITION"].get<size_t>(), P(P(p, "attributes"), "POSITION"), {"VEC3"}, n, nc);
+  MeshDesc md;
+  md.name = string_or(c_, root_["meshes"][mi], "name", P("/meshes", mi), "mesh" + std::to_string(mi));
+  md.positions.resize(n);
+  for (size_t i = 0; i < n; ++i) md.positions[i] = Vec3f(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]);
+  if (const json* nj = member(attrs, "NORMAL")) {
+    size_t nn;
+    std::vector<float> nor = read_floats(nj->get<size_t>(), P(P(p, "attributes"), "NORMAL"), {"VEC3"}, nn, nc);
+    if (nn != n) c_.fail(P(P(p, "attributes"), "NORMAL"), "has " + std::to_string(nn) + " elements, POSITION has " + std::to_string(n));
+    md.normals.resize(n);
+    bool ok = true;
+    for (size_t i = 0; i < n && ok; ++i) {
+      Vec3f v(nor[3 * i], nor[3 * i + 1], nor[3 * i + 2]);
+      float l = length(v);
+      if (!(l > 0.f) || !std::isfinite(l)) ok = false;
+      else md.normals[i] = v / l;
+    }
+    if (!ok) {
+      md.normals.clear();
+      d_.warnings.push_back(c_.file + ": " + p + ": zero or non-finite normals; using geometric normals");
+    }
+  }
+  if (const json* tj = member(attrs, "TEXCOORD_0")) {
+    size_t nt;
+    std::vector<float> uv = read_floats(tj->get<size_t>(), P(P(p, "attributes"), "TEXCOORD_0"), {"VEC2"}, nt, nc);
+    if (nt != n) c_.fail(P(P(p, "attributes"), "TEXCOORD_0"), "has " + std::to_string(nt) + " elements, POSITION has " + std::to_string(n));
+    md.uvs.resize(n);
+    bool ok = true;
+    for (size_t i = 0; i < n; ++i) {
+      if (!std::isfinite(uv[2 * i]) || !std::isfinite(uv[2 * i + 1])) ok = false;
+      md.uvs[i] = Vec2f(uv[2 * i], 1.f - uv[2 * i + 1]);  // glTF v points down the image; caustica's up
+    }
+    if (!ok) {
+      md.uvs.clear();
+      d_.warnings.push_back(c_.file + ": " + p + ": non-finite texture coordinates; the primitive is untextured");
+    }
+  }
+  if (member(attrs, "COLOR_0")) warn_once("vertex colours (COLOR_0) are not supported and are ignored");
+  if (member(attrs, "JOINTS_0") || member(pr, "targets")) warn_once("skinning and morph targets are not supported; meshes are used in their rest pose");
+  std::vector<uint32_t> idx;
+  if (const json* ij = member(pr, "indices")) {
+    idx = read_indices(ij->get<size_t>(), P(p, "indices"));
+  } else {
+    idx.resize(n);
+    for (size_t i = 0; i < n; ++i) idx[i] = uint32_t(i);
+  }
+  std::vector<uint32_t> tris;
+  if (mode == 4) {
+    tris.assign(idx.begin(), idx.end() - idx.size() % 3);
+  } else {
+    for (size_t i = 2; i < idx.size(); ++i) {
+      if (mode == 5) {  // strip: keep the winding of the first triangle
+        if (i % 2 == 0) tris.insert(tris.end(), {idx[i - 2], idx[i - 1], idx[i]});
+        else tris.insert(tris.end(), {idx[i - 1], idx[i - 2], idx[i]});
+      } else {  // fan
+        tris.insert(tris.end(), {idx[0], idx[i - 1], idx[i]});
+      }
+    }
+  }
+  for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+    uint32_t a = tris[t], b = tris[t + 1], cc = tris[t + 2];
+    if (a >= n || b >= n || cc >= n) {
+      ++bad_index_triangles_;
+      continue;
+    }
+    Vec3f pa = md.positions[a], pb = md.positions[b], pc = md.positions[cc];
+    bool finite = true;
+    for (Vec3f q : {pa, pb, pc}) finite &= std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z);
+    if (!finite) {
+      ++nan_triangles_;
+      continue;
+    }
+    if (!(length(cross(pb - pa, pc - pa)) > 0.f)) {
+      ++degenerate_triangles_;
+      continue;
+    }
+    md.indices.insert(md.indices.end(), {a, b, cc});
+  }
+  // Non-finite positions not used by any kept triangle are harmless, but scene bounds use every
+  // position: move them to a kept vertex.
+  if (!md.indices.empty()) {
+    Vec3f safe = md.positions[md.indices[0]];
+    for (Vec3f& q : md.positions)
+      if (!(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z))) q = safe;
+  }
+  if (md.indices.empty()) {
+    mesh_of_[key] = -1;
+    return -1;
+  }
+  d_.meshes.push_back(std::move(md));
+  int id = int(d_.meshes.size()) - 1;
+  mesh_of_[key] = id;
+  return id;
+}
+
+void Converter::visit(size_t ni, const Mat4& parent_world) {
+  const json& n = root_["nodes"][ni];
+  std::string p = P("/nodes", ni);
+  Mat4 world = parent_world * local_matrix(n);
+  Affine A = world.affine();
+  std::string node_name = string_or(c_, n, "name", p, "");
+  if (member(n, "skin")) ++skinned_;
+  if (const json* mj = member(n, "mesh")) {
+    size_t mi = mj->get<size_t>();
+    const json& prims = root_["meshes"][mi]["primitives"];
+    bool singular = !(std::abs(world.det3()) > 0.0);
+    for (size_t k = 0; k < prims.size(); ++k) {
+      int id = mesh(mi, k);
+      if (id < 0) continue;
+      if (singular) {
+        ++singular_instances_;
+        continue;
+      }
+      ShapeDesc s;
+      s.name = node_name.empty() ? "node" + std::to_string(ni) : node_name;
+      if (prims.size() > 1) s.name += "/" + std::to_string(k);
+      s.type = ShapeType::kMesh;
+      s.mesh = id;
+      s.to_world = A;
+      if (const json* mt = member(prims[k], "material")) {
+        size_t gm = mt->get<size_t>();
+        s.material = material(gm);
+        const MatExtra& ex = mat_extra_[gm];
+        s.emission = ex.emission;
+        s.emission_texture = ex.emission_texture;
+        s.emission_two_sided = ex.two_sided;
+      } else {
+        if (default_material_ < 0)  // the glTF default material: white, metallic 1, roughness 1
+          default_material_ = d_.add_material("default", make_metallic_roughness(RGB(1.f), 1.f, 1.f));
+        s.material = default_material_;
+      }
+      d_.shapes.push_back(s);
+    }
+  }
+  if (const json* cj = member(n, "camera")) {
+    size_t ci = cj->get<size_t>();
+    const json& cam = root_["cameras"][ci];
+    if (cam["type"].get<std::string>() == "orthographic") {
+      ++ortho_cameras_;
+    } else {
+      const json& per = cam["perspective"];
+      CameraDesc cd;
+      std::string name = string_or(c_, cam, "name", P("/cameras", ci), "");
+      cd.name = name.empty() ? "camera" + std::to_string(ci) : name;
+      cd.position = A.point(Vec3f(0.f));
+      Vec3f fwd = A.vector(Vec3f(0.f, 0.f, -1.f)), up = A.vector(Vec3f(0.f, 1.f, 0.f));
+      if (!(length(fwd) > 0.f) || !(length(up) > 0.f) || !(length(cross(fwd, up)) > 0.f))
+        c_.fail(p, "the camera's node transform is singular");
+      cd.target = cd.position + normalize(fwd);
+      cd.up = normalize(up);
+      cd.flip_x = world.det3() < 0.0;
+      cd.fov_degrees = float(per["yfov"].get<double>() * 180.0 / kPi);
+      cd.fov_axis = CameraDesc::FovAxis::kY;
+      cd.height = 512;
+      cd.width = 512;
+      if (const json* ar = member(per, "aspectRatio")) cd.width = std::max(1, int(std::lround(512.0 * ar->get<double>())));
+      cams_.emplace_back(ci, cd);
+    }
+  }
+  if (const json* e = member(n, "extensions")) {
+    if (const json* lp = member(*e, "KHR_lights_punctual")) {
+      size_t li = (*lp)["light"].get<size_t>();
+      std::string lp_path = P("/extensions/KHR_lights_punctual/lights", li);
+      const json& l = root_["extensions"]["KHR_lights_punctual"]["lights"][li];
+      std::string type = l["type"].get<std::string>();
+      RGB color(1.f);
+      if (const json* cj = member(l, "color")) color = nonneg_color(c_, *cj, P(lp_path, "color"), 3);
+      double intensity = number_or(c_, l, "intensity", lp_path, 1.0);
+      if (intensity < 0.0) c_.fail(P(lp_path, "intensity"), "expected a non-negative number");
+      Light L;
+      L.L = color * float(intensity / kLumensPerWatt);
+      L.p = A.point(Vec3f(0.f));
+      Vec3f dir = A.vector(Vec3f(0.f, 0.f, -1.f));
+      if (type != "point" && !(length(dir) > 0.f)) c_.fail(p, "the light's node transform is singular");
+      if (type == "point") {
+        L.type = LightType::kPoint;
+      } else if (type == "directional") {
+        L.type = LightType::kDirectional;
+        L.dir = normalize(dir);
+      } else {
+        L.type = LightType::kSpot;
+        L.dir = normalize(dir);
+        double inner = 0.0, outer = kPi / 4.0;
+        if (const json* sp = member(l, "spot")) {
+          std::string spp = P(lp_path, "spot");
+          object_at(c_, *sp, spp);
+          inner = number_or(c_, *sp, "innerConeAngle", spp, 0.0);
+          outer = number_or(c_, *sp, "outerConeAngle", spp, kPi / 4.0);
+          if (!(outer > 0.0 && outer <= kPi / 2.0)) c_.fail(P(spp, "outerConeAngle"), "expected radians in (0, pi/2]");
+          if (!(inner >= 0.0 && inner < outer)) c_.fail(P(spp, "innerConeAngle"), "expected radians in [0, outerConeAngle)");
+        }
+        L.cos_total = float(std::cos(outer));
+        L.cos_falloff_start = float(std::cos(inner));
+      }
+      if (member(l, "range")) warn_once("KHR_lights_punctual range is ignored (lights fall off with the inverse square law)");
+      d_.lights.push_back(L);
+    }
+  }
+  if (const json* ch = member(n, "children"))
+    for (const json& k : *ch) visit(k.get<size_t>(), world);
+}
+
+void Converter::run() {
+  const json& nodes = top(c_, root_, "nodes");
+  const json& scenes = top(c_, root_, "scenes");
+  std::vector<size_t> roots;
+  if (!scenes.empty()) {
+    size_t si = member(root_, "scene") ? root_["scene"].get<size_t>() : 0;
+    if (const json* ns = member(scenes[si], "nodes"))
+      for (const json& k : *ns) roots.push_back(k.get<size_t>());
+  } else {  // no scenes: every root node
+    std::vector<bool> child(nodes.size(), false);
+    for (const json& n : nodes)
+      if (const json* ch = member(n, "children"))
+        for (const json& k : *ch) child[k.get<size_t>()] = true;
+    for (size_t i = 0; i < nodes.size(); ++i)
+      if (!child[i]) roots.push_back(i);
+  }
+  for (size_t r : roots) visit(r, Mat4());
+  if (!top(c_, root_, "animations").empty()) warn_once("animations are not supported; the scene is loaded at rest");
+  // Emissive instances whose world-space area is zero are not lights.
+  for (ShapeDesc& s : d_.shapes) {
+    if (!(max_component(s.emission) > 0.f)) continue;
+    const MeshDesc& m = d_.meshes[size_t(s.mesh)];
+    double area = 0;
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      Vec3f a = s.to_world.point(m.positions[m.indices[t]]), b = s.to_world.point(m.positions[m.indices[t + 1]]),
+            cc = s.to_world.point(m.positions[m.indices[t + 2]]);
+      area += 0.5 * double(length(cross(b - a, cc - a)));
+    }
+    if (!(area > 0.0)) {
+      s.emission = RGB(0.f);
+      s.emission_texture = -1;
+      ++zero_area_lights_;
+    }
+  }
+  auto count_warning = [&](size_t n, const std::string& what) {
+    if (n) d_.warnings.push_back(c_.file + ": " + std::to_string(n) + " " + what);
+  };
+  count_warning(skipped_points_lines_, "primitive(s) of points or lines skipped (only triangles are rendered)");
+  count_warning(bad_index_triangles_, "triangle(s) with vertex indices out of range skipped");
+  count_warning(nan_triangles_, "triangle(s) with non-finite (NaN or infinite) vertex positions skipped");
+  count_warning(degenerate_triangles_, "degenerate (zero-area) triangle(s) skipped");
+  count_warning(singular_instances_, "mesh instance(s) with a singular (zero-scale) transform skipped");
+  count_warning(zero_area_lights_, "emissive mesh instance(s) of zero area are not lights");
+  count_warning(ortho_cameras_, "orthographic camera(s) skipped (only perspective cameras are supported)");
+  count_warning(skinned_, "skinned node(s) rendered in their rest pose (skinning is not supported)");
+
+  // Cameras: ordered by camera index (the first glTF camera is the default), then traversal order.
+  std::stable_sort(cams_.begin(), cams_.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::set<std::string> names;
+  for (auto& [ci, cd] : cams_) {
+    std::string name = cd.name;
+    for (int k = 2; names.count(name); ++k) name = cd.name + "#" + std::to_string(k);
+    cd.name = name;
+    names.insert(name);
+    d_.cameras.push_back(cd);
+  }
+  if (!d_.cameras.empty()) d_.camera = d_.cameras.front();
+  add_default_camera_and_light(d_, d_.cameras.empty());
+}
+
+std::vector<unsigned char> read_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw InputError(path + ": cannot open file");
+  return std::vector<unsigned char>((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+}
+
+uint32_t le32(const unsigned char* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
+
+}  // namespace
+
+SceneDesc load_gltf_scene(const std::string& path) {
+  std::vector<unsigned char> bytes = read_file(path);
+  Ctx c{path, fs::path(path).parent_path()};
+  bool glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+  if (ext == ".glb" && !glb) throw InputError(path + ": not a GLB file (expected the magic bytes 'glTF' at the start)");
+  std::string text;
+  bool has_bin = false;
+  if (glb) {
+    auto bad = [&](const std::string& what) { throw InputError(path + ": invalid GLB file: " + what); };
+    if (bytes.size() < 20) bad("shorter than the 12-byte header and a chunk header");
+    uint32_t version = le32(&bytes[4]), length = le32(&bytes[8]);
+    if (version != 2) bad("container version " + std::to_string(version) + " (expected 2)");
+    if (length > bytes.size())
+      bad("the header's length " + std::to_string(length) + " exceeds the file size " + std::to_string(bytes.size()));
+    uint32_t jlen = le32(&bytes[12]), jtype = le32(&bytes[16]);
+    if (jtype != 0x4E4F534Au) bad("the first chunk is not JSON");
+    if (size_t(20) + jlen > length) bad("the JSON chunk exceeds the file length");
+    text.assign(reinterpret_cast<const char*>(&bytes[20]), jlen);
+    size_t bin = 20 + size_t(jlen);
+    if (bin + 8 <= length) {
+      uint32_t blen = le32(&bytes[bin]), btype = le32(&bytes[bin + 4]);
+      if (btype == 0x004E4942u) {
+        if (bin + 8 + blen > length) bad("the BIN chunk exceeds the file length");
+        has_bin = true;
+      }
+    }
+  } else {
+    text.assign(bytes.begin(), bytes.end());
+  }
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::parse_error& e) {
+    size_t line = 1, byte = std::min<size_t>(e.byte, text.size());
+    for (size_t i = 0; i + 1 < byte; ++i) line += text[i] == '\n';
+    std::string msg = e.what();
+    auto p = msg.find("syntax error");
+    throw InputError(path + ":" + std::to_string(line) + ": invalid JSON: " + (p == std::string::npos ? msg : msg.substr(p)));
+  }
+  SceneDesc d;
+  d.name = fs::path(path).stem().string();
+  check_structure(c, root, has_bin, d.warnings);
+
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(keep_encoded_image, nullptr);
+  tinygltf::Model model;
+  std::string err, warn;
+  bool ok = glb ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), c.base_dir.string())
+                : loader.LoadASCIIFromString(&model, &err, &warn, text.data(), unsigned(text.size()), c.base_dir.string());
+  if (!ok) {
+    std::string first = err.substr(0, err.find('\n'));
+    throw InputError(path + ": invalid glTF: " + (first.empty() ? "tinygltf could not load the file" : first));
+  }
+  size_t nbuf = top(c, root, "buffers").size(), nimg = top(c, root, "images").size();
+  if (model.buffers.size() != nbuf || model.images.size() != nimg)
+    throw InputError(path + ": invalid glTF: tinygltf read " + std::to_string(model.buffers.size()) + " buffers and " +
+                     std::to_string(model.images.size()) + " images");
+  Converter(c, root, model, d).run();
+  return d;
+}
+
 }  // namespace caustica

@@ -1,0 +1,601 @@
+// glTF 2.0 / GLB loader: files are generated here (JSON + binary buffers,
+// PNG images from stb_image_write) into a temporary folder and loaded; the
+// resulting SceneDesc is checked, and every malformed input gets its exact
+// message checked.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "caustica/base/error.h"
+#include "caustica/scene/load.h"
+#include "caustica/scene/loaders/gltf_loader.h"
+
+extern "C" unsigned char* stbi_write_png_to_mem(const unsigned char* pixels, int stride_bytes, int x, int y, int n,
+                                                int* out_len);
+
+using namespace caustica;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path temp_dir() {
+  fs::path d = fs::temp_directory_path() / ("caustica_gltf_test_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+std::string base64(const std::vector<unsigned char>& in) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    uint32_t v = in[i] << 16 | in[i + 1] << 8 | in[i + 2];
+    for (int k = 3; k >= 0; --k) out += t[(v >> (6 * k)) & 63];
+  }
+  if (i + 1 == in.size()) {
+    uint32_t v = in[i] << 16;
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += "==";
+  } else if (i + 2 == in.size()) {
+    uint32_t v = in[i] << 16 | in[i + 1] << 8;
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += t[(v >> 6) & 63];
+    out += '=';
+  }
+  return out;
+}
+
+std::vector<unsigned char> png(int w, int h, const std::vector<unsigned char>& rgb) {
+  int len = 0;
+  unsigned char* p = stbi_write_png_to_mem(rgb.data(), w * 3, w, h, 3, &len);
+  std::vector<unsigned char> out(p, p + len);
+  free(p);
+  return out;
+}
+
+// Builds a glTF document with one binary buffer.
+struct Builder {
+  json j = {{"asset", {{"version", "2.0"}}}};
+  std::vector<unsigned char> bin;
+
+  int push(const char* key, json v) {
+    j[key].push_back(std::move(v));
+    return int(j[key].size()) - 1;
+  }
+  int view(const void* data, size_t n) {
+    while (bin.size() % 4) bin.push_back(0);
+    size_t off = bin.size();
+    bin.insert(bin.end(), (const unsigned char*)data, (const unsigned char*)data + n);
+    return push("bufferViews", {{"buffer", 0}, {"byteOffset", off}, {"byteLength", n}});
+  }
+  int floats(const std::vector<float>& v, const char* type, int ncomp) {
+    int bv = view(v.data(), v.size() * 4);
+    return push("accessors", {{"bufferView", bv}, {"componentType", 5126}, {"count", v.size() / ncomp}, {"type", type}});
+  }
+  template <typename T>
+  int indices(const std::vector<T>& v) {
+    int bv = view(v.data(), v.size() * sizeof(T));
+    int ct = sizeof(T) == 1 ? 5121 : sizeof(T) == 2 ? 5123 : 5125;
+    return push("accessors", {{"bufferView", bv}, {"componentType", ct}, {"count", v.size()}, {"type", "SCALAR"}});
+  }
+  // A unit quad in the xy plane ([-1,1]^2, facing +z) with UVs (glTF: v = 0 at the top).
+  int quad(json material = nullptr, float half = 1.f) {
+    int pos = floats({-half, -half, 0, half, -half, 0, half, half, 0, -half, half, 0}, "VEC3", 3);
+    int nor = floats({0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1}, "VEC3", 3);
+    int uv = floats({0, 1, 1, 1, 1, 0, 0, 0}, "VEC2", 2);
+    int ind = indices(std::vector<uint16_t>{0, 1, 2, 0, 2, 3});
+    json prim = {{"attributes", {{"POSITION", pos}, {"NORMAL", nor}, {"TEXCOORD_0", uv}}}, {"indices", ind}};
+    if (!material.is_null()) prim["material"] = material;
+    return push("meshes", {{"primitives", json::array({prim})}});
+  }
+  void scene(std::vector<int> roots) { j["scenes"] = json::array({{{"nodes", roots}}}); j["scene"] = 0; }
+  void finish_buffer(const std::string& uri) {
+    json b = {{"byteLength", bin.size()}};
+    if (!uri.empty()) b["uri"] = uri;
+    j["buffers"] = json::array({b});
+  }
+  // .gltf with the buffer in NAME.bin next to it.
+  std::string write(const std::string& name) {
+    fs::path d = temp_dir();
+    if (!bin.empty()) {
+      std::ofstream(d / (name + ".bin"), std::ios::binary).write((const char*)bin.data(), bin.size());
+      finish_buffer(name + ".bin");
+    }
+    std::ofstream(d / (name + ".gltf")) << j.dump(2);
+    return (d / (name + ".gltf")).string();
+  }
+  // .gltf with the buffer as a base64 data URI.
+  std::string write_data_uri(const std::string& name) {
+    finish_buffer("data:application/octet-stream;base64," + base64(bin));
+    fs::path p = temp_dir() / (name + ".gltf");
+    std::ofstream(p) << j.dump();
+    return p.string();
+  }
+  std::string write_glb(const std::string& name) {
+    if (!bin.empty()) finish_buffer("");
+    std::string js = j.dump();
+    while (js.size() % 4) js += ' ';
+    while (bin.size() % 4) bin.push_back(0);
+    std::vector<unsigned char> out;
+    auto u32 = [&](uint32_t v) { for (int k = 0; k < 4; ++k) out.push_back((v >> (8 * k)) & 255); };
+    uint32_t total = 12 + 8 + uint32_t(js.size()) + (bin.empty() ? 0 : 8 + uint32_t(bin.size()));
+    out.insert(out.end(), {'g', 'l', 'T', 'F'});
+    u32(2);
+    u32(total);
+    u32(uint32_t(js.size()));
+    u32(0x4E4F534A);
+    out.insert(out.end(), js.begin(), js.end());
+    if (!bin.empty()) {
+      u32(uint32_t(bin.size()));
+      u32(0x004E4942);
+      out.insert(out.end(), bin.begin(), bin.end());
+    }
+    fs::path p = temp_dir() / (name + ".glb");
+    std::ofstream(p, std::ios::binary).write((const char*)out.data(), out.size());
+    return p.string();
+  }
+};
+
+std::string write_text(const std::string& name, const std::string& text) {
+  fs::path p = temp_dir() / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+std::string error_of(const std::string& path) {
+  try {
+    load_gltf_scene(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+void expect_near(Vec3f a, Vec3f b, float tol = 1e-5f) {
+  EXPECT_NEAR(a.x, b.x, tol);
+  EXPECT_NEAR(a.y, b.y, tol);
+  EXPECT_NEAR(a.z, b.z, tol);
+}
+
+bool has_warning(const SceneDesc& d, const std::string& needle) {
+  for (const std::string& w : d.warnings)
+    if (w.find(needle) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
+
+TEST(GltfLoader, NodeTransformsAndInstancing) {
+  Builder b;
+  int mesh = b.quad();
+  const float s45 = std::sqrt(0.5f);
+  int child = b.push("nodes", {{"mesh", mesh}, {"translation", {1, 0, 0}}});
+  int parent = b.push("nodes", {{"children", {child}}, {"translation", {1, 2, 3}},
+                                {"rotation", {0, 0, s45, s45}}, {"scale", {2, 2, 2}}});
+  // The same mesh again through a column-major matrix: translate (5, 0, 0).
+  int other = b.push("nodes", {{"mesh", mesh}, {"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 5, 0, 0, 1}}});
+  b.scene({parent, other});
+  SceneDesc d = load_gltf_scene(b.write("transforms"));
+  ASSERT_EQ(d.meshes.size(), 1u);  // one mesh, two instances
+  ASSERT_EQ(d.shapes.size(), 2u);
+  EXPECT_EQ(d.shapes[0].mesh, 0);
+  EXPECT_EQ(d.shapes[1].mesh, 0);
+  // Vertex (-1,-1,0): child (0,-1,0) -> scale (0,-2,0) -> rotate 90 deg about z (2,0,0) -> + (1,2,3).
+  expect_near(d.shapes[0].to_world.point(d.meshes[0].positions[0]), Vec3f(3, 2, 3));
+  expect_near(d.shapes[0].to_world.point(Vec3f(0, 0, 0)), Vec3f(1, 4, 3));
+  expect_near(d.shapes[1].to_world.point(d.meshes[0].positions[0]), Vec3f(4, -1, 0));
+  // UVs are flipped to caustica's convention (v = 0 at the bottom of the image).
+  EXPECT_FLOAT_EQ(d.meshes[0].uvs[0].y, 0.f);
+  EXPECT_FLOAT_EQ(d.meshes[0].uvs[2].y, 1.f);
+  EXPECT_EQ(d.meshes[0].indices.size(), 6u);
+  // No camera or light in the file: defaults, each reported.
+  EXPECT_TRUE(has_warning(d, "no camera in the file"));
+  EXPECT_TRUE(has_warning(d, "no lights in the file"));
+  SceneStats st = scene_stats(d);
+  EXPECT_EQ(st.meshes, 1u);
+  EXPECT_EQ(st.shapes, 2u);
+  EXPECT_EQ(st.triangles, 4u);
+}
+
+TEST(GltfLoader, CamerasDefaultAndByName) {
+  Builder b;
+  int mesh = b.quad();
+  b.push("cameras", {{"type", "perspective"}, {"name", "front"},
+                     {"perspective", {{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", 1.5}}}});
+  b.push("cameras", {{"type", "perspective"}, {"perspective", {{"yfov", 1.0}, {"znear", 0.1}}}});
+  b.push("cameras", {{"type", "orthographic"}, {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"zfar", 10}, {"znear", 0}}}});
+  const float s45 = std::sqrt(0.5f);
+  int n0 = b.push("nodes", {{"mesh", mesh}});
+  int n1 = b.push("nodes", {{"camera", 1}, {"translation", {4, 0, 0}}, {"rotation", {0, s45, 0, s45}}});  // looks down -x
+  int n2 = b.push("nodes", {{"camera", 0}, {"translation", {0, 0, 5}}});
+  int n3 = b.push("nodes", {{"camera", 2}});
+  b.scene({n0, n1, n2, n3});
+  std::string path = b.write("cameras");
+  SceneDesc d = load_gltf_scene(path);
+  ASSERT_EQ(d.cameras.size(), 2u);
+  EXPECT_EQ(d.cameras[0].name, "front");  // the first glTF camera is the default
+  EXPECT_EQ(d.cameras[1].name, "camera1");
+  EXPECT_EQ(d.camera.name, "front");
+  expect_near(d.camera.position, Vec3f(0, 0, 5));
+  expect_near(d.camera.target, Vec3f(0, 0, 4));
+  expect_near(d.camera.up, Vec3f(0, 1, 0));
+  EXPECT_NEAR(d.camera.fov_degrees, 0.5f * 180.f / 3.14159265f, 1e-4f);
+  EXPECT_EQ(d.camera.fov_axis, CameraDesc::FovAxis::kY);
+  EXPECT_EQ(d.camera.width, 768);
+  EXPECT_EQ(d.camera.height, 512);
+  expect_near(d.cameras[1].target - d.cameras[1].position, Vec3f(-1, 0, 0));
+  EXPECT_TRUE(has_warning(d, "1 orthographic camera(s) skipped"));
+  EXPECT_FALSE(has_warning(d, "no camera in the file"));
+  LoadOptions opt;
+  opt.camera = "camera1";
+  SceneDesc d2 = load_scene_desc(path, opt);
+  expect_near(d2.camera.position, Vec3f(4, 0, 0));
+  opt.camera = "nope";
+  try {
+    load_scene_desc(path, opt);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "cameras: no camera named 'nope' (cameras: front, camera1)");
+  }
+}
+
+TEST(GltfLoader, PunctualLights) {
+  Builder b;
+  int mesh = b.quad();
+  b.j["extensionsUsed"] = {"KHR_lights_punctual"};
+  b.j["extensions"]["KHR_lights_punctual"]["lights"] = {
+      {{"type", "point"}, {"intensity", 683.0 * 2}, {"color", {1, 0.5, 0.25}}},
+      {{"type", "spot"}, {"intensity", 683.0}, {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.5}}}},
+      {{"type", "directional"}, {"intensity", 683.0 * 3}}};
+  const float s45 = std::sqrt(0.5f);
+  int m = b.push("nodes", {{"mesh", mesh}});
+  int p = b.push("nodes", {{"translation", {1, 2, 3}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+  int s = b.push("nodes", {{"translation", {0, 4, 0}}, {"rotation", {-s45, 0, 0, s45}},  // -z -> -y
+                           {"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
+  int dl = b.push("nodes", {{"rotation", {0, s45, 0, s45}}, {"extensions", {{"KHR_lights_punctual", {{"light", 2}}}}}});
+  b.scene({m, p, s, dl});
+  SceneDesc d = load_gltf_scene(b.write("lights"));
+  ASSERT_EQ(d.lights.size(), 3u);  // no default environment: the file has lights
+  EXPECT_EQ(d.lights[0].type, LightType::kPoint);
+  expect_near(d.lights[0].L, RGB(2, 1, 0.5f));  // candela / 683
+  expect_near(d.lights[0].p, Vec3f(1, 2, 3));
+  EXPECT_EQ(d.lights[1].type, LightType::kSpot);
+  expect_near(d.lights[1].p, Vec3f(0, 4, 0));
+  expect_near(d.lights[1].dir, Vec3f(0, -1, 0));
+  EXPECT_NEAR(d.lights[1].cos_total, std::cos(0.5f), 1e-6f);
+  EXPECT_NEAR(d.lights[1].cos_falloff_start, std::cos(0.2f), 1e-6f);
+  EXPECT_EQ(d.lights[2].type, LightType::kDirectional);
+  expect_near(d.lights[2].dir, Vec3f(-1, 0, 0));
+  expect_near(d.lights[2].L, RGB(3.f));
+  EXPECT_FALSE(has_warning(d, "no lights"));
+}
+
+TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
+  Builder b;
+  b.j["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
+                           "KHR_materials_emissive_strength", "KHR_materials_clearcoat", "EXT_made_up"};
+  b.push("materials", {{"name", "glass"},
+                       {"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 0.8, 0.7, 1}}, {"metallicFactor", 0.0},
+                                                 {"roughnessFactor", 0.1}}},
+                       {"extensions",
+                        {{"KHR_materials_transmission", {{"transmissionFactor", 1.0}}},
+                         {"KHR_materials_ior", {{"ior", 1.33}}},
+                         {"KHR_materials_volume",
+                          {{"thicknessFactor", 1.0}, {"attenuationDistance", 2.0}, {"attenuationColor", {0.5, 1.0, 0.25}}}}}}});
+  b.push("materials", {{"name", "lamp"}, {"emissiveFactor", {1, 1, 1}}, {"doubleSided", true},
+                       {"extensions", {{"KHR_materials_emissive_strength", {{"emissiveStrength", 5.0}}}}}});
+  int glass = b.quad(0), lamp = b.quad(1);
+  int n0 = b.push("nodes", {{"mesh", glass}});
+  int n1 = b.push("nodes", {{"mesh", lamp}, {"translation", {0, 0, 2}}});
+  b.scene({n0, n1});
+  SceneDesc d = load_gltf_scene(b.write("materials"));
+  ASSERT_EQ(d.materials.size(), 2u);
+  const Material& g = d.materials[0];
+  EXPECT_EQ(d.material_names[0], "glass");
+  EXPECT_EQ(g.type, MaterialType::kMetallicRoughness);
+  EXPECT_FLOAT_EQ(g.transmission_weight, 1.f);
+  EXPECT_FLOAT_EQ(g.eta, 1.33f);
+  EXPECT_FLOAT_EQ(g.metallic, 0.f);
+  EXPECT_NEAR(g.alpha_x, 0.01f, 1e-6f);  // GGX alpha = roughness^2
+  expect_near(g.absorption, RGB(-std::log(0.5f) / 2, 0.f, -std::log(0.25f) / 2));
+  EXPECT_EQ(g.flags & kTwoSided, 0u);
+  EXPECT_NE(d.materials[1].flags & kTwoSided, 0u);
+  ASSERT_EQ(d.shapes.size(), 2u);
+  expect_near(d.shapes[0].emission, RGB(0.f));
+  expect_near(d.shapes[1].emission, RGB(5.f));  // emissiveFactor * emissiveStrength
+  EXPECT_TRUE(d.shapes[1].emission_two_sided);
+  EXPECT_TRUE(has_warning(d, "extension KHR_materials_clearcoat is not supported; its properties are ignored"));
+  EXPECT_TRUE(has_warning(d, "unknown extension EXT_made_up ignored"));
+  EXPECT_FALSE(has_warning(d, "no lights"));  // the emissive quad is an area light
+}
+
+TEST(GltfLoader, TexturesSamplersAndTransforms) {
+  Builder b;
+  std::vector<unsigned char> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};  // 2x2: red green / blue white
+  std::vector<unsigned char> img = png(2, 2, rgb);
+  b.push("images", {{"uri", "data:image/png;base64," + base64(img)}});
+  b.push("samplers", {{"magFilter", 9728}, {"wrapS", 33071}, {"wrapT", 33071}});
+  b.push("textures", {{"source", 0}});
+  b.push("textures", {{"source", 0}, {"sampler", 0}});
+  // Two materials use the image as base colour (sRGB), one also as metallic-roughness (linear);
+  // the second adds a texture transform.
+  b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicRoughnessTexture", {{"index", 0}}}}},
+                       {"normalTexture", {{"index", 0}, {"scale", 0.5}}}});
+  b.push("materials", {{"pbrMetallicRoughness",
+                        {{"baseColorTexture",
+                          {{"index", 1}, {"extensions", {{"KHR_texture_transform", {{"offset", {0.5, 0.25}}, {"scale", {2, 3}}}}}}}}}}});
+  int q0 = b.quad(0), q1 = b.quad(1);
+  int n0 = b.push("nodes", {{"mesh", q0}}), n1 = b.push("nodes", {{"mesh", q1}});
+  b.scene({n0, n1});
+  SceneDesc d = load_gltf_scene(b.write("textures"));
+  // Textures: the image decoded as sRGB once and as linear once, plus the copy with the sampler + transform.
+  ASSERT_EQ(d.textures.size(), 3u);
+  const Material& m0 = d.materials[0];
+  ASSERT_GE(m0.tex_color, 0);
+  ASSERT_GE(m0.tex_roughness, 0);
+  EXPECT_NE(m0.tex_color, m0.tex_roughness);
+  EXPECT_EQ(m0.tex_normal, m0.tex_roughness);  // linear, same image: decoded once
+  EXPECT_FLOAT_EQ(m0.normal_scale, 0.5f);
+  const TextureDesc& c = d.textures[m0.tex_color];
+  EXPECT_TRUE(c.srgb);
+  EXPECT_EQ(c.width, 2);
+  EXPECT_FLOAT_EQ(c.rgba[0], 1.f);   // red, top-left
+  EXPECT_FLOAT_EQ(c.rgba[12 + 0], 1.f);  // white
+  EXPECT_FALSE(c.nearest);
+  const TextureDesc& t = d.textures[d.materials[1].tex_color];
+  EXPECT_TRUE(t.nearest);
+  EXPECT_EQ(t.wrap, TexWrap::kClamp);
+  EXPECT_EQ(t.rgba, c.rgba);
+  // glTF uv' = (2u + 0.5, 3v + 0.25), v downwards. In caustica's v_c = 1 - v:
+  // v_c' = 1 - (3 (1 - v_c) + 0.25) = 3 v_c - 2.25.
+  EXPECT_FLOAT_EQ(t.uv_scale.x, 2.f);
+  EXPECT_FLOAT_EQ(t.uv_scale.y, 3.f);
+  EXPECT_FLOAT_EQ(t.uv_offset.x, 0.5f);
+  EXPECT_FLOAT_EQ(t.uv_offset.y, -2.25f);
+  EXPECT_FLOAT_EQ(t.uv_rotation, 0.f);
+}
+
+TEST(GltfLoader, TextureTransformRotationMatchesGltf) {
+  // The stored transform in caustica's uv equals F o T_gltf o F with F(u, v) = (u, 1 - v).
+  Builder b;
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {10, 20, 30}))}});
+  b.push("textures", {{"source", 0}});
+  const double rot = 0.7, ox = 0.2, oy = -0.3, sx = 1.5, sy = 0.75;
+  b.push("materials", {{"pbrMetallicRoughness",
+                        {{"baseColorTexture",
+                          {{"index", 0},
+                           {"extensions", {{"KHR_texture_transform", {{"offset", {ox, oy}}, {"scale", {sx, sy}}, {"rotation", rot}}}}}}}}}});
+  int q = b.quad(0);
+  b.scene({b.push("nodes", {{"mesh", q}})});
+  SceneDesc d = load_gltf_scene(b.write("rotation"));
+  const TextureDesc& t = d.textures[d.materials[0].tex_color];
+  auto caustica_map = [&](double u, double v) {
+    double su = t.uv_scale.x * u, sv = t.uv_scale.y * v, c = std::cos(t.uv_rotation), s = std::sin(t.uv_rotation);
+    return std::make_pair(c * su - s * sv + t.uv_offset.x, s * su + c * sv + t.uv_offset.y);
+  };
+  // KHR_texture_transform: T * R * S with GLSL mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1), whose
+  // columns are (cos, sin) and (-sin, cos): u' = cos u - sin v, v' = sin u + cos v.
+  auto gltf_map = [&](double u, double v) {
+    double su = sx * u, sv = sy * v, c = std::cos(rot), s = std::sin(rot);
+    return std::make_pair(c * su - s * sv + ox, s * su + c * sv + oy);
+  };
+  for (auto [u, v] : {std::make_pair(0.1, 0.2), std::make_pair(0.9, 0.4), std::make_pair(0.5, 0.95)}) {
+    auto g = gltf_map(u, 1.0 - v);
+    auto cm = caustica_map(u, v);
+    EXPECT_NEAR(cm.first, g.first, 1e-5);
+    EXPECT_NEAR(cm.second, 1.0 - g.second, 1e-5);
+  }
+}
+
+TEST(GltfLoader, GlbWithEmbeddedImageAndDataUriBuffers) {
+  for (int variant = 0; variant < 2; ++variant) {
+    Builder b;
+    std::vector<unsigned char> img = png(2, 1, {0, 0, 255, 255, 0, 0});
+    int bv = b.view(img.data(), img.size());
+    b.push("images", {{"bufferView", bv}, {"mimeType", "image/png"}});
+    b.push("textures", {{"source", 0}});
+    b.push("materials", {{"emissiveFactor", {1, 1, 1}}, {"emissiveTexture", {{"index", 0}}},
+                         {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+    int q = b.quad(0);
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    std::string path = variant == 0 ? b.write_glb("embedded") : b.write_data_uri("datauri");
+    SceneDesc d = load_gltf_scene(path);
+    ASSERT_EQ(d.shapes.size(), 1u);
+    ASSERT_EQ(d.textures.size(), 1u);  // base colour and emission: one sRGB decode
+    EXPECT_EQ(d.shapes[0].emission_texture, d.materials[0].tex_color);
+    const TextureDesc& t = d.textures[0];
+    EXPECT_EQ(t.width, 2);
+    EXPECT_EQ(t.height, 1);
+    EXPECT_FLOAT_EQ(t.rgba[2], 1.f);  // blue, left
+    EXPECT_FLOAT_EQ(t.rgba[4], 1.f);  // red, right
+    EXPECT_EQ(d.meshes[0].positions.size(), 4u);
+  }
+}
+
+TEST(GltfLoader, ExternalImageFileAndStripsFansNonIndexed) {
+  Builder b;
+  std::vector<unsigned char> img = png(1, 1, {0, 128, 0});
+  std::ofstream(temp_dir() / "tex image.png", std::ios::binary).write((const char*)img.data(), img.size());
+  b.push("images", {{"uri", "tex%20image.png"}});
+  b.push("textures", {{"source", 0}});
+  b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+  int pos = b.floats({0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0}, "VEC3", 4 - 1);
+  int ind8 = b.indices(std::vector<uint8_t>{0, 1, 2, 3});
+  int ind32 = b.indices(std::vector<uint32_t>{0, 1, 3, 2});
+  json prims = json::array({
+      {{"attributes", {{"POSITION", pos}}}, {"indices", ind8}, {"mode", 5}, {"material", 0}},  // strip: 2 triangles
+      {{"attributes", {{"POSITION", pos}}}, {"indices", ind32}, {"mode", 6}},                  // fan: 2 triangles
+      {{"attributes", {{"POSITION", pos}}}},                                                   // non-indexed: 1 triangle
+      {{"attributes", {{"POSITION", pos}}}, {"mode", 1}}});                                    // lines: skipped
+  int mesh = b.push("meshes", {{"primitives", prims}});
+  b.scene({b.push("nodes", {{"mesh", mesh}})});
+  SceneDesc d = load_gltf_scene(b.write("strips"));
+  ASSERT_EQ(d.meshes.size(), 3u);
+  EXPECT_EQ(d.meshes[0].indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3}));
+  EXPECT_EQ(d.meshes[1].indices, (std::vector<uint32_t>{0, 1, 3, 0, 3, 2}));
+  EXPECT_EQ(d.meshes[2].indices, (std::vector<uint32_t>{0, 1, 2}));
+  EXPECT_TRUE(d.meshes[0].normals.empty());
+  EXPECT_TRUE(has_warning(d, "1 primitive(s) of points or lines skipped"));
+  ASSERT_EQ(d.textures.size(), 1u);
+  EXPECT_EQ(d.textures[0].name, (temp_dir() / "tex image.png").string());
+  EXPECT_EQ(d.materials.size(), 2u);  // the material and the glTF default material
+  EXPECT_EQ(d.material_names[1], "default");
+}
+
+TEST(GltfLoader, SparseAccessorAndNormalizedUVs) {
+  Builder b;
+  int pos = b.floats({0, 0, 0, 1, 0, 0, 0, 1, 0}, "VEC3", 3);
+  // Sparse: replace vertex 2 by (0, 2, 0).
+  std::vector<uint8_t> si = {2};
+  std::vector<float> sv = {0, 2, 0};
+  int siv = b.view(si.data(), si.size()), svv = b.view(sv.data(), sv.size() * 4);
+  b.j["accessors"][pos]["sparse"] = {{"count", 1}, {"indices", {{"bufferView", siv}, {"componentType", 5121}}},
+                                     {"values", {{"bufferView", svv}}}};
+  std::vector<uint16_t> uv = {0, 65535, 65535, 65535, 0, 0};
+  int uvv = b.view(uv.data(), uv.size() * 2);
+  int uva = b.push("accessors", {{"bufferView", uvv}, {"componentType", 5123}, {"normalized", true}, {"count", 3}, {"type", "VEC2"}});
+  json prim = {{"attributes", {{"POSITION", pos}, {"TEXCOORD_0", uva}}}};
+  int mesh = b.push("meshes", {{"primitives", json::array({prim})}});
+  b.scene({b.push("nodes", {{"mesh", mesh}})});
+  SceneDesc d = load_gltf_scene(b.write("sparse"));
+  expect_near(d.meshes[0].positions[2], Vec3f(0, 2, 0));
+  EXPECT_FLOAT_EQ(d.meshes[0].uvs[0].y, 0.f);  // glTF v = 1 -> caustica v = 0
+  EXPECT_FLOAT_EQ(d.meshes[0].uvs[1].x, 1.f);
+  EXPECT_FLOAT_EQ(d.meshes[0].uvs[2].y, 1.f);
+}
+
+TEST(GltfLoader, BadGeometryIsSkippedWithCountedWarnings) {
+  Builder b;
+  float nan = std::nanf("");
+  int pos = b.floats({0, 0, 0, 1, 0, 0, 0, 1, 0, nan, 0, 0, 2, 0, 0}, "VEC3", 3);
+  // Triangles: good; uses the NaN vertex; degenerate (collinear); out-of-range index 9; good.
+  int ind = b.indices(std::vector<uint16_t>{0, 1, 2, 0, 3, 1, 0, 1, 4, 0, 9, 1, 2, 1, 0});
+  b.push("materials", {{"emissiveFactor", {1, 1, 1}}});
+  json prim = {{"attributes", {{"POSITION", pos}}}, {"indices", ind}, {"material", 0}};
+  int mesh = b.push("meshes", {{"primitives", json::array({prim})}});
+  int n0 = b.push("nodes", {{"mesh", mesh}});
+  int n1 = b.push("nodes", {{"mesh", mesh}, {"scale", {0, 0, 0}}});  // a zero-area light instance
+  b.scene({n0, n1});
+  SceneDesc d = load_gltf_scene(b.write("badgeom"));
+  ASSERT_EQ(d.meshes.size(), 1u);
+  EXPECT_EQ(d.meshes[0].indices.size(), 6u);
+  for (Vec3f p : d.meshes[0].positions) EXPECT_TRUE(std::isfinite(p.x));
+  ASSERT_EQ(d.shapes.size(), 1u);
+  std::string f = (temp_dir() / "badgeom.gltf").string();
+  EXPECT_TRUE(has_warning(d, f + ": 1 triangle(s) with non-finite (NaN or infinite) vertex positions skipped"));
+  EXPECT_TRUE(has_warning(d, f + ": 1 degenerate (zero-area) triangle(s) skipped"));
+  EXPECT_TRUE(has_warning(d, f + ": 1 triangle(s) with vertex indices out of range skipped"));
+  EXPECT_TRUE(has_warning(d, f + ": 1 mesh instance(s) with a singular (zero-scale) transform skipped"));
+}
+
+TEST(GltfLoader, MalformedInputMessages) {
+  std::string dir = temp_dir().string();
+  // Bad JSON names the line.
+  std::string p = write_text("badjson.gltf", "{\n  \"asset\": {\"version\": \"2.0\"},\n  \"nodes\": [,]\n}\n");
+  EXPECT_EQ(error_of(p), p + ":3: invalid JSON: syntax error while parsing value - unexpected ','; expected '[', '{', or a literal");
+  p = write_text("noasset.gltf", "{}");
+  EXPECT_EQ(error_of(p), p + ": /asset: missing (every glTF file has an asset object with a version)");
+  p = write_text("v1.gltf", R"({"asset": {"version": "1.0"}})");
+  EXPECT_EQ(error_of(p), p + ": /asset/version: glTF version '1.0' is not supported (expected 2.x)");
+  p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_draco_mesh_compression"]})");
+  EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_draco_mesh_compression' is required but not supported "
+                             "(supported: KHR_lights_punctual, KHR_materials_emissive_strength, KHR_materials_ior, "
+                             "KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, KHR_texture_transform)");
+  // A missing buffer file names both files.
+  p = write_text("nobuf.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "missing.bin", "byteLength": 4}]})");
+  EXPECT_EQ(error_of(p), p + ": /buffers/0/uri: buffer file '" + dir + "/missing.bin' does not exist");
+  {  // A missing image file names both files.
+    Builder b;
+    b.push("images", {{"uri", "nothere.png"}});
+    b.push("textures", {{"source", 0}});
+    b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+    int q = b.quad(0);
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    p = b.write("noimage");
+    EXPECT_EQ(error_of(p), p + ": /images/0/uri: image file '" + dir + "/nothere.png' does not exist");
+  }
+  {  // Out-of-range accessor index.
+    Builder b;
+    int q = b.quad();
+    b.j["meshes"][q]["primitives"][0]["attributes"]["NORMAL"] = 42;
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    p = b.write("badaccessor");
+    EXPECT_EQ(error_of(p), p + ": /meshes/0/primitives/0/attributes/NORMAL: index 42 out of range (/accessors has 4 entries)");
+  }
+  {  // A node referencing a missing mesh.
+    Builder b;
+    b.scene({b.push("nodes", {{"mesh", 0}})});
+    p = b.write("nomesh");
+    EXPECT_EQ(error_of(p), p + ": /nodes/0/mesh: index 0 out of range (/meshes is empty)");
+  }
+  {  // An accessor reading past its buffer view.
+    Builder b;
+    int q = b.quad();
+    b.j["accessors"][0]["count"] = 5;
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    p = b.write("pastview");
+    EXPECT_EQ(error_of(p), p + ": /accessors/0: needs bytes [0, 60) of bufferView 0, which has 48 bytes");
+  }
+  {  // Indices of the wrong type.
+    Builder b;
+    int q = b.quad();
+    b.j["meshes"][q]["primitives"][0]["indices"] = 0;  // the float positions
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    p = b.write("floatindices");
+    EXPECT_EQ(error_of(p), p + ": /meshes/0/primitives/0/indices: expected an accessor of unsigned byte, short or int "
+                               "scalars (5121, 5123, 5125), got accessor 0 of VEC3 5126");
+  }
+  {  // A node with two parents.
+    Builder b;
+    int c = b.push("nodes", json::object());
+    int a = b.push("nodes", {{"children", {c}}});
+    b.push("nodes", {{"children", {c}}});
+    b.scene({a});
+    p = b.write("twoparents");
+    EXPECT_EQ(error_of(p), p + ": /nodes/2/children/0: node 0 already has a parent (node 1; nodes must form trees)");
+  }
+  {  // Missing POSITION, a bad camera, a bad light.
+    Builder b;
+    int q = b.quad();
+    b.j["meshes"][q]["primitives"][0]["attributes"].erase("POSITION");
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    p = b.write("nopos");
+    EXPECT_EQ(error_of(p), p + ": /meshes/0/primitives/0/attributes: missing POSITION");
+  }
+  p = write_text("badcam.gltf", R"({"asset": {"version": "2.0"}, "cameras": [{"type": "perspective", "perspective": {"znear": 0.1}}]})");
+  EXPECT_EQ(error_of(p), p + ": /cameras/0/perspective/yfov: missing (the vertical field of view in radians)");
+  p = write_text("badlight.gltf", R"({"asset": {"version": "2.0"}, "extensions": {"KHR_lights_punctual": {"lights": [{"type": "area"}]}}})");
+  EXPECT_EQ(error_of(p), p + ": /extensions/KHR_lights_punctual/lights/0/type: unknown light type 'area' (expected point, spot or directional)");
+  {  // Negative emissive factor.
+    Builder b;
+    b.push("materials", {{"emissiveFactor", {1, -1, 1}}});
+    int q = b.quad(0);
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    p = b.write("negemission");
+    EXPECT_EQ(error_of(p), p + ": /materials/0/emissiveFactor: expected non-negative colour values");
+  }
+  // GLB container errors.
+  p = write_text("short.glb", "glTF");
+  EXPECT_EQ(error_of(p), p + ": invalid GLB file: shorter than the 12-byte header and a chunk header");
+  p = write_text("notglb.glb", "{\"asset\": {}}");
+  EXPECT_EQ(error_of(p), p + ": not a GLB file (expected the magic bytes 'glTF' at the start)");
+  {
+    Builder b;
+    int q = b.quad();
+    b.scene({b.push("nodes", {{"mesh", q}})});
+    p = b.write_glb("truncated");
+    size_t size = fs::file_size(p);
+    fs::resize_file(p, size - 8);
+    EXPECT_EQ(error_of(p), p + ": invalid GLB file: the header's length " + std::to_string(size) +
+                               " exceeds the file size " + std::to_string(size - 8));
+  }
+}
