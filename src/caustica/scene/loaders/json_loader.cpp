@@ -1,31 +1,65 @@
+// caustica's JSON scene format: strict key checking, one-line errors naming the
+// file and the JSON path (docs/scene-format.md; the schema is docs/scene.schema.json).
 #include "json_loader.h"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "../../base/error.h"
+#include "../../integrator/render.h"
+#include "mesh_loaders.h"
 
 namespace caustica {
 namespace {
 
-using json = nlohmann::json;
+namespace fs = std::filesystem;
+// Ordered: materials, meshes and cameras keep the file's order (their indices
+// follow it, and an exported scene reads back with the same indices).
+using json = nlohmann::ordered_json;
+
+constexpr double kPiD = 3.14159265358979323846;
+
+// A shape's worth of a named mesh: an OBJ file gives one part per (group, material).
+struct MeshPart {
+  std::string name;
+  int mesh = -1;
+  int material = -1;  // the OBJ's material, or -1 (the instancing shape's, or the default)
+  RGB emission{0.f};
+  int emission_texture = -1;
+  bool emission_two_sided = false;
+};
 
 struct Ctx {
   std::string source;
+  fs::path base;
+  SceneDesc* d = nullptr;
+  std::vector<bool> claimed;  // a texture's sampler settings were fixed by an earlier reference
+
   [[noreturn]] void fail(const std::string& path, const std::string& what) const {
     throw InputError(source + ": " + (path.empty() ? "/" : path) + ": " + what);
+  }
+  std::string resolve(const std::string& f) const {
+    fs::path p(f);
+    if (p.is_absolute() || base.empty()) return p.string();
+    return (base / p).string();
   }
 };
 
 const char* type_name(const json& j) { return j.type_name(); }
 
-float num(const Ctx& c, const json& j, const std::string& path) {
+double numd(const Ctx& c, const json& j, const std::string& path) {
   if (!j.is_number()) c.fail(path, std::string("expected a number, got ") + type_name(j));
   double v = j.get<double>();
   if (!std::isfinite(v)) c.fail(path, "expected a finite number");
+  return v;
+}
+float num(const Ctx& c, const json& j, const std::string& path) {
+  double v = numd(c, j, path);
+  if (std::fabs(v) > 3.4e38) c.fail(path, "expected a number within the float range");
   return float(v);
 }
 Vec3f vec3(const Ctx& c, const json& j, const std::string& path) {
@@ -33,7 +67,20 @@ Vec3f vec3(const Ctx& c, const json& j, const std::string& path) {
   if (!j.is_array() || j.size() != 3) c.fail(path, "expected an array of 3 numbers");
   return {num(c, j[0], path + "/0"), num(c, j[1], path + "/1"), num(c, j[2], path + "/2")};
 }
+Vec3f point3(const Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_array() || j.size() != 3) c.fail(path, "expected an array of 3 numbers");
+  return vec3(c, j, path);
+}
+Vec2f vec2(const Ctx& c, const json& j, const std::string& path, bool allow_scalar) {
+  if (allow_scalar && j.is_number()) {
+    float v = num(c, j, path);
+    return {v, v};
+  }
+  if (!j.is_array() || j.size() != 2) c.fail(path, allow_scalar ? "expected a number or an array of 2 numbers" : "expected an array of 2 numbers");
+  return {num(c, j[0], path + "/0"), num(c, j[1], path + "/1")};
+}
 RGB color(const Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_number() && !j.is_array()) c.fail(path, std::string("expected a colour (a number or [r, g, b]), got ") + type_name(j));
   Vec3f v = vec3(c, j, path);
   if (v.x < 0 || v.y < 0 || v.z < 0) c.fail(path, "expected non-negative colour values");
   return v;
@@ -42,9 +89,14 @@ std::string str(const Ctx& c, const json& j, const std::string& path) {
   if (!j.is_string()) c.fail(path, std::string("expected a string, got ") + type_name(j));
   return j.get<std::string>();
 }
-int integer(const Ctx& c, const json& j, const std::string& path) {
+int64_t integer64(const Ctx& c, const json& j, const std::string& path) {
   if (!j.is_number_integer()) c.fail(path, std::string("expected an integer, got ") + type_name(j));
-  return j.get<int>();
+  return j.get<int64_t>();
+}
+int integer(const Ctx& c, const json& j, const std::string& path) {
+  int64_t v = integer64(c, j, path);
+  if (v < -2147483647 || v > 2147483647) c.fail(path, "integer out of range");
+  return int(v);
 }
 bool boolean(const Ctx& c, const json& j, const std::string& path) {
   if (!j.is_boolean()) c.fail(path, std::string("expected true or false, got ") + type_name(j));
@@ -62,17 +114,72 @@ void check_keys(const Ctx& c, const json& obj, const std::string& path, std::ini
     }
   }
 }
+std::string join_keys(const json& obj) {
+  std::string s;
+  for (auto it = obj.begin(); it != obj.end(); ++it) s += (s.empty() ? "" : ", ") + it.key();
+  return s.empty() ? "none" : s;
+}
+// JSON Pointer escaping of an object key (RFC 6901).
+std::string esc(const std::string& k) {
+  std::string r;
+  for (char ch : k) {
+    if (ch == '~') r += "~0";
+    else if (ch == '/') r += "~1";
+    else r += ch;
+  }
+  return r;
+}
 
-Affine parse_transform(const Ctx& c, const json& j, const std::string& path) {
-  check_keys(c, j, path, {"matrix", "translate", "rotate", "scale"});
+// ---------------------------------------------------------------- transforms
+
+Affine mul(const Affine& a, const Affine& b) {  // a * b: b first
+  Affine r;
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 4; ++k) {
+      float v = a.m[i][0] * b.m[0][k] + a.m[i][1] * b.m[1][k] + a.m[i][2] * b.m[2][k];
+      r.m[i][k] = k == 3 ? v + a.m[i][3] : v;
+    }
+  }
+  return r;
+}
+
+Affine parse_transform_step(const Ctx& c, const json& j, const std::string& path) {
+  check_keys(c, j, path, {"matrix", "translate", "rotate", "scale", "look_at"});
   Affine a;
   if (j.contains("matrix")) {
+    if (j.size() > 1) c.fail(path, "'matrix' cannot be combined with other keys (use a list of steps)");
     const json& m = j["matrix"];
     if (!m.is_array() || (m.size() != 12 && m.size() != 16))
       c.fail(path + "/matrix", "expected 12 or 16 numbers (row-major 3x4 or 4x4)");
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 4; ++k) a.m[i][k] = num(c, m[i * 4 + k], path + "/matrix/" + std::to_string(i * 4 + k));
-    if (j.size() > 1) c.fail(path, "'matrix' cannot be combined with translate/rotate/scale");
+    if (m.size() == 16)
+      for (int k = 0; k < 4; ++k)
+        if (num(c, m[12 + k], path + "/matrix/" + std::to_string(12 + k)) != (k == 3 ? 1.f : 0.f))
+          c.fail(path + "/matrix", "expected an affine matrix (last row 0, 0, 0, 1)");
+    return a;
+  }
+  if (j.contains("look_at")) {
+    if (j.size() > 1) c.fail(path, "'look_at' cannot be combined with other keys (use a list of steps)");
+    const json& l = j["look_at"];
+    std::string p = path + "/look_at";
+    check_keys(c, l, p, {"origin", "target", "up"});
+    if (!l.contains("origin") || !l.contains("target"))
+      c.fail(p, "expected {\"origin\": [x,y,z], \"target\": [x,y,z], \"up\": [x,y,z]}");
+    Vec3f o = point3(c, l["origin"], p + "/origin"), t = point3(c, l["target"], p + "/target");
+    Vec3f up = l.contains("up") ? point3(c, l["up"], p + "/up") : Vec3f(0, 1, 0);
+    if (length(t - o) == 0.f) c.fail(p + "/target", "must differ from the origin");
+    Vec3f dir = normalize(t - o);
+    Vec3f left = cross(up, dir);
+    if (length(left) == 0.f) c.fail(p + "/up", "must not be parallel to the direction from origin to target");
+    left = normalize(left);
+    Vec3f new_up = cross(dir, left);
+    for (int i = 0; i < 3; ++i) {
+      a.m[i][0] = left[i];
+      a.m[i][1] = new_up[i];
+      a.m[i][2] = dir[i];
+      a.m[i][3] = o[i];
+    }
     return a;
   }
   // scale, then rotate (axis-angle, degrees), then translate.
@@ -83,7 +190,7 @@ Affine parse_transform(const Ctx& c, const json& j, const std::string& path) {
     const json& r = j["rotate"];
     check_keys(c, r, path + "/rotate", {"axis", "angle"});
     if (!r.contains("axis") || !r.contains("angle")) c.fail(path + "/rotate", "expected {\"axis\": [x,y,z], \"angle\": degrees}");
-    Vec3f ax = vec3(c, r["axis"], path + "/rotate/axis");
+    Vec3f ax = point3(c, r["axis"], path + "/rotate/axis");
     if (length(ax) == 0.f) c.fail(path + "/rotate/axis", "expected a non-zero axis");
     ax = normalize(ax);
     float th = num(c, r["angle"], path + "/rotate/angle") * kPi / 180.f;
@@ -95,7 +202,7 @@ Affine parse_transform(const Ctx& c, const json& j, const std::string& path) {
       for (int k = 0; k < 3; ++k) R[i][k] = M[i][k];
   }
   Vec3f tr(0.f);
-  if (j.contains("translate")) tr = vec3(c, j["translate"], path + "/translate");
+  if (j.contains("translate")) tr = point3(c, j["translate"], path + "/translate");
   for (int i = 0; i < 3; ++i) {
     for (int k = 0; k < 3; ++k) a.m[i][k] = R[i][k] * s[k];
     a.m[i][3] = tr[i];
@@ -103,62 +210,462 @@ Affine parse_transform(const Ctx& c, const json& j, const std::string& path) {
   return a;
 }
 
-Material parse_material(const Ctx& c, const json& j, const std::string& path) {
-  if (!j.is_object()) c.fail(path, "expected an object");
-  if (!j.contains("type")) c.fail(path, "missing 'type' (diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong)");
+// An object (one step) or a list of steps applied in order (the first one first).
+Affine parse_transform(const Ctx& c, const json& j, const std::string& path) {
+  if (j.is_array()) {
+    Affine a;
+    for (size_t i = 0; i < j.size(); ++i) a = mul(parse_transform_step(c, j[i], path + "/" + std::to_string(i)), a);
+    return a;
+  }
+  if (!j.is_object()) c.fail(path, std::string("expected an object or a list of steps, got ") + type_name(j));
+  return parse_transform_step(c, j, path);
+}
+
+// ---------------------------------------------------------------- textures
+
+bool is_texture_ref(const json& j) { return j.is_string() || (j.is_object() && j.contains("texture")); }
+
+bool same_sampling(const TextureDesc& a, const TextureDesc& b) {
+  return a.wrap == b.wrap && a.nearest == b.nearest && a.uv_offset.x == b.uv_offset.x &&
+         a.uv_offset.y == b.uv_offset.y && a.uv_scale.x == b.uv_scale.x && a.uv_scale.y == b.uv_scale.y &&
+         a.uv_rotation == b.uv_rotation;
+}
+
+// "file.png" or {"texture": "file.png", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation", "scale"};
+// "scale" is read by the caller.
+int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_default) {
+  std::string file;
+  TextureDesc want;
+  bool srgb = srgb_default;
+  std::string fpath = path;
+  if (j.is_string()) {
+    file = j.get<std::string>();
+  } else {
+    check_keys(c, j, path, {"texture", "scale", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation"});
+    fpath = path + "/texture";
+    file = str(c, j["texture"], fpath);
+    if (j.contains("srgb")) srgb = boolean(c, j["srgb"], path + "/srgb");
+    if (j.contains("wrap")) {
+      std::string w = str(c, j["wrap"], path + "/wrap");
+      if (w == "repeat") want.wrap = TexWrap::kRepeat;
+      else if (w == "clamp") want.wrap = TexWrap::kClamp;
+      else if (w == "mirror") want.wrap = TexWrap::kMirror;
+      else c.fail(path + "/wrap", "unknown wrap mode '" + w + "' (allowed: repeat, clamp, mirror)");
+    }
+    if (j.contains("filter")) {
+      std::string f = str(c, j["filter"], path + "/filter");
+      if (f == "nearest") want.nearest = true;
+      else if (f != "bilinear") c.fail(path + "/filter", "unknown texture filter '" + f + "' (allowed: bilinear, nearest)");
+    }
+    if (j.contains("uv_scale")) want.uv_scale = vec2(c, j["uv_scale"], path + "/uv_scale", true);
+    if (j.contains("uv_offset")) want.uv_offset = vec2(c, j["uv_offset"], path + "/uv_offset", false);
+    if (j.contains("uv_rotation")) want.uv_rotation = float(numd(c, j["uv_rotation"], path + "/uv_rotation") * kPiD / 180.0);
+  }
+  if (file.empty()) c.fail(fpath, "expected a file name");
+  SceneDesc& d = *c.d;
+  int tex = load_texture(d, c.resolve(file), srgb, c.source + ": " + fpath);
+  c.claimed.resize(d.textures.size(), false);
+  auto apply = [&](TextureDesc& t) {
+    t.wrap = want.wrap;
+    t.nearest = want.nearest;
+    t.uv_offset = want.uv_offset;
+    t.uv_scale = want.uv_scale;
+    t.uv_rotation = want.uv_rotation;
+  };
+  if (!c.claimed[tex]) {
+    apply(d.textures[tex]);
+    c.claimed[tex] = true;
+    return tex;
+  }
+  for (size_t i = 0; i < d.textures.size(); ++i)
+    if (d.textures[i].name == d.textures[tex].name && d.textures[i].srgb == srgb && same_sampling(d.textures[i], want))
+      return int(i);
+  TextureDesc copy = d.textures[tex];  // the same image with other sampler settings
+  apply(copy);
+  d.textures.push_back(std::move(copy));
+  c.claimed.push_back(true);
+  return int(d.textures.size()) - 1;
+}
+
+// A colour, or a texture multiplied by "scale" (default 1).
+RGB color_or_texture(Ctx& c, const json& j, const std::string& path, int& tex, bool srgb_default = true) {
+  if (is_texture_ref(j)) {
+    tex = parse_texture(c, j, path, srgb_default);
+    return j.is_object() && j.contains("scale") ? color(c, j["scale"], path + "/scale") : RGB(1.f);
+  }
+  if (j.is_object()) c.fail(path, "expected a colour (a number or [r, g, b]) or a texture ({\"texture\": file})");
+  return color(c, j, path);
+}
+
+// ---------------------------------------------------------------- materials
+
+const char* kMaterialTypes = "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness";
+
+Material parse_material(Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_object()) c.fail(path, std::string("expected an object, got ") + type_name(j));
+  if (!j.contains("type")) c.fail(path, std::string("missing 'type' (") + kMaterialTypes + ")");
   std::string type = str(c, j["type"], path + "/type");
+  int tex_color = -1, tex_rough = -1;
   auto get_c = [&](const char* k, RGB def) { return j.contains(k) ? color(c, j[k], path + "/" + k) : def; };
+  auto get_ct = [&](const char* k, RGB def) {
+    return j.contains(k) ? color_or_texture(c, j[k], path + "/" + k, tex_color) : def;
+  };
   auto get_f = [&](const char* k, float def) { return j.contains(k) ? num(c, j[k], path + "/" + k) : def; };
   auto positive = [&](const char* k, float v) {
     if (!(v > 0.f)) c.fail(path + "/" + k, "expected a positive number");
     return v;
   };
+  auto unit = [&](const char* k, float v) {
+    if (!(v >= 0.f && v <= 1.f)) c.fail(path + "/" + k, "expected a number in [0, 1]");
+    return v;
+  };
+  // GGX alpha: a number, [alpha_x, alpha_y], or a texture (its "scale" is alpha).
+  auto alpha_value = [&](const json& v, const std::string& p) {
+    Vec2f a = vec2(c, v, p, true);
+    if (a.x < 0.f || a.y < 0.f) c.fail(p, "expected a roughness >= 0");
+    return a;
+  };
+  auto roughness = [&](const char* k) {
+    Vec2f a(0.f, 0.f);
+    if (!j.contains(k)) return a;
+    const json& v = j[k];
+    std::string p = path + "/" + k;
+    if (is_texture_ref(v)) {
+      tex_rough = parse_texture(c, v, p, false);
+      a = v.is_object() && v.contains("scale") ? alpha_value(v["scale"], p + "/scale") : Vec2f(1.f, 1.f);
+      if (!(a.x > 0.f && a.y > 0.f)) c.fail(p + "/scale", "expected a positive roughness under a roughness texture");
+      return a;
+    }
+    if (v.is_object()) c.fail(p, "expected a number, [alpha_x, alpha_y] or a texture ({\"texture\": file})");
+    return alpha_value(v, p);
+  };
+  auto set_alpha = [](Material& m, Vec2f a) {
+    m.alpha_x = a.x;
+    m.alpha_y = a.y;
+  };
   Material m;
   if (type == "diffuse") {
-    check_keys(c, j, path, {"type", "reflectance", "two_sided"});
-    m = make_diffuse(get_c("reflectance", RGB(0.5f)));
+    check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map"});
+    m = make_diffuse(get_ct("reflectance", RGB(0.5f)));
   } else if (type == "conductor") {
-    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "two_sided"});
-    float alpha = get_f("roughness", 0.f);
-    if (alpha < 0.f) c.fail(path + "/roughness", "expected a roughness >= 0");
+    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "two_sided", "normal_map"});
+    Vec2f a = roughness("roughness");
     if (j.contains("eta") != j.contains("k")) c.fail(path, "give both 'eta' and 'k' (or neither for a tinted mirror)");
+    RGB spec = get_ct("specular", RGB(1.f));
     if (j.contains("eta")) {
-      m = make_conductor(get_c("eta", RGB(0.f)), get_c("k", RGB(0.f)), get_c("specular", RGB(1.f)), alpha);
+      m = make_conductor(get_c("eta", RGB(0.f)), get_c("k", RGB(0.f)), spec, a.x);
     } else {
-      m = make_mirror(get_c("specular", RGB(1.f)));
-      if (alpha > 0.f) { m.type = MaterialType::kRoughConductor; m.alpha_x = m.alpha_y = alpha; }
+      m = make_mirror(spec);
+      if (a.x > 0.f || a.y > 0.f) set_alpha(m, a);
+    }
+    if (a.x > 0.f || a.y > 0.f) {
+      m.type = MaterialType::kRoughConductor;
+      set_alpha(m, a);
     }
   } else if (type == "dielectric") {
-    check_keys(c, j, path, {"type", "eta", "roughness", "specular", "transmission"});
-    m = make_dielectric(positive("eta", get_f("eta", 1.5f)), get_f("roughness", 0.f));
+    check_keys(c, j, path, {"type", "eta", "roughness", "specular", "transmission", "absorption", "normal_map"});
+    Vec2f a = roughness("roughness");
+    m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
+    if (a.x > 0.f || a.y > 0.f) {
+      m.type = MaterialType::kRoughDielectric;
+      set_alpha(m, a);
+    }
     m.specular = get_c("specular", RGB(1.f));
-    m.transmission = get_c("transmission", RGB(1.f));
+    m.transmission = get_ct("transmission", RGB(1.f));
+    m.absorption = get_c("absorption", RGB(0.f));
   } else if (type == "thindielectric") {
-    check_keys(c, j, path, {"type", "eta", "specular", "transmission"});
+    check_keys(c, j, path, {"type", "eta", "specular", "transmission", "normal_map"});
     m = make_thin_dielectric(positive("eta", get_f("eta", 1.5f)));
     m.specular = get_c("specular", RGB(1.f));
-    m.transmission = get_c("transmission", RGB(1.f));
+    m.transmission = get_ct("transmission", RGB(1.f));
   } else if (type == "plastic") {
-    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided"});
-    m = make_plastic(get_c("diffuse", RGB(0.5f)), positive("eta", get_f("eta", 1.49f)), get_c("specular", RGB(1.f)));
+    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map"});
+    RGB kd = get_ct("diffuse", RGB(0.5f));
+    m = make_plastic(kd, positive("eta", get_f("eta", 1.49f)), get_c("specular", RGB(1.f)));
   } else if (type == "difftrans") {
-    check_keys(c, j, path, {"type", "reflectance", "transmittance"});
-    m = make_diffuse_transmission(get_c("reflectance", RGB(0.f)), get_c("transmittance", RGB(0.5f)));
+    check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map"});
+    RGB r = get_ct("reflectance", RGB(0.f));
+    m = make_diffuse_transmission(r, get_c("transmittance", RGB(0.5f)));
   } else if (type == "phong") {
-    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided"});
-    m = make_phong(get_c("diffuse", RGB(0.1f)), get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
+    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map"});
+    RGB kd = get_ct("diffuse", RGB(0.1f));
+    m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
+  } else if (type == "metallic_roughness") {
+    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "transmission", "eta", "absorption",
+                            "two_sided", "normal_map"});
+    RGB base = get_ct("base_color", RGB(0.8f));
+    float metallic = unit("metallic", get_f("metallic", 0.f));
+    float rough = 0.5f;
+    if (j.contains("roughness")) {
+      const json& v = j["roughness"];
+      std::string p = path + "/roughness";
+      if (is_texture_ref(v)) {
+        tex_rough = parse_texture(c, v, p, false);
+        rough = v.is_object() && v.contains("scale") ? num(c, v["scale"], p + "/scale") : 1.f;
+        if (!(rough >= 0.f && rough <= 1.f)) c.fail(p + "/scale", "expected a number in [0, 1]");
+      } else {
+        if (j.contains("alpha")) c.fail(p, "give 'roughness' or 'alpha', not both");
+        rough = num(c, v, p);
+        if (!(rough >= 0.f && rough <= 1.f)) c.fail(p, "expected a number in [0, 1]");
+      }
+    }
+    float transmission = unit("transmission", get_f("transmission", 0.f));
+    m = make_metallic_roughness(base, metallic, rough, transmission, positive("eta", get_f("eta", 1.5f)));
+    if (j.contains("alpha")) set_alpha(m, alpha_value(j["alpha"], path + "/alpha"));
+    m.absorption = get_c("absorption", RGB(0.f));
   } else {
-    c.fail(path + "/type", "unknown material type '" + type +
-                               "' (allowed: diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong)");
+    c.fail(path + "/type", "unknown material type '" + type + "' (allowed: " + kMaterialTypes + ")");
   }
   if (j.contains("two_sided") && boolean(c, j["two_sided"], path + "/two_sided")) m.flags |= kTwoSided;
+  m.tex_color = tex_color;
+  m.tex_roughness = tex_rough;
+  if (j.contains("normal_map")) {
+    const json& v = j["normal_map"];
+    std::string p = path + "/normal_map";
+    if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
+    m.tex_normal = parse_texture(c, v, p, false);
+    if (v.is_object() && v.contains("scale")) m.normal_scale = num(c, v["scale"], p + "/scale");
+  }
   return m;
+}
+
+// ---------------------------------------------------------------- meshes
+
+MeshDesc parse_mesh_data(const Ctx& c, const json& j, const std::string& p) {
+  MeshDesc m;
+  if (!j.contains("positions") || !j["positions"].is_array() || j["positions"].empty())
+    c.fail(p + "/positions", "expected a non-empty array of [x,y,z] points");
+  const json& P = j["positions"];
+  m.positions.reserve(P.size());
+  for (size_t k = 0; k < P.size(); ++k) m.positions.push_back(point3(c, P[k], p + "/positions/" + std::to_string(k)));
+  if (!j.contains("indices") || !j["indices"].is_array() || j["indices"].size() % 3 != 0 || j["indices"].empty())
+    c.fail(p + "/indices", "expected a flat array of vertex indices, 3 per triangle");
+  const json& I = j["indices"];
+  m.indices.reserve(I.size());
+  for (size_t k = 0; k < I.size(); ++k) {
+    int64_t v = integer64(c, I[k], p + "/indices/" + std::to_string(k));
+    if (v < 0 || size_t(v) >= m.positions.size())
+      c.fail(p + "/indices/" + std::to_string(k), "vertex index " + std::to_string(v) + " out of range (" +
+                                                        std::to_string(m.positions.size()) + " positions)");
+    m.indices.push_back(uint32_t(v));
+  }
+  if (j.contains("normals")) {
+    const json& N = j["normals"];
+    if (!N.is_array() || N.size() != m.positions.size()) c.fail(p + "/normals", "expected one normal [x,y,z] per position");
+    for (size_t k = 0; k < N.size(); ++k) m.normals.push_back(point3(c, N[k], p + "/normals/" + std::to_string(k)));
+  }
+  if (j.contains("uvs")) {
+    const json& U = j["uvs"];
+    if (!U.is_array() || U.size() != m.positions.size()) c.fail(p + "/uvs", "expected one [u,v] per position");
+    for (size_t k = 0; k < U.size(); ++k) m.uvs.push_back(vec2(c, U[k], p + "/uvs/" + std::to_string(k), false));
+  }
+  return m;
+}
+
+// Runs a mesh-file loader; its errors get the scene file and JSON path in front.
+template <typename F>
+auto with_file_context(const Ctx& c, const std::string& jpath, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const InputError& e) {
+    std::string w = e.what();
+    if (w.rfind(c.source + ":", 0) == 0) throw;
+    c.fail(jpath, w);
+  }
+}
+
+std::string checked_file(const Ctx& c, const json& j, const std::string& jpath, std::string* ext_out) {
+  std::string file = str(c, j, jpath);
+  std::string full = c.resolve(file);
+  std::string ext = fs::path(file).extension().string();
+  for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext != ".obj" && ext != ".ply")
+    c.fail(jpath, "unsupported mesh file '" + file + "' (allowed: .obj, .ply)");
+  std::error_code ec;
+  if (!fs::is_regular_file(full, ec))
+    c.fail(jpath, "mesh file '" + file + "' does not exist" + (full != file ? " (looked for " + full + ")" : ""));
+  *ext_out = ext;
+  return full;
+}
+
+// A mesh file as parts. OBJ shapes are appended by the loader and moved out of desc.shapes.
+std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::string& jpath, const std::string& name) {
+  SceneDesc& d = *c.d;
+  std::string ext;
+  std::string full = checked_file(c, j, jpath, &ext);
+  std::vector<MeshPart> parts;
+  if (ext == ".ply") {
+    MeshDesc m = with_file_context(c, jpath, [&] { return load_ply_mesh(full); });
+    if (m.name.empty()) m.name = name;
+    d.meshes.push_back(std::move(m));
+    parts.push_back({name, int(d.meshes.size()) - 1});
+    return parts;
+  }
+  size_t first = d.shapes.size();
+  std::vector<int> added = with_file_context(c, jpath, [&] { return append_obj(d, full, Affine(), -1, c.source); });
+  for (int i : added) {
+    const ShapeDesc& s = d.shapes[i];
+    parts.push_back({s.name, s.mesh, s.material, s.emission, s.emission_texture, s.emission_two_sided});
+  }
+  d.shapes.resize(first);
+  return parts;
+}
+
+// ---------------------------------------------------------------- cameras
+
+void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDesc& cam) {
+  check_keys(c, j, path, {"name", "position", "target", "up", "fov", "fov_axis", "width", "height", "aperture_radius",
+                          "focus_distance", "flip_x"});
+  if (j.contains("name")) cam.name = str(c, j["name"], path + "/name");
+  if (j.contains("position")) cam.position = point3(c, j["position"], path + "/position");
+  if (j.contains("target")) cam.target = point3(c, j["target"], path + "/target");
+  if (j.contains("up")) cam.up = point3(c, j["up"], path + "/up");
+  if (j.contains("fov")) cam.fov_degrees = num(c, j["fov"], path + "/fov");
+  if (!(cam.fov_degrees > 0.f && cam.fov_degrees < 180.f)) c.fail(path + "/fov", "expected degrees in (0, 180)");
+  if (j.contains("fov_axis")) {
+    std::string a = str(c, j["fov_axis"], path + "/fov_axis");
+    if (a == "x") cam.fov_axis = CameraDesc::FovAxis::kX;
+    else if (a == "y") cam.fov_axis = CameraDesc::FovAxis::kY;
+    else if (a == "smaller") cam.fov_axis = CameraDesc::FovAxis::kSmaller;
+    else c.fail(path + "/fov_axis", "unknown axis '" + a + "' (allowed: x, y, smaller)");
+  }
+  if (j.contains("width")) cam.width = integer(c, j["width"], path + "/width");
+  if (j.contains("height")) cam.height = integer(c, j["height"], path + "/height");
+  if (cam.width <= 0 || cam.height <= 0) c.fail(path, "width and height must be positive integers");
+  if (j.contains("aperture_radius")) cam.aperture_radius = num(c, j["aperture_radius"], path + "/aperture_radius");
+  if (cam.aperture_radius < 0.f) c.fail(path + "/aperture_radius", "expected a radius >= 0");
+  if (j.contains("focus_distance")) cam.focus_distance = num(c, j["focus_distance"], path + "/focus_distance");
+  if (cam.focus_distance < 0.f) c.fail(path + "/focus_distance", "expected a distance >= 0 (0: the distance to the target)");
+  if (j.contains("flip_x")) cam.flip_x = boolean(c, j["flip_x"], path + "/flip_x");
+  if (length(cam.target - cam.position) == 0.f) c.fail(path + "/target", "must differ from the position");
+  if (length(cross(cam.target - cam.position, cam.up)) == 0.f) c.fail(path + "/up", "must not be parallel to the view direction");
+}
+
+FilterType parse_filter(const Ctx& c, const json& j, const std::string& path) {
+  std::string f = str(c, j, path);
+  if (f == "box") return FilterType::kBox;
+  if (f == "tent") return FilterType::kTent;
+  if (f == "gaussian") return FilterType::kGaussian;
+  c.fail(path, "unknown filter '" + f + "' (allowed: box, tent, gaussian)");
+}
+
+int parse_max_depth(const Ctx& c, const json& j, const std::string& path) {
+  int v = integer(c, j, path);
+  if (v == 0 || v < -1) c.fail(path, "expected a positive integer or -1 (unlimited)");
+  return v;
+}
+
+void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
+  const std::string p = "/integrator";
+  check_keys(c, j, p, {"type", "spp", "time", "max_depth", "rr_depth", "sampler", "photons", "radius", "alpha", "k"});
+  SceneDesc::IntegratorDefaults& in = d.integrator;
+  if (j.contains("type")) {
+    in.type = str(c, j["type"], p + "/type");
+    std::string list;
+    bool known = false;
+    for (const std::string& n : integrator_names()) {
+      known |= n == in.type;
+      list += (list.empty() ? "" : ", ") + n;
+    }
+    if (!known) c.fail(p + "/type", "unknown integrator '" + in.type + "' (allowed: " + list + ")");
+  }
+  auto pos_int = [&](const char* k) -> int64_t {
+    if (!j.contains(k)) return 0;
+    int64_t v = integer64(c, j[k], p + "/" + k);
+    if (v <= 0) c.fail(p + "/" + k, "expected a positive integer");
+    return v;
+  };
+  in.spp = pos_int("spp");
+  in.photons = pos_int("photons");
+  int64_t rr = pos_int("rr_depth"), k = pos_int("k");
+  if (rr > 1000000 || k > 1000000) c.fail(p, "rr_depth and k must be below 1000000");
+  in.rr_depth = int(rr);
+  in.k = int(k);
+  if (j.contains("time")) {
+    in.time = numd(c, j["time"], p + "/time");
+    if (!(in.time > 0.0)) c.fail(p + "/time", "expected a positive number of seconds");
+  }
+  if (j.contains("max_depth")) d.max_depth = parse_max_depth(c, j["max_depth"], p + "/max_depth");
+  if (j.contains("sampler")) {
+    in.sampler = str(c, j["sampler"], p + "/sampler");
+    if (in.sampler != "sobol" && in.sampler != "independent")
+      c.fail(p + "/sampler", "unknown sampler '" + in.sampler + "' (allowed: sobol, independent)");
+  }
+  if (j.contains("radius")) {
+    in.radius = num(c, j["radius"], p + "/radius");
+    if (!(in.radius > 0.f)) c.fail(p + "/radius", "expected a positive radius");
+  }
+  if (j.contains("alpha")) {
+    in.alpha = num(c, j["alpha"], p + "/alpha");
+    if (!(in.alpha > 0.f && in.alpha < 1.f)) c.fail(p + "/alpha", "expected a number in (0, 1)");
+  }
+}
+
+// ---------------------------------------------------------------- lights
+
+Light parse_light(Ctx& c, const json& j, const std::string& p, SceneDesc& d) {
+  if (!j.is_object() || !j.contains("type")) c.fail(p, "expected an object with a 'type' (point, spot, directional, environment)");
+  std::string type = str(c, j["type"], p + "/type");
+  Light l;
+  if (type == "point") {
+    check_keys(c, j, p, {"type", "position", "intensity"});
+    l.type = LightType::kPoint;
+    l.p = j.contains("position") ? point3(c, j["position"], p + "/position") : Vec3f(0.f);
+    l.L = j.contains("intensity") ? color(c, j["intensity"], p + "/intensity") : RGB(1.f);
+  } else if (type == "spot") {
+    check_keys(c, j, p, {"type", "position", "target", "direction", "intensity", "cutoff_angle", "falloff_start"});
+    l.type = LightType::kSpot;
+    l.p = j.contains("position") ? point3(c, j["position"], p + "/position") : Vec3f(0.f);
+    if (j.contains("target") && j.contains("direction")) c.fail(p, "give 'target' or 'direction', not both");
+    if (j.contains("direction")) {
+      l.dir = point3(c, j["direction"], p + "/direction");  // Scene::build normalizes
+      if (length(l.dir) == 0.f) c.fail(p + "/direction", "expected a non-zero direction");
+    } else {
+      Vec3f tgt = j.contains("target") ? point3(c, j["target"], p + "/target") : l.p + Vec3f(0, 0, -1);
+      if (length(tgt - l.p) == 0.f) c.fail(p + "/target", "must differ from the position");
+      l.dir = normalize(tgt - l.p);
+    }
+    l.L = j.contains("intensity") ? color(c, j["intensity"], p + "/intensity") : RGB(1.f);
+    // Angles in double so that an exported scene (angles from acos in double) reads back bit-exactly.
+    double cutoff = j.contains("cutoff_angle") ? numd(c, j["cutoff_angle"], p + "/cutoff_angle") : 30.0;
+    double start = j.contains("falloff_start") ? numd(c, j["falloff_start"], p + "/falloff_start") : cutoff * 0.75;
+    if (!(cutoff > 0.0 && cutoff <= 180.0)) c.fail(p + "/cutoff_angle", "expected degrees in (0, 180]");
+    if (!(start >= 0.0 && start <= cutoff)) c.fail(p + "/falloff_start", "expected degrees in [0, cutoff_angle]");
+    l.cos_total = float(std::cos(cutoff * kPiD / 180.0));
+    l.cos_falloff_start = float(std::cos(start * kPiD / 180.0));
+  } else if (type == "directional") {
+    check_keys(c, j, p, {"type", "direction", "irradiance"});
+    l.type = LightType::kDirectional;
+    l.dir = j.contains("direction") ? point3(c, j["direction"], p + "/direction") : Vec3f(0, 0, -1);
+    if (length(l.dir) == 0.f) c.fail(p + "/direction", "expected a non-zero direction");
+    l.L = j.contains("irradiance") ? color(c, j["irradiance"], p + "/irradiance") : RGB(1.f);
+  } else if (type == "environment") {
+    check_keys(c, j, p, {"type", "radiance", "file", "scale", "transform"});
+    l.type = LightType::kEnvironment;
+    if (j.contains("file")) {
+      if (j.contains("radiance")) c.fail(p + "/radiance", "give 'radiance' (constant) or 'file' and 'scale', not both");
+      std::string file = str(c, j["file"], p + "/file");
+      if (file.empty()) c.fail(p + "/file", "expected a file name");
+      l.texture = load_texture(d, c.resolve(file), true, c.source + ": " + p + "/file");
+      c.claimed.resize(d.textures.size(), false);
+      l.L = j.contains("scale") ? color(c, j["scale"], p + "/scale") : RGB(1.f);
+      if (j.contains("transform")) d.environment_to_world = parse_transform(c, j["transform"], p + "/transform");
+    } else {
+      if (j.contains("scale")) c.fail(p + "/scale", "'scale' goes with 'file' (use 'radiance' for a constant environment)");
+      if (j.contains("transform")) c.fail(p + "/transform", "'transform' goes with 'file' (a constant environment has no orientation)");
+      l.L = j.contains("radiance") ? color(c, j["radiance"], p + "/radiance") : RGB(1.f);
+    }
+  } else {
+    c.fail(p + "/type", "unknown light type '" + type + "' (allowed: point, spot, directional, environment)");
+  }
+  return l;
 }
 
 }  // namespace
 
-SceneDesc load_json_scene_text(const std::string& text, const std::string& source) {
-  Ctx c{source};
+SceneDesc load_json_scene_text(const std::string& text, const std::string& source, const std::string& base_dir) {
+  SceneDesc d;
+  Ctx c{source, fs::path(base_dir), &d, {}};
   json root;
   try {
     root = json::parse(text);
@@ -169,155 +676,217 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     auto p = msg.find("syntax error");
     throw InputError(source + ":" + std::to_string(line) + ": invalid JSON: " + (p == std::string::npos ? msg : msg.substr(p)));
   }
-  check_keys(c, root, "", {"name", "camera", "filter", "max_depth", "materials", "shapes", "lights", "$schema"});
-  SceneDesc d;
+  check_keys(c, root, "", {"$schema", "name", "film", "camera", "cameras", "filter", "max_depth", "integrator", "materials",
+                           "meshes", "shapes", "lights"});
   d.name = root.contains("name") ? str(c, root["name"], "/name") : source;
-  if (root.contains("max_depth")) {
-    d.max_depth = integer(c, root["max_depth"], "/max_depth");
-    if (d.max_depth == 0 || d.max_depth < -1) c.fail("/max_depth", "expected a positive integer or -1 (unlimited)");
-  }
-  if (root.contains("filter")) {
-    std::string f = str(c, root["filter"], "/filter");
-    if (f == "box") d.filter = FilterType::kBox;
-    else if (f == "tent") d.filter = FilterType::kTent;
-    else if (f == "gaussian") d.filter = FilterType::kGaussian;
-    else c.fail("/filter", "unknown filter '" + f + "' (allowed: box, tent, gaussian)");
-  }
-  if (!root.contains("camera")) c.fail("/camera", "missing (a scene needs a camera)");
-  {
-    const json& j = root["camera"];
-    check_keys(c, j, "/camera", {"position", "target", "up", "fov", "fov_axis", "width", "height", "aperture_radius", "focus_distance"});
-    CameraDesc& cam = d.camera;
-    if (j.contains("position")) cam.position = vec3(c, j["position"], "/camera/position");
-    if (j.contains("target")) cam.target = vec3(c, j["target"], "/camera/target");
-    if (j.contains("up")) cam.up = vec3(c, j["up"], "/camera/up");
-    if (j.contains("fov")) cam.fov_degrees = num(c, j["fov"], "/camera/fov");
-    if (!(cam.fov_degrees > 0.f && cam.fov_degrees < 180.f)) c.fail("/camera/fov", "expected degrees in (0, 180)");
-    if (j.contains("fov_axis")) {
-      std::string a = str(c, j["fov_axis"], "/camera/fov_axis");
-      if (a == "x") cam.fov_axis = CameraDesc::FovAxis::kX;
-      else if (a == "y") cam.fov_axis = CameraDesc::FovAxis::kY;
-      else if (a == "smaller") cam.fov_axis = CameraDesc::FovAxis::kSmaller;
-      else c.fail("/camera/fov_axis", "unknown axis '" + a + "' (allowed: x, y, smaller)");
+
+  // Film (or, as in older files, the top-level filter and the camera's width/height).
+  CameraDesc film_cam;
+  if (root.contains("film")) {
+    const json& f = root["film"];
+    check_keys(c, f, "/film", {"width", "height", "filter"});
+    if (f.contains("width")) film_cam.width = integer(c, f["width"], "/film/width");
+    if (f.contains("height")) film_cam.height = integer(c, f["height"], "/film/height");
+    if (film_cam.width <= 0) c.fail("/film/width", "expected a positive integer");
+    if (film_cam.height <= 0) c.fail("/film/height", "expected a positive integer");
+    if (f.contains("filter")) {
+      if (root.contains("filter")) c.fail("/filter", "give the filter once (here or in /film)");
+      d.filter = parse_filter(c, f["filter"], "/film/filter");
     }
-    if (j.contains("width")) cam.width = integer(c, j["width"], "/camera/width");
-    if (j.contains("height")) cam.height = integer(c, j["height"], "/camera/height");
-    if (cam.width <= 0 || cam.height <= 0) c.fail("/camera", "width and height must be positive integers");
-    if (j.contains("aperture_radius")) cam.aperture_radius = num(c, j["aperture_radius"], "/camera/aperture_radius");
-    if (j.contains("focus_distance")) cam.focus_distance = num(c, j["focus_distance"], "/camera/focus_distance");
-    if (length(cam.target - cam.position) == 0.f) c.fail("/camera/target", "must differ from the position");
-    if (length(cross(cam.target - cam.position, cam.up)) == 0.f) c.fail("/camera/up", "must not be parallel to the view direction");
   }
+  if (root.contains("filter")) d.filter = parse_filter(c, root["filter"], "/filter");
+
+  if (root.contains("max_depth")) d.max_depth = parse_max_depth(c, root["max_depth"], "/max_depth");
+  if (root.contains("integrator")) {
+    if (root.contains("max_depth") && root["integrator"].is_object() && root["integrator"].contains("max_depth"))
+      c.fail("/integrator/max_depth", "give max_depth once (here or at /max_depth)");
+    parse_integrator(c, root["integrator"], d);
+  }
+
+  // Cameras: named ones in "cameras"; "camera" is an object or one of their names.
+  if (root.contains("cameras")) {
+    const json& cams = root["cameras"];
+    if (!cams.is_object()) c.fail("/cameras", "expected an object mapping names to cameras");
+    for (auto it = cams.begin(); it != cams.end(); ++it) {
+      CameraDesc cam = film_cam;
+      cam.name = it.key();
+      std::string p = "/cameras/" + esc(it.key());
+      if (it.value().is_object() && it.value().contains("name")) c.fail(p + "/name", "a named camera takes its name from its key");
+      parse_camera(c, it.value(), p, cam);
+      d.cameras.push_back(cam);
+    }
+  }
+  if (root.contains("camera")) {
+    const json& j = root["camera"];
+    if (j.is_string()) {
+      std::string n = j.get<std::string>();
+      bool found = false;
+      for (const CameraDesc& cam : d.cameras)
+        if (cam.name == n) {
+          d.camera = cam;
+          found = true;
+        }
+      if (!found)
+        c.fail("/camera", "no camera named '" + n + "' in /cameras (cameras: " +
+                              (root.contains("cameras") ? join_keys(root["cameras"]) : std::string("none")) + ")");
+    } else {
+      d.camera = film_cam;
+      parse_camera(c, j, "/camera", d.camera);
+    }
+  } else if (!d.cameras.empty()) {
+    d.camera = d.cameras.front();
+  } else {
+    c.fail("/camera", "missing (a scene needs a camera, or named cameras in /cameras)");
+  }
+
   std::map<std::string, int> mat_index;
   if (root.contains("materials")) {
     const json& mats = root["materials"];
     if (!mats.is_object()) c.fail("/materials", "expected an object mapping names to materials");
-    for (auto it = mats.begin(); it != mats.end(); ++it) {
-      mat_index[it.key()] = d.add_material(it.key(), parse_material(c, it.value(), "/materials/" + it.key()));
+    for (auto it = mats.begin(); it != mats.end(); ++it)
+      mat_index[it.key()] = d.add_material(it.key(), parse_material(c, it.value(), "/materials/" + esc(it.key())));
+  }
+
+  // Named meshes, instanced by shapes with "mesh": name.
+  std::map<std::string, std::vector<MeshPart>> named;
+  if (root.contains("meshes")) {
+    const json& meshes = root["meshes"];
+    if (!meshes.is_object()) c.fail("/meshes", "expected an object mapping names to meshes");
+    for (auto it = meshes.begin(); it != meshes.end(); ++it) {
+      std::string p = "/meshes/" + esc(it.key());
+      const json& j = it.value();
+      check_keys(c, j, p, {"file", "positions", "indices", "normals", "uvs"});
+      if (j.contains("file")) {
+        if (j.size() > 1) c.fail(p, "a mesh is a 'file' or inline 'positions' and 'indices', not both");
+        named[it.key()] = load_mesh_file_parts(c, j["file"], p + "/file", it.key());
+      } else {
+        MeshDesc m = parse_mesh_data(c, j, p);
+        m.name = it.key();
+        d.meshes.push_back(std::move(m));
+        named[it.key()] = {MeshPart{it.key(), int(d.meshes.size()) - 1}};
+      }
     }
   }
+
   if (!root.contains("shapes")) c.fail("/shapes", "missing (a scene needs at least one shape)");
   const json& shapes = root["shapes"];
   if (!shapes.is_array() || shapes.empty()) c.fail("/shapes", "expected a non-empty array");
   int default_mat = -1;
+  auto default_material = [&] {
+    if (default_mat < 0) default_mat = d.add_material("default", make_diffuse(RGB(0.5f)));
+    return default_mat;
+  };
   for (size_t i = 0; i < shapes.size(); ++i) {
     std::string p = "/shapes/" + std::to_string(i);
     const json& j = shapes[i];
-    check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
-                         "center", "radius", "positions", "indices", "normals"});
-    ShapeDesc s;
-    s.name = j.contains("name") ? str(c, j["name"], p + "/name") : p;
+    if (!j.is_object()) c.fail(p, std::string("expected an object, got ") + type_name(j));
     if (!j.contains("type")) c.fail(p, "missing 'type' (sphere, rectangle, cube, disk, mesh)");
     std::string type = str(c, j["type"], p + "/type");
+    if (type == "sphere")
+      check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
+                           "center", "radius"});
+    else if (type == "mesh")
+      check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
+                           "positions", "indices", "normals", "uvs", "file", "mesh"});
+    else if (type == "rectangle" || type == "cube" || type == "disk")
+      check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform"});
+    else
+      c.fail(p + "/type", "unknown shape type '" + type + "' (allowed: sphere, rectangle, cube, disk, mesh)");
+    ShapeDesc s;
+    s.name = j.contains("name") ? str(c, j["name"], p + "/name") : p;
+    if (j.contains("transform")) s.to_world = parse_transform(c, j["transform"], p + "/transform");
+    int material = -1;
+    if (j.contains("material")) {
+      std::string mn = str(c, j["material"], p + "/material");
+      auto it = mat_index.find(mn);
+      if (it == mat_index.end()) c.fail(p + "/material", "no material named '" + mn + "' in /materials");
+      material = it->second;
+    }
+    bool has_emission = j.contains("emission");
+    if (has_emission) s.emission = color_or_texture(c, j["emission"], p + "/emission", s.emission_texture);
+    if (j.contains("emission_two_sided")) s.emission_two_sided = boolean(c, j["emission_two_sided"], p + "/emission_two_sided");
+    if (j.contains("flip_normals")) s.flip_normals = boolean(c, j["flip_normals"], p + "/flip_normals");
+
+    std::vector<MeshPart> parts;  // mesh shapes: what this shape instances
     if (type == "sphere") {
       s.type = ShapeType::kSphere;
-      if (j.contains("center")) s.center = vec3(c, j["center"], p + "/center");
+      if (j.contains("center")) s.center = point3(c, j["center"], p + "/center");
       if (j.contains("radius")) s.radius = num(c, j["radius"], p + "/radius");
       if (!(s.radius > 0.f)) c.fail(p + "/radius", "expected a positive radius");
     } else if (type == "rectangle") s.type = ShapeType::kRectangle;
     else if (type == "cube") s.type = ShapeType::kCube;
     else if (type == "disk") s.type = ShapeType::kDisk;
-    else if (type == "mesh") {
+    else {
       s.type = ShapeType::kMesh;
-      MeshDesc m;
-      if (!j.contains("positions") || !j["positions"].is_array()) c.fail(p + "/positions", "expected an array of [x,y,z] points");
-      for (size_t k = 0; k < j["positions"].size(); ++k)
-        m.positions.push_back(vec3(c, j["positions"][k], p + "/positions/" + std::to_string(k)));
-      if (!j.contains("indices") || !j["indices"].is_array() || j["indices"].size() % 3 != 0 || j["indices"].empty())
-        c.fail(p + "/indices", "expected a flat array of vertex indices, 3 per triangle");
-      for (size_t k = 0; k < j["indices"].size(); ++k) {
-        int v = integer(c, j["indices"][k], p + "/indices/" + std::to_string(k));
-        if (v < 0 || size_t(v) >= m.positions.size())
-          c.fail(p + "/indices/" + std::to_string(k), "vertex index " + std::to_string(v) + " out of range");
-        m.indices.push_back(uint32_t(v));
+      bool inline_data = j.contains("positions") || j.contains("indices") || j.contains("normals") || j.contains("uvs");
+      int forms = int(inline_data) + int(j.contains("file")) + int(j.contains("mesh"));
+      if (forms != 1)
+        c.fail(p, forms == 0 ? "a mesh needs inline 'positions' and 'indices', a 'file' or a 'mesh' name from /meshes"
+                             : "give one of inline 'positions'/'indices', 'file' or 'mesh'");
+      if (inline_data) {
+        MeshDesc m = parse_mesh_data(c, j, p);
+        m.name = s.name;
+        d.meshes.push_back(std::move(m));
+        parts.push_back({s.name, int(d.meshes.size()) - 1});
+      } else if (j.contains("mesh")) {
+        std::string mn = str(c, j["mesh"], p + "/mesh");
+        auto it = named.find(mn);
+        if (it == named.end())
+          c.fail(p + "/mesh", "no mesh named '" + mn + "' in /meshes (meshes: " +
+                                  (root.contains("meshes") ? join_keys(root["meshes"]) : std::string("none")) + ")");
+        parts = it->second;
+      } else {
+        std::string ext;
+        std::string full = checked_file(c, j["file"], p + "/file", &ext);
+        if (ext == ".ply") {
+          parts = load_mesh_file_parts(c, j["file"], p + "/file", s.name);
+        } else {
+          // OBJ: the loader adds one shape per (group, material) with this transform.
+          std::vector<int> added = with_file_context(c, p + "/file", [&] {
+            return append_obj(d, full, s.to_world, material, c.source);
+          });
+          for (int k : added) {
+            ShapeDesc& o = d.shapes[k];
+            if (has_emission) {
+              o.emission = s.emission;
+              o.emission_texture = s.emission_texture;
+            }
+            if (j.contains("emission_two_sided")) o.emission_two_sided = s.emission_two_sided;
+            o.flip_normals = s.flip_normals;
+            if (j.contains("name")) o.name = added.size() == 1 ? s.name : s.name + "/" + o.name;
+          }
+          continue;
+        }
       }
-      if (j.contains("normals")) {
-        if (!j["normals"].is_array() || j["normals"].size() != m.positions.size())
-          c.fail(p + "/normals", "expected one normal per position");
-        for (size_t k = 0; k < j["normals"].size(); ++k)
-          m.normals.push_back(vec3(c, j["normals"][k], p + "/normals/" + std::to_string(k)));
+    }
+    if (s.type != ShapeType::kMesh) {
+      s.material = material >= 0 ? material : default_material();
+      d.shapes.push_back(s);
+      continue;
+    }
+    for (const MeshPart& part : parts) {
+      ShapeDesc o = s;
+      o.mesh = part.mesh;
+      o.material = material >= 0 ? material : (part.material >= 0 ? part.material : default_material());
+      if (!has_emission) {
+        o.emission = part.emission;
+        o.emission_texture = part.emission_texture;
+        if (!j.contains("emission_two_sided")) o.emission_two_sided = part.emission_two_sided;
       }
-      m.name = s.name;
-      d.meshes.push_back(std::move(m));
-      s.mesh = int(d.meshes.size()) - 1;
-    } else {
-      c.fail(p + "/type", "unknown shape type '" + type + "' (allowed: sphere, rectangle, cube, disk, mesh)");
+      if (parts.size() > 1) o.name = s.name + "/" + part.name;
+      d.shapes.push_back(o);
     }
-    if (j.contains("material")) {
-      std::string mn = str(c, j["material"], p + "/material");
-      auto it = mat_index.find(mn);
-      if (it == mat_index.end()) c.fail(p + "/material", "no material named '" + mn + "' in /materials");
-      s.material = it->second;
-    } else {
-      if (default_mat < 0) default_mat = d.add_material("default", make_diffuse(RGB(0.5f)));
-      s.material = default_mat;
-    }
-    if (j.contains("emission")) s.emission = color(c, j["emission"], p + "/emission");
-    if (j.contains("emission_two_sided")) s.emission_two_sided = boolean(c, j["emission_two_sided"], p + "/emission_two_sided");
-    if (j.contains("flip_normals")) s.flip_normals = boolean(c, j["flip_normals"], p + "/flip_normals");
-    if (j.contains("transform")) s.to_world = parse_transform(c, j["transform"], p + "/transform");
-    d.shapes.push_back(s);
   }
   if (root.contains("lights")) {
     const json& lights = root["lights"];
     if (!lights.is_array()) c.fail("/lights", "expected an array");
+    int env = -1;
     for (size_t i = 0; i < lights.size(); ++i) {
       std::string p = "/lights/" + std::to_string(i);
-      const json& j = lights[i];
-      if (!j.is_object() || !j.contains("type")) c.fail(p, "expected an object with a 'type' (point, spot, directional, environment)");
-      std::string type = str(c, j["type"], p + "/type");
-      Light l;
-      if (type == "point") {
-        check_keys(c, j, p, {"type", "position", "intensity"});
-        l.type = LightType::kPoint;
-        l.p = j.contains("position") ? vec3(c, j["position"], p + "/position") : Vec3f(0.f);
-        l.L = j.contains("intensity") ? color(c, j["intensity"], p + "/intensity") : RGB(1.f);
-      } else if (type == "spot") {
-        check_keys(c, j, p, {"type", "position", "target", "intensity", "cutoff_angle", "falloff_start"});
-        l.type = LightType::kSpot;
-        l.p = j.contains("position") ? vec3(c, j["position"], p + "/position") : Vec3f(0.f);
-        Vec3f tgt = j.contains("target") ? vec3(c, j["target"], p + "/target") : l.p + Vec3f(0, 0, -1);
-        if (length(tgt - l.p) == 0.f) c.fail(p + "/target", "must differ from the position");
-        l.dir = normalize(tgt - l.p);
-        l.L = j.contains("intensity") ? color(c, j["intensity"], p + "/intensity") : RGB(1.f);
-        float cutoff = j.contains("cutoff_angle") ? num(c, j["cutoff_angle"], p + "/cutoff_angle") : 30.f;
-        float start = j.contains("falloff_start") ? num(c, j["falloff_start"], p + "/falloff_start") : cutoff * 0.75f;
-        if (!(cutoff > 0.f && cutoff <= 180.f)) c.fail(p + "/cutoff_angle", "expected degrees in (0, 180]");
-        if (!(start >= 0.f && start <= cutoff)) c.fail(p + "/falloff_start", "expected degrees in [0, cutoff_angle]");
-        l.cos_total = std::cos(cutoff * kPi / 180.f);
-        l.cos_falloff_start = std::cos(start * kPi / 180.f);
-      } else if (type == "directional") {
-        check_keys(c, j, p, {"type", "direction", "irradiance"});
-        l.type = LightType::kDirectional;
-        l.dir = j.contains("direction") ? vec3(c, j["direction"], p + "/direction") : Vec3f(0, 0, -1);
-        if (length(l.dir) == 0.f) c.fail(p + "/direction", "expected a non-zero direction");
-        l.L = j.contains("irradiance") ? color(c, j["irradiance"], p + "/irradiance") : RGB(1.f);
-      } else if (type == "environment") {
-        check_keys(c, j, p, {"type", "radiance"});
-        l.type = LightType::kEnvironment;
-        l.L = j.contains("radiance") ? color(c, j["radiance"], p + "/radiance") : RGB(1.f);
-      } else {
-        c.fail(p + "/type", "unknown light type '" + type + "' (allowed: point, spot, directional, environment)");
+      Light l = parse_light(c, lights[i], p, d);
+      if (l.type == LightType::kEnvironment) {
+        if (env >= 0) c.fail(p, "at most one environment light (the first is /lights/" + std::to_string(env) + ")");
+        env = int(i);
       }
       d.lights.push_back(l);
     }
@@ -331,7 +900,7 @@ SceneDesc load_json_scene_file(const std::string& path) {
   if (!f) throw InputError(path + ": cannot open the file");
   std::stringstream ss;
   ss << f.rdbuf();
-  return load_json_scene_text(ss.str(), path);
+  return load_json_scene_text(ss.str(), path, fs::path(path).parent_path().string());
 }
 
 }  // namespace caustica

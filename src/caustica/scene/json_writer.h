@@ -1,0 +1,26 @@
+// Writes a SceneDesc as caustica's JSON scene format (docs/scene-format.md), so
+// that any loaded scene (built-in, JSON, OBJ, glTF, Mitsuba XML) can be saved
+// and read back: `caustica export`.
+#pragma once
+#include <string>
+#include "scene_desc.h"
+
+namespace caustica {
+
+// The JSON text. Every float is written with the fewest digits that read back
+// to the same float (at most max_digits10), so the description round-trips
+// exactly; meshes are written inline (each once, in "meshes", and instanced by
+// name). Textures are referenced as "<texture_stem>.tex<i>.exr" beside the file
+// (write_scene_json writes them). Throws InputError for what JSON cannot hold
+// (a non-finite number, an area light in `lights`, a dangling index).
+std::string scene_desc_to_json(const SceneDesc& desc, const std::string& texture_stem = "scene");
+
+// Writes `path` (atomically: a temporary file renamed into place) and, if the
+// scene has textures, one float EXR per texture beside it, named after the
+// JSON file's stem. Texture alpha channels are not kept.
+void write_scene_json(const SceneDesc& desc, const std::string& path);
+
+// The texture file name scene_desc_to_json uses for texture `index`.
+std::string exported_texture_name(const std::string& texture_stem, size_t index);
+
+}  // namespace caustica
