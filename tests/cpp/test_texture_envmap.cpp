@@ -1,0 +1,326 @@
+// Textures (lookup, wrapping, uv transform, normal maps), the importance-sampled
+// environment map (chi-square of its sampling against its density, its
+// orientation convention, its integral and photon power) and Beer-Lambert
+// absorption in glass.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+
+#include "caustica/base/rng.h"
+#include "caustica/integrator/render.h"
+#include "caustica/light/light_emit.h"
+#include "caustica/light/light_sample.h"
+#include "caustica/scene/intersect.h"
+#include "caustica/scene/scene.h"
+#include "caustica/scene/shading.h"
+#include "chi2.h"
+
+using namespace caustica;
+
+namespace caustica {
+bool operator==(const Vec3f& a, const Vec3f& b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+std::ostream& operator<<(std::ostream& o, const Vec3f& v) { return o << "(" << v.x << ", " << v.y << ", " << v.z << ")"; }
+}  // namespace caustica
+
+namespace {
+
+TextureDesc make_texture(int w, int h, std::function<RGB(int, int)> f) {
+  TextureDesc t;
+  t.name = "test";
+  t.width = w;
+  t.height = h;
+  t.rgba.resize(size_t(w) * h * 4);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      RGB c = f(x, y);
+      float* p = &t.rgba[(size_t(y) * w + x) * 4];
+      p[0] = c.x;
+      p[1] = c.y;
+      p[2] = c.z;
+      p[3] = 1.f;
+    }
+  return t;
+}
+
+TextureView view_of(const TextureDesc& t) {
+  TextureView v;
+  v.rgba = t.rgba.data();
+  v.width = t.width;
+  v.height = t.height;
+  v.wrap = t.wrap;
+  v.nearest = t.nearest;
+  return v;
+}
+
+// A small scene (one quad) whose only light is an environment map.
+SceneDesc env_scene(const TextureDesc& tex, const Affine& to_world, RGB scale = RGB(1.f)) {
+  SceneDesc d;
+  d.name = "env";
+  d.add_material("white", make_diffuse(RGB(0.5f)));
+  ShapeDesc quad;
+  quad.type = ShapeType::kRectangle;
+  d.shapes.push_back(quad);
+  d.textures.push_back(tex);
+  Light env;
+  env.type = LightType::kEnvironment;
+  env.L = scale;
+  env.texture = 0;
+  d.lights.push_back(env);
+  d.environment_to_world = to_world;
+  return d;
+}
+
+Affine rotation_x(float deg) {
+  float a = deg * kPi / 180.f, c = std::cos(a), s = std::sin(a);
+  Affine r;
+  r.m[1][1] = c;
+  r.m[1][2] = -s;
+  r.m[2][1] = s;
+  r.m[2][2] = c;
+  return r;
+}
+
+// A map with a bright "sun" texel, a gradient sky and a black row (zero density there).
+TextureDesc sky_texture(bool nearest) {
+  TextureDesc t = make_texture(16, 8, [](int x, int y) {
+    if (x == 11 && y == 2) return RGB(200.f, 180.f, 150.f);
+    if (y == 6) return RGB(0.f);
+    return RGB(0.2f + 0.1f * y, 0.3f + 0.02f * x, 0.5f);
+  });
+  t.nearest = nearest;
+  return t;
+}
+
+}  // namespace
+
+TEST(Texture, NearestAndBilinearLookupsHitTexelValues) {
+  // 2 x 2: top row (row 0) red, green; bottom row blue, white. v = 0 is the bottom.
+  TextureDesc t = make_texture(2, 2, [](int x, int y) {
+    const RGB c[2][2] = {{RGB(1, 0, 0), RGB(0, 1, 0)}, {RGB(0, 0, 1), RGB(1, 1, 1)}};
+    return c[y][x];
+  });
+  TextureView v = view_of(t);
+  // Texel centres: bilinear weights are exactly one there.
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.25f, 0.75f)).rgb(), RGB(1, 0, 0));  // top-left
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.75f, 0.75f)).rgb(), RGB(0, 1, 0));  // top-right
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.25f, 0.25f)).rgb(), RGB(0, 0, 1));  // bottom-left
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.75f, 0.25f)).rgb(), RGB(1, 1, 1));
+  // The middle is the average of the four.
+  RGB mid = texture_lookup(v, Vec2f(0.5f, 0.5f)).rgb();
+  EXPECT_NEAR(mid.x, 0.5f, 1e-6f);
+  EXPECT_NEAR(mid.y, 0.5f, 1e-6f);
+  EXPECT_NEAR(mid.z, 0.5f, 1e-6f);
+  // Repeat: u = 0 blends the left and right columns halfway.
+  RGB edge = texture_lookup(v, Vec2f(0.f, 0.75f)).rgb();
+  EXPECT_NEAR(edge.x, 0.5f, 1e-6f);
+  EXPECT_NEAR(edge.y, 0.5f, 1e-6f);
+  // Clamp: the edge is the edge texel.
+  v.wrap = TexWrap::kClamp;
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.f, 0.75f)).rgb(), RGB(1, 0, 0));
+  EXPECT_EQ(texture_lookup(v, Vec2f(-3.f, 0.75f)).rgb(), RGB(1, 0, 0));
+  // Mirror: u in (1, 2) reads the image backwards, so 1.25 is the right column.
+  v.wrap = TexWrap::kMirror;
+  EXPECT_EQ(texture_lookup(v, Vec2f(1.25f, 0.75f)).rgb(), RGB(0, 1, 0));
+  EXPECT_EQ(texture_lookup(v, Vec2f(1.75f, 0.75f)).rgb(), RGB(1, 0, 0));
+  // Nearest: any point inside a texel returns it.
+  v.wrap = TexWrap::kRepeat;
+  v.nearest = 1;
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.51f, 0.99f)).rgb(), RGB(0, 1, 0));
+  EXPECT_EQ(texture_lookup(v, Vec2f(1.01f, 0.01f)).rgb(), RGB(0, 0, 1));  // wrapped
+  // uv transform: offset 0.5 in u moves the right column to the left half.
+  v.uv_offset = Vec2f(0.5f, 0.f);
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.25f, 0.75f)).rgb(), RGB(0, 1, 0));
+  // Rotation by 90 degrees maps (u, v) to (-v, u): (0.25, 0.25) -> (-0.25, 0.25) = (0.75, 0.25).
+  v.uv_offset = Vec2f(0.f, 0.f);
+  v.cos_rot = 0.f;
+  v.sin_rot = 1.f;
+  EXPECT_EQ(texture_lookup(v, Vec2f(0.25f, 0.25f)).rgb(), RGB(1, 1, 1));
+}
+
+TEST(Texture, ColourRoughnessAndNormalMapsApplyAtTheHit) {
+  SceneDesc d;
+  d.name = "tex";
+  // Texture 0: colour; 1: metallic-roughness (G = 0.5, B = 0.25); 2: flat normal; 3: tilted normal.
+  d.textures.push_back(make_texture(1, 1, [](int, int) { return RGB(0.2f, 0.4f, 0.6f); }));
+  d.textures.push_back(make_texture(1, 1, [](int, int) { return RGB(0.f, 0.5f, 0.25f); }));
+  d.textures.push_back(make_texture(1, 1, [](int, int) { return RGB(0.5f, 0.5f, 1.f); }));
+  d.textures.push_back(make_texture(1, 1, [](int, int) { return RGB(1.f, 0.5f, 1.f); }));  // (1, 0, 1) in tangent space
+  Material mr = make_metallic_roughness(RGB(1.f, 0.5f, 1.f), 1.f, 0.8f);
+  mr.tex_color = 0;
+  mr.tex_roughness = 1;
+  mr.tex_normal = 2;
+  d.add_material("mr", mr);
+  Material tilted = make_diffuse(RGB(1.f));
+  tilted.tex_normal = 3;
+  d.add_material("tilted", tilted);
+  for (int i = 0; i < 2; ++i) {
+    MeshDesc m;  // a unit quad in z = 0 facing +z, u along +x and v along +y
+    m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    m.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    m.indices = {0, 1, 2, 0, 2, 3};
+    d.meshes.push_back(m);
+    ShapeDesc s;
+    s.mesh = i;
+    s.material = i;
+    Affine t;
+    t.m[0][3] = 3.f * i;
+    s.to_world = t;
+    d.shapes.push_back(s);
+  }
+  d.lights.push_back(Light{});
+  auto sc = Scene::build(d);
+  const SceneView& v = sc->view();
+  for (int i = 0; i < 2; ++i) {
+    Ray r{Vec3f(3.f * i + 0.3f, 0.6f, 1.f), Vec3f(0, 0, -1), kInf};
+    Hit h;
+    ASSERT_TRUE(scene_intersect(v, r, h));
+    SurfaceHit sh = make_surface_hit(v, r, h);
+    EXPECT_NEAR(sh.uv.x, 0.3f, 1e-5f);
+    EXPECT_NEAR(sh.uv.y, 0.6f, 1e-5f);
+    Material m = surface_material(v, sh);
+    if (i == 0) {
+      EXPECT_NEAR(m.diffuse.x, 0.2f, 1e-6f);
+      EXPECT_NEAR(m.diffuse.y, 0.2f, 1e-6f);  // 0.5 * 0.4
+      EXPECT_NEAR(m.diffuse.z, 0.6f, 1e-6f);
+      EXPECT_NEAR(m.alpha_x, std::pow(0.8f * 0.5f, 2.f), 1e-6f);  // (G * roughness)^2
+      EXPECT_NEAR(m.metallic, 0.25f, 1e-6f);
+      EXPECT_NEAR(sh.ns.z, 1.f, 1e-6f);  // the flat normal map leaves the normal alone
+    } else {
+      // (1, 0.5, 1) -> tangent-space (1, 0, 1): the normal tilts 45 degrees towards +x (dp/du).
+      EXPECT_NEAR(sh.ns.x, std::sqrt(0.5f), 1e-5f);
+      EXPECT_NEAR(sh.ns.y, 0.f, 1e-5f);
+      EXPECT_NEAR(sh.ns.z, std::sqrt(0.5f), 1e-5f);
+    }
+  }
+}
+
+TEST(EnvMap, OrientationFollowsMitsubaConvention) {
+  // Column u = 0.25 is +x, u = 0.5 is +z, u = 0 is -z; the top row is +y.
+  EXPECT_NEAR(length(envmap_direction_local(Vec2f(0.25f, 0.5f)) - Vec3f(1, 0, 0)), 0.f, 1e-6f);
+  EXPECT_NEAR(length(envmap_direction_local(Vec2f(0.5f, 0.5f)) - Vec3f(0, 0, 1)), 0.f, 1e-6f);
+  EXPECT_NEAR(length(envmap_direction_local(Vec2f(0.f, 0.5f)) - Vec3f(0, 0, -1)), 0.f, 1e-6f);
+  EXPECT_NEAR(envmap_direction_local(Vec2f(0.3f, 0.f)).y, 1.f, 1e-6f);
+  PCG32 rng(3, 4);
+  for (int i = 0; i < 1000; ++i) {
+    Vec2f uv(rng.next_float(), 0.01f + 0.98f * rng.next_float());
+    Vec2f back = envmap_image_uv(envmap_direction_local(uv));
+    EXPECT_NEAR(back.x, uv.x, 2e-5f);
+    EXPECT_NEAR(back.y, uv.y, 2e-5f);
+  }
+  // A rotated map: the sun texel's world direction is to_world of its local direction.
+  TextureDesc t = sky_texture(true);
+  Affine rot = rotation_x(90.f);
+  auto sc = Scene::build(env_scene(t, rot));
+  const SceneView& v = sc->view();
+  Vec3f sun_local = envmap_direction_local(Vec2f(11.5f / 16.f, 2.5f / 8.f));
+  Vec3f sun_world = rot.vector(sun_local);
+  EXPECT_NEAR(envmap_eval(v.envmap, sun_world).x, 200.f, 1e-3f);
+  EXPECT_NEAR(envmap_eval(v.envmap, sun_local).x, 0.2f + 0.1f * 1, 0.5f);  // not the sun
+}
+
+TEST(EnvMap, SamplingFollowsItsDensity) {
+  for (float deg : {0.f, 30.f}) {
+    auto sc = Scene::build(env_scene(sky_texture(false), rotation_x(deg)));
+    const SceneView& v = sc->view();
+    const Light& l = v.lights[v.environment_light];
+    PCG32 rng(11, 12);
+    auto sample = [&]() {
+      LightSample ls;
+      bool ok = sample_light(v, l, Vec3f(0.f), Vec2f(rng.next_float(), rng.next_float()), ls);
+      return chi2::SampleDir{ok, ls.wi, false};
+    };
+    auto pdf = [&](Vec3f w) { return environment_pdf(v, l, w); };
+    chi2::Options o;
+    o.samples = 1000000;
+    o.n_tests = 2;
+    chi2::Result r = chi2::test_sphere(32, sample, pdf, o);
+    EXPECT_TRUE(r.passed) << r.report;
+    // The density integrates to one (quadrature error bound + float slack).
+    EXPECT_NEAR(r.pdf_integral, 1.0, 4.0 * r.quad_error + 1e-4) << r.report;
+  }
+}
+
+TEST(EnvMap, RadianceIntegralMatchesTexelSum) {
+  // Nearest lookup: int L dw = sum_ij L_ij * dphi * (cos(theta_top) - cos(theta_bottom)).
+  TextureDesc t = sky_texture(true);
+  auto sc = Scene::build(env_scene(t, rotation_x(20.f), RGB(2.f)));
+  const SceneView& v = sc->view();
+  double exact = 0.0;
+  for (int y = 0; y < t.height; ++y) {
+    double band = (2.0 * chi2::kPi / t.width) *
+                  (std::cos(chi2::kPi * y / t.height) - std::cos(chi2::kPi * (y + 1) / t.height));
+    for (int x = 0; x < t.width; ++x) exact += 2.0 * t.rgba[(size_t(y) * t.width + x) * 4] * band;
+  }
+  const Light& l = v.lights[v.environment_light];
+  PCG32 rng(5, 6);
+  const int n = 400000;
+  double sum = 0.0, sum2 = 0.0;
+  for (int i = 0; i < n; ++i) {
+    LightSample ls;
+    double x = 0.0;
+    if (sample_light(v, l, Vec3f(0.f), Vec2f(rng.next_float(), rng.next_float()), ls)) x = ls.Li.x / ls.pdf;
+    sum += x;
+    sum2 += x * x;
+  }
+  double mean = sum / n, se = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n);
+  EXPECT_NEAR(mean, exact, 4.0 * se + 1e-6 * exact) << "se " << se;  // 4 standard errors
+  // Photons: E[flux weight] = (disk area) * int L dw over the directions they travel.
+  double psum = 0.0, psum2 = 0.0;
+  for (int i = 0; i < n; ++i) {
+    EmitSample e;
+    double x = 0.0;
+    if (sample_emission(v, l, Vec2f(rng.next_float(), rng.next_float()), Vec2f(rng.next_float(), rng.next_float()),
+                        0.5f, e))
+      x = e.weight.x;
+    psum += x;
+    psum2 += x * x;
+  }
+  double R = v.bsphere_radius, disk = chi2::kPi * R * R;
+  double pmean = psum / n, pse = std::sqrt(std::max(0.0, psum2 / n - pmean * pmean) / n);
+  EXPECT_NEAR(pmean, disk * exact, 4.0 * pse + 1e-6 * disk * exact);
+}
+
+TEST(Absorption, IndexMatchedAbsorbingCubeTransmitsExpMinusSigmaD) {
+  // Camera -> absorbing cube of side 2 with eta = 1 (no refraction, no Fresnel)
+  // -> an emitter of radiance 1: every pixel that sees the emitter through the
+  // cube is exp(-2 sigma) exactly (no noise: the path is deterministic).
+  SceneDesc d;
+  d.name = "absorb";
+  Material glass = make_dielectric(1.f);
+  glass.absorption = RGB(0.1f, 0.5f, 1.f);
+  d.add_material("glass", glass);
+  d.add_material("black", make_diffuse(RGB(0.f)));
+  ShapeDesc cube;
+  cube.type = ShapeType::kCube;
+  cube.material = 0;
+  d.shapes.push_back(cube);
+  ShapeDesc light;
+  light.type = ShapeType::kRectangle;
+  light.material = 1;
+  light.emission = RGB(1.f);
+  Affine t;
+  t.m[0][0] = t.m[1][1] = 10.f;
+  t.m[2][3] = -5.f;
+  light.to_world = t;
+  d.shapes.push_back(light);
+  d.camera.position = Vec3f(0, 0, 10);
+  d.camera.target = Vec3f(0, 0, 0);
+  d.camera.fov_degrees = 5.f;
+  d.camera.width = d.camera.height = 8;
+  auto sc = Scene::build(d);
+  RenderOptions o;
+  o.spp = 4;
+  o.seed = 1;
+  RenderJob job(sc, o);
+  job.run();
+  std::vector<float> img = job.image();
+  // The centre pixels look straight through 2 units of glass (4 x 4 centre block).
+  for (int y = 2; y < 6; ++y)
+    for (int x = 2; x < 6; ++x) {
+      const float* p = &img[(size_t(y) * 8 + x) * 3];
+      EXPECT_NEAR(p[0], std::exp(-0.2f), 2e-3f) << x << "," << y;  // slightly oblique rays: path >= 2
+      EXPECT_NEAR(p[1], std::exp(-1.0f), 2e-3f);
+      EXPECT_NEAR(p[2], std::exp(-2.0f), 2e-3f);
+    }
+}
