@@ -1,7 +1,8 @@
 // Mesh-file loaders: OBJ + MTL (tinyobjloader) and PLY (ASCII and binary).
 // Each can append a file's geometry to a scene (for JSON "mesh" shapes and
 // Mitsuba XML obj/ply shapes) or load a file alone as a whole scene (with a
-// default camera and light, see load.h).
+// default camera and light, see load.h). The conventions (normals, material
+// mapping, what is skipped with a warning) are in docs/formats-obj-ply.md.
 #pragma once
 #include <string>
 #include <vector>
@@ -12,15 +13,27 @@ namespace caustica {
 // PLY: vertex positions, optional normals (nx ny nz) and UVs (u v / s t /
 // texture_u texture_v), faces (triangles and quads; larger polygons fanned).
 // Errors throw InputError "<path>: line N (header) / element ...: what".
+// This form drops the warnings (skipped degenerate or non-finite triangles);
+// prefer the next one.
 MeshDesc load_ply_mesh(const std::string& path);
+// The same; what was skipped or repaired is appended to `warnings` (one line
+// each, counting the cases, e.g. "bunny.ply: skipped 12 degenerate triangles").
+MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnings);
 
 // OBJ: appends one MeshDesc + ShapeDesc per (group or object, material) to
 // `desc`, with `to_world`. material_override >= 0 uses that material for every
 // shape (XML/JSON given a material); -1 converts the MTL materials (documented
-// in docs/scene-format.md) and adds them to desc (names prefixed with the file
+// in docs/formats-obj-ply.md) and adds them to desc (names prefixed with the file
 // stem to stay unique). Emissive MTL materials (Ke) make area lights. Returns
-// the indices of the shapes added.
+// the indices of the shapes added. Warnings go to desc.warnings.
 std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affine& to_world,
                             int material_override, const std::string& referrer);
+
+// Area-weighted ("angle-free") smooth vertex normals of a triangle mesh: each
+// vertex gets the normalized sum of the (unnormalized) cross products of the
+// triangles using it, so larger triangles weigh more and the normal follows the
+// counter-clockwise winding. Vertices used by no (non-degenerate) triangle get
+// (0, 0, 1).
+std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& positions, const std::vector<uint32_t>& indices);
 
 }  // namespace caustica
