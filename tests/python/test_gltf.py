@@ -1,0 +1,349 @@
+"""glTF 2.0 / GLB scenes, built here from Python (JSON + struct-packed buffers,
+PNG images from a small zlib encoder), loaded and rendered through the API and
+the command line."""
+import base64
+import json
+import math
+import os
+import struct
+import subprocess
+import zlib
+
+import numpy as np
+import pytest
+
+import caustica
+from conftest import BIN
+
+
+# ----------------------------------------------------------------- helpers ---
+
+def png_bytes(rgb):
+    """An 8-bit RGB PNG from an (h, w, 3) uint8 array (filter 0 on every row)."""
+    rgb = np.asarray(rgb, np.uint8)
+    h, w, _ = rgb.shape
+    raw = b"".join(b"\x00" + rgb[y].tobytes() for y in range(h))
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def srgb_to_linear(c):
+    c = np.asarray(c, np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+class Gltf:
+    """A glTF document with one binary buffer."""
+
+    def __init__(self):
+        self.doc = {"asset": {"version": "2.0"}}
+        self.bin = bytearray()
+
+    def add(self, key, obj):
+        self.doc.setdefault(key, []).append(obj)
+        return len(self.doc[key]) - 1
+
+    def view(self, data):
+        while len(self.bin) % 4:
+            self.bin.append(0)
+        off = len(self.bin)
+        self.bin += data
+        return self.add("bufferViews", {"buffer": 0, "byteOffset": off, "byteLength": len(data)})
+
+    def accessor(self, values, type_, fmt="f", component=5126):
+        values = list(values)
+        comps = {"SCALAR": 1, "VEC2": 2, "VEC3": 3}[type_]
+        bv = self.view(struct.pack("<%d%s" % (len(values), fmt), *values))
+        return self.add("accessors", {"bufferView": bv, "componentType": component,
+                                      "count": len(values) // comps, "type": type_})
+
+    def quad(self, material=None, half=1.0, z=0.0, facing_down=False):
+        """A square [-half, half]^2 at height z facing +z (or -z); glTF UVs (v = 0 at the image top)."""
+        h = half
+        pos = self.accessor([-h, -h, z, h, -h, z, h, h, z, -h, h, z], "VEC3")
+        nor = self.accessor([0, 0, -1 if facing_down else 1] * 4, "VEC3")
+        uv = self.accessor([0, 1, 1, 1, 1, 0, 0, 0], "VEC2")
+        ind = self.accessor([0, 2, 1, 0, 3, 2] if facing_down else [0, 1, 2, 0, 2, 3], "SCALAR", "H", 5123)
+        prim = {"attributes": {"POSITION": pos, "NORMAL": nor, "TEXCOORD_0": uv}, "indices": ind}
+        if material is not None:
+            prim["material"] = material
+        return self.add("meshes", {"primitives": [prim]})
+
+    def camera(self, z, yfov, name=None, aspect=1.0):
+        cam = {"type": "perspective", "perspective": {"yfov": yfov, "znear": 0.01, "aspectRatio": aspect}}
+        if name:
+            cam["name"] = name
+        c = self.add("cameras", cam)
+        return self.add("nodes", {"camera": c, "translation": [0, 0, z]})
+
+    def scene(self, nodes):
+        self.doc["scenes"] = [{"nodes": nodes}]
+        self.doc["scene"] = 0
+
+    def image_data_uri(self, png):
+        return self.add("images", {"uri": "data:image/png;base64," + base64.b64encode(png).decode()})
+
+    def image_embedded(self, png):
+        return self.add("images", {"bufferView": self.view(png), "mimeType": "image/png"})
+
+    def write(self, path, mode="bin"):
+        """mode: 'bin' (NAME.bin next to the .gltf), 'datauri', or 'glb'."""
+        path = str(path)
+        if self.bin:
+            if mode == "bin":
+                binname = os.path.splitext(os.path.basename(path))[0] + ".bin"
+                with open(os.path.join(os.path.dirname(path), binname), "wb") as f:
+                    f.write(self.bin)
+                self.doc["buffers"] = [{"uri": binname, "byteLength": len(self.bin)}]
+            elif mode == "datauri":
+                self.doc["buffers"] = [{"uri": "data:application/octet-stream;base64," +
+                                        base64.b64encode(bytes(self.bin)).decode(), "byteLength": len(self.bin)}]
+            else:
+                self.doc["buffers"] = [{"byteLength": len(self.bin)}]
+        if mode != "glb":
+            with open(path, "w") as f:
+                json.dump(self.doc, f, indent=1)
+            return path
+        js = json.dumps(self.doc).encode()
+        js += b" " * (-len(js) % 4)
+        binc = bytes(self.bin) + b"\0" * (-len(self.bin) % 4)
+        body = struct.pack("<II", len(js), 0x4E4F534A) + js
+        if binc:
+            body += struct.pack("<II", len(binc), 0x004E4942) + binc
+        with open(path, "wb") as f:
+            f.write(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body)
+        return path
+
+
+# A camera at height 3 whose vertical field of view exactly spans the quad [-1, 1]^2.
+FILL_FOV = 2 * math.atan(1 / 3)
+TEXELS = np.array([[[200, 30, 10], [20, 180, 40]],
+                   [[10, 60, 220], [250, 250, 120]]], np.uint8)  # top row, bottom row
+
+
+def render(path, size=32, spp=4, **kw):
+    s = caustica.load_scene(path, width=size, height=size)
+    return caustica.render(s, spp=spp, **kw)
+
+
+def quadrant_centres(img):
+    h, w, _ = img.shape
+    return {(r, c): img[h // 4 + r * h // 2, w // 4 + c * w // 2] for r in (0, 1) for c in (0, 1)}
+
+
+# ------------------------------------------------------------------- tests ---
+
+@pytest.mark.parametrize("mode", ["bin", "datauri", "glb"])
+def test_emission_texture_texels_render_exactly(tmp_path, mode):
+    """A quad with a 2x2 nearest-filtered emission texture, seen head-on and filling the
+    image: each quadrant shows its texel (sRGB decoded) exactly (direct emission is
+    noise-free). Also checks the v flip: the texture's top row is at the image top."""
+    g = Gltf()
+    png = png_bytes(TEXELS)
+    img = g.image_embedded(png) if mode == "glb" else g.image_data_uri(png)
+    g.add("samplers", {"magFilter": 9728, "minFilter": 9728})
+    g.add("textures", {"source": img, "sampler": 0})
+    mat = g.add("materials", {"emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 0},
+                              "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}})
+    g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
+    path = g.write(tmp_path / ("quad.glb" if mode == "glb" else "quad.gltf"), mode)
+    out = render(path)
+    for (r, c), px in quadrant_centres(out).items():
+        np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c]), rtol=1e-4, atol=1e-5)
+
+
+def test_base_color_texture_on_a_mirror_metal(tmp_path):
+    """A smooth metal (metallic 1, roughness 0) reflects the default white environment
+    (radiance 1) with reflectance F0 = base colour at normal incidence, so each quadrant
+    shows its base-colour texel. Bilinear filtering on an 8x8 image made of 4x4 blocks of
+    the 2x2 texels: the quadrant centres are far from the block edges."""
+    g = Gltf()
+    g.image_data_uri(png_bytes(np.repeat(np.repeat(TEXELS, 4, axis=0), 4, axis=1)))
+    g.add("textures", {"source": 0})
+    mat = g.add("materials", {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0},
+                                                       "metallicFactor": 1.0, "roughnessFactor": 0.0}})
+    g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
+    out = render(g.write(tmp_path / "metal.gltf"), size=64, spp=4)
+    for (r, c), px in quadrant_centres(out).items():
+        np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c]), rtol=0.03, atol=0.005)
+
+
+def test_emissive_strength(tmp_path):
+    g = Gltf()
+    mat = g.add("materials", {"emissiveFactor": [1, 1, 1],
+                              "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5.0}},
+                              "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}})
+    g.doc["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+    g.scene([g.add("nodes", {"mesh": g.quad(mat, half=2.0)}), g.camera(3.0, FILL_FOV)])
+    out = render(g.write(tmp_path / "emit.gltf"), size=16, spp=2)
+    np.testing.assert_allclose(out, 5.0, rtol=1e-5)
+
+
+def test_point_light_irradiance_on_diffuse_plane(tmp_path):
+    """A point light of I candela at height 1 above a diffuse plane (metallic 0 with
+    KHR_materials_ior = 1: no specular coat, so the BRDF is albedo / pi): the radiance is
+    (I / 683) cos(theta) / d^2 * albedo / pi, cos / d^2 = (1 + r^2)^(-3/2)."""
+    g = Gltf()
+    albedo = 0.6
+    mat = g.add("materials", {"pbrMetallicRoughness": {"baseColorFactor": [albedo] * 3 + [1],
+                                                       "metallicFactor": 0.0, "roughnessFactor": 1.0},
+                              "extensions": {"KHR_materials_ior": {"ior": 1.0}}})
+    g.doc["extensionsUsed"] = ["KHR_lights_punctual", "KHR_materials_ior"]
+    intensity = 683.0 * 4.0
+    g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": intensity}]}}
+    light = g.add("nodes", {"translation": [0, 0, 1], "extensions": {"KHR_lights_punctual": {"light": 0}}})
+    fov = 0.2  # the view covers r < 3 tan(0.1) ~ 0.3
+    g.scene([g.add("nodes", {"mesh": g.quad(mat, half=10.0)}), light, g.camera(3.0, fov)])
+    n = 32
+    out = render(g.write(tmp_path / "point.gltf"), size=n, spp=16)
+    # Expected per pixel (at the pixel centre; the curvature within a pixel is negligible).
+    t = 3.0 * math.tan(fov / 2)
+    xs = ((np.arange(n) + 0.5) / n * 2 - 1) * t
+    r2 = xs[None, :] ** 2 + xs[:, None] ** 2
+    expected = intensity / 683.0 * albedo / math.pi * (1 + r2) ** -1.5
+    np.testing.assert_allclose(out[..., 1], expected, rtol=0.01)
+    np.testing.assert_allclose(out.mean(), expected.mean(), rtol=0.002)
+
+
+def test_spot_and_directional_lights_render(tmp_path):
+    """A directional light straight down on a diffuse plane: radiance E albedo / pi."""
+    g = Gltf()
+    mat = g.add("materials", {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1],
+                                                       "metallicFactor": 0.0},
+                              "extensions": {"KHR_materials_ior": {"ior": 1.0}}})
+    g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "directional", "intensity": 683.0 * 2}]}}
+    # The light travels along the node's -z: the identity points it straight down onto the plane.
+    light = g.add("nodes", {"extensions": {"KHR_lights_punctual": {"light": 0}}})
+    g.scene([g.add("nodes", {"mesh": g.quad(mat, half=10.0)}), light, g.camera(3.0, 0.3)])
+    out = render(g.write(tmp_path / "sun.gltf"), size=16, spp=2)
+    np.testing.assert_allclose(out, 2.0 * 0.5 / math.pi, rtol=1e-3)
+
+
+def test_transmission_glass_slab_with_volume_absorption(tmp_path):
+    """A closed glass slab (two facing quads, 0.5 thick; KHR_materials_transmission 1,
+    ior 1.5, KHR_materials_volume attenuationColor c at distance 1) seen head-on against the
+    white default environment. With F = 0.04 at each face and a = c^0.5 the Beer-Lambert
+    transmittance of one crossing, the paths that cross the slab k + 1 times sum to
+    F + (1 - F)^2 a / (1 - F a) (1 for a = 1: a clear slab in a uniform light conserves it)."""
+    g = Gltf()
+    color = np.array([0.5, 0.8, 1.0])
+    mat = g.add("materials", {"pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 0.0},
+                              "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                                             "KHR_materials_ior": {"ior": 1.5},
+                                             "KHR_materials_volume": {"thicknessFactor": 0.5,
+                                                                      "attenuationColor": list(color),
+                                                                      "attenuationDistance": 1.0}}})
+    g.doc["extensionsUsed"] = ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"]
+    front = g.add("nodes", {"mesh": g.quad(mat, half=3.0)})
+    back = g.add("nodes", {"mesh": g.quad(mat, half=3.0, z=-0.5, facing_down=True)})
+    g.scene([front, back, g.camera(3.0, 0.2)])
+    out = render(g.write(tmp_path / "glass.gltf"), size=16, spp=64)
+    assert np.all(np.isfinite(out))
+    a = color ** 0.5
+    expected = 0.04 + 0.96 ** 2 * a / (1 - 0.04 * a)
+    np.testing.assert_allclose(out.reshape(-1, 3).mean(axis=0), expected, rtol=0.01)
+
+
+def test_node_hierarchy_and_instancing_render(tmp_path):
+    """One emissive mesh instanced twice (a translated child and a scaled node): both
+    instances are visible in the render where the transforms put them."""
+    g = Gltf()
+    mat = g.add("materials", {"emissiveFactor": [1, 1, 1]})
+    mesh = g.quad(mat, half=0.25)
+    child = g.add("nodes", {"mesh": mesh, "translation": [0.5, 0, 0]})
+    parent = g.add("nodes", {"children": [child], "translation": [0, 0.5, 0]})
+    other = g.add("nodes", {"mesh": mesh, "translation": [-0.5, -0.5, 0], "scale": [0.5, 0.5, 0.5]})
+    g.scene([parent, other, g.camera(3.0, FILL_FOV)])
+    out = render(g.write(tmp_path / "inst.gltf"), size=32, spp=2)[..., 0]
+    # Image rows go down, y up: the child quad covers x, y in [0.25, 0.75] -> rows 4..12, cols 20..28.
+    assert np.allclose(out[5:11, 21:27], 1.0)
+    # The scaled instance covers x, y in [-0.625, -0.375] -> rows 22..26, cols 5..10.
+    assert np.allclose(out[23:25, 6:9], 1.0)
+    assert out[16, 16] == 0.0 and out[8, 8] == 0.0
+
+
+def test_errors_are_input_errors(tmp_path):
+    p = tmp_path / "bad.gltf"
+    p.write_text('{\n  "asset": {"version": "2.0"},\n  "nodes": [}\n')
+    with pytest.raises(caustica.InputError) as e:
+        caustica.load_scene(p)
+    assert str(e.value) == (f"{p}:3: invalid JSON: syntax error while parsing value - unexpected '}}'; "
+                            "expected '[', '{', or a literal")
+    p = tmp_path / "nobuf.gltf"
+    p.write_text(json.dumps({"asset": {"version": "2.0"}, "buffers": [{"uri": "gone.bin", "byteLength": 8}]}))
+    with pytest.raises(caustica.InputError) as e:
+        caustica.load_scene(p)
+    assert str(e.value) == f"{p}: /buffers/0/uri: buffer file '{tmp_path}/gone.bin' does not exist"
+    g = Gltf()
+    mesh = g.quad()
+    g.doc["meshes"][mesh]["primitives"][0]["indices"] = 17
+    g.scene([g.add("nodes", {"mesh": mesh})])
+    p = g.write(tmp_path / "range.gltf")
+    with pytest.raises(caustica.InputError) as e:
+        caustica.load_scene(p)
+    assert str(e.value) == f"{p}: /meshes/0/primitives/0/indices: index 17 out of range (/accessors has 4 entries)"
+
+
+def test_cli_exit_code_and_message(tmp_path):
+    p = tmp_path / "req.gltf"
+    p.write_text(json.dumps({"asset": {"version": "2.0"}, "extensionsRequired": ["EXT_meshopt_compression"]}))
+    r = subprocess.run([BIN, "render", str(p), "--spp", "1", "-o", str(tmp_path / "x.exr"), "--quiet"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert f"{p}: /extensionsRequired/0: extension 'EXT_meshopt_compression' is required but not supported" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_bad_geometry_is_skipped_and_renders(tmp_path):
+    """NaN positions, degenerate triangles and out-of-range indices are skipped; the rest renders."""
+    g = Gltf()
+    nan = float("nan")
+    pos = g.accessor([-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0, nan, 0, 0], "VEC3")
+    ind = g.accessor([0, 1, 2, 0, 2, 3, 0, 4, 1, 0, 1, 1, 0, 9, 2], "SCALAR", "H", 5123)
+    mat = g.add("materials", {"emissiveFactor": [2, 2, 2]})
+    mesh = g.add("meshes", {"primitives": [{"attributes": {"POSITION": pos}, "indices": ind, "material": mat}]})
+    g.scene([g.add("nodes", {"mesh": mesh}), g.camera(3.0, FILL_FOV)])
+    path = g.write(tmp_path / "badgeom.gltf")
+    with pytest.warns(Warning) as rec:
+        s = caustica.load_scene(path, width=8, height=8)
+    messages = [str(w.message) for w in rec]
+    for what in ("1 triangle(s) with vertex indices out of range skipped",
+                 "1 triangle(s) with non-finite (NaN or infinite) vertex positions skipped",
+                 "1 degenerate (zero-area) triangle(s) skipped"):
+        assert f"{path}: {what}" in messages
+    np.testing.assert_allclose(caustica.render(s, spp=1), 2.0)
+
+
+def test_cli_camera_by_name(tmp_path):
+    r = subprocess.run([BIN, "render", "--help"], capture_output=True, text=True)
+    if "--camera" not in r.stdout:
+        pytest.skip("the CLI has no --camera option yet")
+    g = Gltf()
+    red = g.add("materials", {"emissiveFactor": [1, 0, 0]})
+    green = g.add("materials", {"emissiveFactor": [0, 1, 0]})
+    a = g.add("nodes", {"mesh": g.quad(red)})
+    b = g.add("nodes", {"mesh": g.quad(green, z=-10.0), "translation": [100, 0, 0]})
+    c0 = g.camera(3.0, FILL_FOV, name="front")
+    cam1 = g.add("cameras", {"type": "perspective", "name": "far", "perspective": {"yfov": FILL_FOV, "znear": 0.1}})
+    c1 = g.add("nodes", {"camera": cam1, "translation": [100, 0, -7]})
+    g.scene([a, b, c0, c1])
+    path = g.write(tmp_path / "cams.gltf")
+    outs = {}
+    for name in (None, "far"):
+        o = tmp_path / f"{name}.pfm"
+        args = [BIN, "render", path, "--spp", "1", "--width", "8", "--height", "8", "-o", str(o), "--quiet"]
+        if name:
+            args += ["--camera", name]
+        r = subprocess.run(args, capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        outs[name] = caustica.read_image(o)
+    np.testing.assert_allclose(outs[None][4, 4], [1, 0, 0])
+    np.testing.assert_allclose(outs["far"][4, 4], [0, 1, 0])
+    r = subprocess.run([BIN, "render", path, "--camera", "nope", "-o", str(tmp_path / "n.pfm"), "--quiet"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert "no camera named 'nope' (cameras: front, far)" in r.stderr
