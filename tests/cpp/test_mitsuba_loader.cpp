@@ -739,3 +739,19 @@ TEST(MitsubaFile, Errors) {
   std::string missing = (tmp_dir() / "does_not_exist.xml").string();
   EXPECT_EQ(error_of(missing), missing + ": cannot open the file");
 }
+
+TEST(MitsubaShape, TopLevelTextureAndZeroSphere) {
+  write_pfm("tl/t.pfm");
+  std::string f = scene_file("toplevel.xml", kCamera +
+      "<texture type=\"bitmap\" id=\"wood\"><string name=\"filename\" value=\"tl/t.pfm\"/></texture>\n"
+      "<shape type=\"cube\"><bsdf type=\"diffuse\"><ref name=\"reflectance\" id=\"wood\"/></bsdf></shape>\n"
+      "<shape type=\"sphere\"><transform name=\"to_world\"><scale value=\"0\"/></transform></shape>\n");
+  SceneDesc d = load_mitsuba_scene(f);
+  ASSERT_EQ(d.shapes.size(), 1u);  // the zero-size sphere is skipped
+  const Material& m = d.materials[d.shapes[0].material];
+  ASSERT_GE(m.tex_color, 0);
+  EXPECT_EQ(d.textures[m.tex_color].width, 2);
+  EXPECT_TRUE(has_warning(d, f + ":5: <shape type=\"sphere\">: a sphere scaled to zero size has no effect on the "
+                                 "image; skipped"))
+      << all_warnings(d);
+}

@@ -857,6 +857,11 @@ class Loader {
       s.radius = p.get_float("radius", 1.f);
       if (!(s.radius > 0.f)) fail(p.get("radius"), "expected a positive radius");
       double l0 = len3(column(to_world, 0)), l1 = len3(column(to_world, 1)), l2 = len3(column(to_world, 2));
+      if (l0 == 0 && l1 == 0 && l2 == 0) {
+        warn(n, "zero-sphere", "a sphere scaled to zero size has no effect on the image; skipped");
+        p.finish();
+        return;
+      }
       if (std::fabs(l0 - l1) > 1e-4 * l0 || std::fabs(l0 - l2) > 1e-4 * l0 || l0 == 0)
         fail(n, "a sphere's to_world must scale uniformly (caustica's spheres are exact spheres)");
     } else if (type == "rectangle") {
