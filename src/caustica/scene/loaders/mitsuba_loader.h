@@ -1,4 +1,4 @@
-// Mitsuba 3 XML scenes (the subset documented in docs/scene-format.md) through pugixml.
+// Mitsuba 3 XML scenes (the subset documented in docs/formats-mitsuba.md) through pugixml.
 #pragma once
 #include <map>
 #include <string>
