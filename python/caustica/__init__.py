@@ -4,14 +4,24 @@
     scene = caustica.load_scene("cornell")
     image = caustica.render(scene, integrator="path", spp=64)   # (H, W, 3) float32
     caustica.write_image("cornell.exr", image)
+
+    scene = caustica.load_scene("scene.json")       # or .obj/.ply/.gltf/.glb/.xml, or load_dict({...})
+    scene.describe()                                 # counts and bounds
+    caustica.export_scene("cornell", "cornell.json")  # any scene as caustica JSON
 """
 from ._api import (
     InputError,
     RenderResult,
+    Scene,
+    SceneError,
+    SceneWarning,
     __version__,
     builtin_scenes,
     default_scene_name,
+    describe,
+    export_scene,
     integrators,
+    load_dict,
     load_scene,
     read_image,
     render,
@@ -20,6 +30,7 @@ from ._api import (
 )
 
 __all__ = [
-    "InputError", "RenderResult", "__version__", "builtin_scenes", "default_scene_name", "integrators",
-    "load_scene", "read_image", "render", "render_job", "write_image",
+    "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
+    "default_scene_name", "describe", "export_scene", "integrators", "load_dict", "load_scene", "read_image",
+    "render", "render_job", "write_image",
 ]

@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import time as _time
+import warnings as _warnings
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional, Union
 
@@ -13,6 +15,12 @@ from . import _native
 
 __version__ = "0.1.0"
 InputError = _native.InputError
+SceneError = _native.SceneError  # a scene file (or dict) that cannot be loaded; a subclass of InputError
+Scene = _native.Scene
+
+
+class SceneWarning(UserWarning):
+    """Something in a scene file was skipped or replaced (e.g. a default camera); the scene still loads."""
 
 SAMPLERS = ("sobol", "independent")
 FILTERS = ("box", "tent", "gaussian")
@@ -32,18 +40,82 @@ def integrators() -> list[str]:
     return list(_native.integrator_names())
 
 
+def _params(params: Optional[dict]) -> dict:
+    """Mitsuba XML $name substitutions as strings (booleans as true/false)."""
+    if params is None:
+        return {}
+    if not isinstance(params, dict):
+        raise InputError(f"params: expected a dict of name -> value, got {type(params).__name__}")
+    out = {}
+    for k, v in params.items():
+        if not isinstance(k, str) or not k:
+            raise InputError(f"params: expected non-empty string names, got {k!r}")
+        out[k] = ("true" if v else "false") if isinstance(v, bool) else str(v)
+    return out
+
+
+def _camera(camera: Optional[str]) -> str:
+    if camera is None:
+        return ""
+    if not isinstance(camera, str) or not camera:
+        raise InputError(f"camera: expected a camera name, got {camera!r}")
+    return camera
+
+
+def _dict_text(d: dict) -> str:
+    try:
+        return json.dumps(d, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise SceneError(f"<dict>: not representable as JSON: {e}") from None
+
+
+def _warn(scene_or_warnings, stacklevel: int = 3) -> None:
+    ws = scene_or_warnings.warnings if isinstance(scene_or_warnings, _native.Scene) else scene_or_warnings
+    for w in ws:
+        _warnings.warn(w, SceneWarning, stacklevel=stacklevel)
+
+
+def load_dict(d: dict, camera: Optional[str] = None, base_dir: Union[str, os.PathLike, None] = None,
+              width: Optional[int] = None, height: Optional[int] = None,
+              filter: Optional[str] = None) -> "_native.Scene":
+    """Loads a scene given as a dict in caustica's JSON format (docs/scene-format.md). Errors
+    name "<dict>" and the JSON path. Relative file names (meshes, textures) are resolved against
+    `base_dir` (default: the current directory)."""
+    if not isinstance(d, dict):
+        raise InputError(f"load_dict: expected a dict, got {type(d).__name__}")
+    s = _native.load_scene_json(_dict_text(d), "<dict>", os.fspath(base_dir) if base_dir is not None else "",
+                                _camera(camera))
+    _warn(s)
+    return _override(s, width, height, filter)
+
+
 def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Optional[int] = None,
-               height: Optional[int] = None, filter: Optional[str] = None) -> "_native.Scene":
-    """Loads a built-in scene by name, a scene file (.json), or a scene given as a dict
-    in caustica's JSON format. Optionally overrides the resolution and pixel filter."""
+               height: Optional[int] = None, filter: Optional[str] = None, camera: Optional[str] = None,
+               params: Optional[dict] = None) -> "_native.Scene":
+    """Loads a built-in scene by name, a scene file (.json, .obj, .ply, .gltf, .glb, .xml), or a
+    scene given as a dict in caustica's JSON format, and returns a Scene for caustica.render.
+
+    camera: a named camera of the file (glTF, XML, JSON "cameras"); params: Mitsuba XML
+    $name substitutions ({"spp": 64}). width/height/filter override the scene's. Problems in
+    the scene raise caustica.SceneError (an InputError); what was skipped or replaced is
+    reported with warnings.warn (caustica.SceneWarning). scene.describe() gives counts and bounds."""
     if isinstance(scene, _native.Scene):
+        if camera is not None or params:
+            raise InputError("camera and params apply when loading; this scene is already loaded")
         s = scene
     elif isinstance(scene, dict):
-        s = _native.load_scene_json(json.dumps(scene), "<dict>")
+        if params:
+            raise InputError("params apply to Mitsuba XML files, not to a dict")
+        return load_dict(scene, camera=camera, width=width, height=height, filter=filter)
     elif isinstance(scene, (str, os.PathLike)):
-        s = _native.load_scene(os.fspath(scene))
+        s = _native.load_scene(os.fspath(scene), _camera(camera), _params(params))
+        _warn(s)
     else:
         raise InputError(f"scene: expected a name, a path or a dict, got {type(scene).__name__}")
+    return _override(s, width, height, filter)
+
+
+def _override(s, width, height, filter):
     if width is not None or height is not None:
         s.set_resolution(_positive_int("width", width if width is not None else s.width),
                          _positive_int("height", height if height is not None else s.height))
@@ -52,6 +124,37 @@ def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Opt
             raise InputError(f"unknown filter '{filter}' (allowed: {', '.join(FILTERS)})")
         s.set_filter(filter)
     return s
+
+
+def describe(scene, camera: Optional[str] = None, params: Optional[dict] = None) -> dict:
+    """Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures) and
+    world-space bounds ((lo, hi)) of a scene (a name, a path, a dict or a loaded scene)."""
+    return load_scene(scene, camera=camera, params=params).describe()
+
+
+def export_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], path: Union[str, os.PathLike],
+                 camera: Optional[str] = None, params: Optional[dict] = None) -> None:
+    """Writes a scene (a built-in name, a scene file, a dict or a loaded scene) as caustica JSON
+    to `path`; textures go beside it as float EXR files (<stem>.tex<i>.exr). The file reads back
+    to the same scene description, so it renders the same image."""
+    out = os.fspath(path)
+    if not out.lower().endswith(".json"):
+        raise InputError(f"cannot write '{out}': scenes are exported as .json")
+    d = os.path.dirname(os.path.abspath(out))
+    if not os.path.isdir(d):
+        raise InputError(f"cannot write '{out}': directory '{d}' does not exist")
+    if isinstance(scene, _native.Scene):
+        if camera is not None or params:
+            raise InputError("camera and params apply when loading; this scene is already loaded")
+        scene.write_json(out)
+    elif isinstance(scene, dict):
+        if params:
+            raise InputError("params apply to Mitsuba XML files, not to a dict")
+        _warn(_native.export_scene_json(_dict_text(scene), "<dict>", "", out, _camera(camera)))
+    elif isinstance(scene, (str, os.PathLike)):
+        _warn(_native.export_scene(os.fspath(scene), out, _camera(camera), _params(params)))
+    else:
+        raise InputError(f"scene: expected a name, a path or a dict, got {type(scene).__name__}")
 
 
 def _positive_int(name: str, v: Any) -> int:
@@ -67,12 +170,29 @@ class RenderResult:
     interrupted: bool = False
 
 
-def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time: Optional[float] = None,
-               seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: int = 5,
-               sampler: str = "sobol", accel: str = "embree",
+def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, spp: Optional[int] = None,
+                    time: Optional[float] = None, rr_depth: Optional[int] = None, sampler: Optional[str] = None,
+                    photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
+                    k: Optional[int] = None) -> dict:
+    """Options given explicitly win; the rest come from the scene's integrator defaults (JSON
+    "integrator"), then from caustica's own defaults (path, 16 spp, rr_depth 5, sobol, alpha 0.7,
+    k 50). spp and time go together: giving either ignores both of the scene's."""
+    dflt = scene.integrator_defaults
+    if spp is None and time is None:
+        spp, time = dflt.get("spp"), dflt.get("time")
+    pick = lambda v, key, own: v if v is not None else dflt.get(key, own)
+    return dict(integrator=pick(integrator, "integrator", "path"), spp=spp, time=time,
+                rr_depth=pick(rr_depth, "rr_depth", 5), sampler=pick(sampler, "sampler", "sobol"),
+                photons=pick(photons, "photons", None), radius=pick(radius, "radius", None),
+                alpha=pick(alpha, "alpha", 0.7), k=pick(k, "k", 50))
+
+
+def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = None, time: Optional[float] = None,
+               seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: Optional[int] = None,
+               sampler: Optional[str] = None, accel: str = "embree",
                progress: Optional[Callable[[dict], Any]] = None, poll: float = 0.1,
-               photons: Optional[int] = None, radius: Optional[float] = None, alpha: float = 0.7,
-               pass_offset: int = 0, stochastic_hash: bool = False, k: int = 50,
+               photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
+               pass_offset: int = 0, stochastic_hash: bool = False, k: Optional[int] = None,
                checkpoint: Optional[Callable[[np.ndarray], Any]] = None,
                checkpoint_interval: Optional[float] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
@@ -83,8 +203,13 @@ def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time:
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
     `k` (pm): photons per k-nearest density estimate (default 50).
-    `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far."""
+    `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
+    Options left as None come from the scene's integrator defaults (see resolve_options);
+    stats["integrator"] names the integrator used."""
     scene = load_scene(scene)
+    o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k)
+    integrator, spp, time, rr_depth, sampler = o["integrator"], o["spp"], o["time"], o["rr_depth"], o["sampler"]
+    photons, radius, alpha, k = o["photons"], o["radius"], o["alpha"], o["k"]
     if integrator not in integrators():
         raise InputError(f"unknown integrator '{integrator}' (allowed: {', '.join(integrators())})")
     if sampler not in SAMPLERS:
@@ -131,20 +256,22 @@ def render_job(scene, integrator: str = "path", spp: Optional[int] = None, time:
         while not job.wait(poll):
             pass
     stats = job.stats()
+    stats["integrator"] = integrator
     if progress is not None and not interrupted:
         progress(stats)
     return RenderResult(image=job.image(), stats=stats, interrupted=interrupted)
 
 
-def render(scene, integrator: str = "path", spp: Optional[int] = None, time: Optional[float] = None,
-           seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: int = 5,
-           sampler: str = "sobol", accel: str = "embree",
+def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, time: Optional[float] = None,
+           seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: Optional[int] = None,
+           sampler: Optional[str] = None, accel: str = "embree",
            progress: Optional[Callable[[dict], Any]] = None, **photon_options) -> np.ndarray:
     """Renders `scene` (a name, a path, a dict or a loaded scene) and returns linear RGB
     radiance as a float32 NumPy array of shape (H, W, 3).
 
     spp: samples per pixel; time: seconds (render whole passes until spent); with neither,
-    16 spp. progress(stats) is called about ten times a second with a dict of counters
+    the scene's (JSON "integrator") or 16 spp. integrator, rr_depth, sampler and the photon
+    options likewise default to the scene's, then to path / 5 / sobol. progress(stats) is called about ten times a second with a dict of counters
     (passes, target_passes, samples, rays, shadow_rays, seconds); returning False stops
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,

@@ -1,19 +1,26 @@
 """The `caustica` command line.
 
     caustica render [SCENE] -o OUT.{exr,pfm,png} [--integrator path] [--spp N | --time S] ...
+    caustica info SCENE [--json]
+    caustica export SCENE -o OUT.json
     caustica scenes
     caustica --version
 
-Bad input (an unknown scene, integrator or option, a bad number, an unknown output
-format, an unwritable output path) prints one line to stderr and exits with status 2.
+SCENE is a built-in scene name or a scene file (.json, .obj, .ply, .gltf, .glb, .xml);
+render, info and export take --camera NAME and --param NAME=VALUE (repeatable; Mitsuba
+XML $NAME substitutions). Bad input (an unknown scene, integrator or option, a bad number,
+an unknown output format, an unwritable output path, a broken scene file) prints one line
+to stderr and exits with status 2. Scene warnings are printed once each to stderr.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
 import time as _time
+import warnings
 
 from . import _api
 
@@ -58,6 +65,22 @@ def _float(name):
     return _number(name, float, math.isfinite, "a finite number")
 
 
+def _param(s):
+    name, eq, value = s.partition("=")
+    if not eq or not name:
+        raise argparse.ArgumentTypeError(f"--param expects NAME=VALUE, got '{s}'")
+    return name, value
+
+
+def _scene_options(p, nargs="?"):
+    p.add_argument("scene", nargs=nargs, default=None,
+                   help=f"a built-in scene name or a scene file (.json, .obj, .ply, .gltf, .glb, .xml)"
+                        + (f" (default: {_api.default_scene_name()})" if nargs == "?" else ""))
+    p.add_argument("--camera", default=None, help="a named camera of the scene file (glTF, XML, JSON \"cameras\")")
+    p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
+                   help="Mitsuba XML $NAME substitution (repeatable)")
+
+
 _depth = _number("--max-depth", int, lambda v: v == -1 or v > 0, "a positive integer or -1 (unlimited)")
 _seconds = _seconds_named("--time")
 
@@ -67,13 +90,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"caustica {_api.__version__}")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
     r = sub.add_parser("render", help="render a scene to an image")
-    r.add_argument("scene", nargs="?", default=None,
-                   help=f"a built-in scene name or a scene file (default: {_api.default_scene_name()})")
+    _scene_options(r)
     r.add_argument("-o", "--output", action="append", default=None,
                    help="output image (.exr, .pfm or .png); may be given more than once (default: out.exr)")
-    r.add_argument("--integrator", default="path", help=f"one of: {', '.join(_api.integrators())}")
+    r.add_argument("--integrator", default=None,
+                   help=f"one of: {', '.join(_api.integrators())} (default: the scene's, else path)")
     r.add_argument("--spp", "--passes", dest="spp", type=_positive_int("--spp"), default=None,
-                   help="samples per pixel (default: 16 when no --time)")
+                   help="samples per pixel (default: the scene's, else 16 when no --time)")
     r.add_argument("--time", type=_seconds, default=None,
                    help="render whole passes until this many seconds are spent")
     r.add_argument("--width", type=_positive_int("--width"), default=None)
@@ -83,10 +106,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--max-depth", type=_depth, default=None,
                    help="longest path in segments, the camera segment being 1 (Mitsuba's count); -1: unlimited; "
                         "default: the scene's")
-    r.add_argument("--rr-depth", type=_positive_int("--rr-depth"), default=5,
-                   help="Russian roulette starts after this many segments")
+    r.add_argument("--rr-depth", type=_positive_int("--rr-depth"), default=None,
+                   help="Russian roulette starts after this many segments (default: the scene's, else 5)")
     r.add_argument("--filter", default=None, help="pixel filter: box, tent or gaussian (default: the scene's)")
-    r.add_argument("--sampler", default="sobol", help="sobol (Owen-scrambled) or independent")
+    r.add_argument("--sampler", default=None, help="sobol (Owen-scrambled) or independent (default: the scene's, else sobol)")
     r.add_argument("--accel", default="embree", help="embree, or bvh (the portable BVH the GPU uses)")
     r.add_argument("--exposure", type=_float("--exposure"), default=0.0,
                    help="PNG only: scale by 2^exposure before sRGB encoding")
@@ -94,16 +117,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="photon integrators: photon paths per pass (default: one per pixel)")
     r.add_argument("--radius", type=_float("--radius"), default=None,
                    help="photon integrators: initial gather radius (default: automatic, printed)")
-    r.add_argument("--alpha", type=_float("--alpha"), default=0.7, help="photon integrators: radius reduction, in (0, 1)")
+    r.add_argument("--alpha", type=_float("--alpha"), default=None,
+                   help="photon integrators: radius reduction, in (0, 1) (default: the scene's, else 0.7)")
     r.add_argument("--pass-offset", type=_nonneg_int("--pass-offset"), default=0,
                    help="pppm: first pass index (independent passes can be rendered apart and averaged)")
-    r.add_argument("--k", type=_positive_int("--k"), default=50,
-                   help="pm: photons per k-nearest-neighbour density estimate")
+    r.add_argument("--k", type=_positive_int("--k"), default=None,
+                   help="pm: photons per k-nearest-neighbour density estimate (default: the scene's, else 50)")
     r.add_argument("--stochastic-hash", action="store_true",
                    help="photon maps keep one photon per hash cell (Hachisuka & Jensen 2010)")
     r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
                    help="write the image so far every S seconds (atomically)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    i = sub.add_parser("info", help="describe a scene: counts of shapes, triangles, lights, materials; bounds")
+    _scene_options(i, nargs=None)
+    i.add_argument("--json", action="store_true", help="print the description as JSON")
+    e = sub.add_parser("export", help="write a scene (built-in or file) as caustica JSON")
+    _scene_options(e, nargs=None)
+    e.add_argument("-o", "--output", required=True, help="the .json file to write (textures go beside it as .exr)")
     sub.add_parser("scenes", help="list the built-in scenes")
     return p
 
@@ -161,42 +191,68 @@ class _Progress:
             self.bar.close()
 
 
+def _load(a, **kw):
+    """Loads a.scene with --camera/--param; each scene warning goes to stderr once."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", _api.SceneWarning)
+        scene = _api.load_scene(a.scene or _api.default_scene_name(), camera=a.camera,
+                                params=dict(a.param) or None, **kw)
+    _print_warnings(caught)
+    return scene
+
+
+def _print_warnings(caught):
+    seen = set()
+    for w in caught:
+        msg = str(w.message)
+        if issubclass(w.category, _api.SceneWarning) and msg not in seen:
+            seen.add(msg)
+            print(f"caustica: warning: {msg}", file=sys.stderr)
+        elif not issubclass(w.category, _api.SceneWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
 def cmd_render(a) -> int:
     outputs = a.output or ["out.exr"]
     for o in outputs:
         _check_output(o)
-    _check_choice("integrator", a.integrator, _api.integrators())
-    _check_choice("sampler", a.sampler, _api.SAMPLERS)
+    if a.integrator is not None:
+        _check_choice("integrator", a.integrator, _api.integrators())
+    if a.sampler is not None:
+        _check_choice("sampler", a.sampler, _api.SAMPLERS)
     _check_choice("accelerator", a.accel, _api.ACCELS)
     if a.filter is not None:
         _check_choice("filter", a.filter, _api.FILTERS)
-    scene_name = a.scene or _api.default_scene_name()
-    scene = _api.load_scene(scene_name, width=a.width, height=a.height, filter=a.filter)
-    spp = a.spp if (a.spp is not None or a.time is not None) else 16
     if a.radius is not None and not a.radius > 0:
         raise _api.InputError(f"--radius expects a positive number, got '{a.radius}'")
-    if not 0 < a.alpha < 1:
+    if a.alpha is not None and not 0 < a.alpha < 1:
         raise _api.InputError(f"--alpha expects a number in (0, 1), got '{a.alpha}'")
-    prog = _Progress(spp, a.time, enabled=not a.quiet)
+    scene = _load(a, width=a.width, height=a.height, filter=a.filter)
+    o = _api.resolve_options(scene, a.integrator, a.spp, a.time, a.rr_depth, a.sampler, a.photons, a.radius,
+                             a.alpha, a.k)
+    integrator, spp, seconds = o["integrator"], o["spp"], o["time"]
+    if spp is None and seconds is None:
+        spp = 16
+    prog = _Progress(spp, seconds, enabled=not a.quiet)
 
     def write_all(image):
         for o in outputs:
             _api.write_image(o, image, exposure=a.exposure)
 
     try:
-        res = _api.render_job(scene, integrator=a.integrator, spp=spp, time=a.time, seed=a.seed,
-                              threads=a.threads, max_depth=a.max_depth, rr_depth=a.rr_depth,
-                              sampler=a.sampler, accel=a.accel, progress=prog, photons=a.photons,
-                              radius=a.radius, alpha=a.alpha, pass_offset=a.pass_offset,
-                              stochastic_hash=a.stochastic_hash, k=a.k, checkpoint=write_all if a.checkpoint else None,
+        res = _api.render_job(scene, integrator=integrator, spp=spp, time=seconds, seed=a.seed,
+                              threads=a.threads, max_depth=a.max_depth, rr_depth=o["rr_depth"],
+                              sampler=o["sampler"], accel=a.accel, progress=prog, photons=o["photons"],
+                              radius=o["radius"], alpha=o["alpha"], pass_offset=a.pass_offset,
+                              stochastic_hash=a.stochastic_hash, k=o["k"], checkpoint=write_all if a.checkpoint else None,
                               checkpoint_interval=a.checkpoint)
     finally:
         prog.close()
     st = res.stats
     write_all(res.image)
     secs = max(st["seconds"], 1e-9)
-    if st.get("photons") or a.integrator != "path":
-        msg = (f"{scene.name}: {a.integrator}, {st['passes']} passes, {scene.width}x{scene.height}, "
+    if st.get("photons") or integrator != "path":
+        msg = (f"{scene.name}: {integrator}, {st['passes']} passes, {scene.width}x{scene.height}, "
                f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "
                f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g} "
                f"-> {', '.join(outputs)}")
@@ -208,6 +264,39 @@ def cmd_render(a) -> int:
         msg = "interrupted: wrote the image accumulated so far. " + msg
     print(msg, file=sys.stderr)
     return 130 if res.interrupted else 0
+
+
+def cmd_info(a) -> int:
+    scene = _load(a)
+    d = scene.describe()
+    if a.json:
+        d = dict(d, bounds=[list(d["bounds"][0]), list(d["bounds"][1])], width=scene.width, height=scene.height,
+                 camera=scene.camera, cameras=list(scene.cameras), integrator=dict(scene.integrator_defaults))
+        print(json.dumps(d, indent=2))
+        return 0
+    lo, hi = d["bounds"]
+    fmt = lambda v: "[" + ", ".join(f"{x:.6g}" for x in v) + "]"
+    print(f"name:        {d['name']}")
+    print(f"image:       {scene.width}x{scene.height}, {scene.filter} filter"
+          + (f", camera '{scene.camera}'" if scene.camera else ""))
+    if scene.cameras:
+        print(f"cameras:     {', '.join(scene.cameras)}")
+    for key in ("shapes", "meshes", "triangles", "spheres", "materials", "lights", "area_lights", "textures"):
+        print(f"{key + ':':12s} {d[key]}")
+    print(f"bounds:      {fmt(lo)} .. {fmt(hi)}")
+    defaults = dict(scene.integrator_defaults)
+    if defaults:
+        print("integrator:  " + ", ".join(f"{k} {v}" for k, v in defaults.items()))
+    return 0
+
+
+def cmd_export(a) -> int:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", _api.SceneWarning)
+        _api.export_scene(a.scene, a.output, camera=a.camera, params=dict(a.param) or None)
+    _print_warnings(caught)
+    print(f"{a.scene} -> {a.output}", file=sys.stderr)
+    return 0
 
 
 def cmd_scenes(a) -> int:
@@ -225,6 +314,10 @@ def main(argv=None) -> int:
             return EXIT_USAGE
         if a.command == "render":
             return cmd_render(a)
+        if a.command == "info":
+            return cmd_info(a)
+        if a.command == "export":
+            return cmd_export(a)
         return cmd_scenes(a)
     except (UsageError, _api.InputError) as e:
         print(f"caustica: error: {e}", file=sys.stderr)

@@ -115,3 +115,20 @@ def test_unsupported_output(tmp_path):
         caustica.write_image(tmp_path / "a.jpg", img)
     with pytest.raises(caustica.InputError, match="does not exist"):
         caustica.write_image(tmp_path / "no" / "a.exr", img)
+
+
+def test_scene_loading_api_surface():
+    s = caustica.load_scene({"camera": {"width": 8, "height": 6}, "shapes": [{"type": "cube"}]})
+    assert isinstance(s, caustica.Scene) and (s.width, s.height) == (8, 6)
+    assert caustica.load_scene(s) is s
+    assert set(s.describe()) >= {"shapes", "meshes", "triangles", "spheres", "materials", "lights", "area_lights",
+                                 "textures", "bounds"}
+    assert issubclass(caustica.SceneError, caustica.InputError)
+    with pytest.raises(caustica.InputError, match="already loaded"):
+        caustica.load_scene(s, camera="x")
+    with pytest.raises(caustica.InputError, match="params: expected a dict"):
+        caustica.load_scene("cornell", params=["spp=4"])
+    with pytest.raises(caustica.InputError, match="camera: expected a camera name"):
+        caustica.load_scene("cornell", camera=3)
+    with pytest.raises(caustica.SceneError, match="no camera named 'x'"):
+        caustica.load_scene("cornell", camera="x")

@@ -64,7 +64,18 @@ BAD = [
     (["render", "{d}/nothere.json", "-o", "{d}/a.exr"], "no such file"),
     (["render", "{d}/bad.json", "-o", "{d}/a.exr"], "bad.json:3: invalid JSON"),
     (["render", "{d}/badval.json", "-o", "{d}/a.exr"], "badval.json: /camera/fov: expected a number, got string"),
-    (["render", "{d}/scene.obj", "-o", "{d}/a.exr"], "unsupported scene format '.obj'"),
+    (["render", "{d}/scene.stl", "-o", "{d}/a.exr"], "unsupported scene format '.stl'"),
+    (["render", "{d}/meshfile.json", "-o", "{d}/a.exr"],
+     "meshfile.json: /shapes/0/file: mesh file 'gone.ply' does not exist"),
+    (["render", "{d}/cams.json", "--camera", "top", "-o", "{d}/a.exr"], "no camera named 'top' (cameras: front, side)"),
+    (["render", "cornell", "--param", "spp", "-o", "{d}/a.exr"], "--param expects NAME=VALUE, got 'spp'"),
+    (["info", "{d}/badval.json"], "badval.json: /camera/fov: expected a number, got string"),
+    (["info"], "the following arguments are required: scene"),
+    (["info", "nope"], "unknown scene 'nope'"),
+    (["export", "cornell"], "the following arguments are required: -o/--output"),
+    (["export", "cornell", "-o", "{d}/a.txt"], "scenes are exported as .json"),
+    (["export", "cornell", "-o", "{d}/missing/a.json"], "does not exist"),
+    (["export", "{d}/bad.json", "-o", "{d}/a.json"], "bad.json:3: invalid JSON"),
     (["explode"], "invalid choice: 'explode'"),
 ]
 
@@ -73,7 +84,10 @@ BAD = [
 def test_bad_input(caustica_bin, tmp_path, args, needle):
     (tmp_path / "bad.json").write_text('{\n "camera": {},\n "shapes": [}\n}\n')
     (tmp_path / "badval.json").write_text('{"camera": {"fov": "wide"}, "shapes": [{"type": "cube"}]}')
-    (tmp_path / "scene.obj").write_text("v 0 0 0\n")
+    (tmp_path / "scene.stl").write_text("solid x\n")
+    (tmp_path / "meshfile.json").write_text('{"camera": {}, "shapes": [{"type": "mesh", "file": "gone.ply"}]}')
+    (tmp_path / "cams.json").write_text('{"cameras": {"front": {}, "side": {"position": [1, 0, 0]}}, '
+                                        '"shapes": [{"type": "cube"}]}')
     before = set(os.listdir(tmp_path))
     r = run(caustica_bin, *[a.format(d=tmp_path) for a in args])
     assert r.returncode == 2, (r.returncode, r.stderr)

@@ -3,6 +3,7 @@
 // tests need. The pure-Python package (python/caustica) builds the API on it.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
+#include <nanobind/stl/map.h>
 #include <nanobind/stl/pair.h>
 #include <nanobind/stl/shared_ptr.h>
 #include <nanobind/stl/string.h>
@@ -12,6 +13,7 @@
 #include "../film/image_io.h"
 #include "../integrator/render.h"
 #include "../scene/builtin/builtin.h"
+#include "../scene/json_writer.h"
 #include "../scene/load.h"
 #include "../scene/loaders/json_loader.h"
 
@@ -34,6 +36,91 @@ FilterType parse_filter(const std::string& f) {
   throw InputError("unknown filter '" + f + "' (allowed: box, tent, gaussian)");
 }
 
+// Scene-file problems reach Python as caustica.SceneError (a subclass of InputError).
+struct SceneError : InputError {
+  using InputError::InputError;
+};
+
+template <typename F>
+auto scene_call(F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const SceneError&) {
+    throw;
+  } catch (const InputError& e) {
+    throw SceneError(e.what());
+  }
+}
+
+SceneDesc load_desc(const std::string& name_or_path, const std::string& camera,
+                    const std::map<std::string, std::string>& params) {
+  LoadOptions o;
+  o.camera = camera;
+  o.params = params;
+  return scene_call([&] {
+    SceneDesc d = load_scene_desc(name_or_path, o);
+    // load_scene_desc picks cameras of files; a built-in scene has none to pick.
+    if (!camera.empty() && d.camera.name != camera) select_camera(d, camera);
+    return d;
+  });
+}
+
+SceneDesc load_json_desc(const std::string& text, const std::string& source, const std::string& base_dir,
+                         const std::string& camera) {
+  return scene_call([&] {
+    SceneDesc d = load_json_scene_text(text, source, base_dir);
+    if (!camera.empty()) select_camera(d, camera);
+    return d;
+  });
+}
+
+std::shared_ptr<Scene> build_scene(const SceneDesc& d) {
+  return scene_call([&] { return Scene::build(d); });
+}
+
+nb::dict describe(const SceneDesc& d) {
+  SceneStats st = scene_stats(d);
+  nb::dict r;
+  r["name"] = d.name;
+  r["shapes"] = st.shapes;
+  r["meshes"] = st.meshes;
+  r["triangles"] = st.triangles;
+  r["spheres"] = st.spheres;
+  r["materials"] = st.materials;
+  r["lights"] = st.lights;
+  r["area_lights"] = st.area_lights;
+  r["textures"] = st.textures;
+  nb::list lo, hi;
+  for (int i = 0; i < 3; ++i) {
+    lo.append(st.lo[i]);
+    hi.append(st.hi[i]);
+  }
+  r["bounds"] = nb::make_tuple(lo, hi);
+  return r;
+}
+
+nb::dict integrator_defaults(const SceneDesc& d) {
+  const SceneDesc::IntegratorDefaults& in = d.integrator;
+  nb::dict r;
+  if (!in.type.empty()) r["integrator"] = in.type;
+  if (!in.sampler.empty()) r["sampler"] = in.sampler;
+  if (in.spp > 0) r["spp"] = in.spp;
+  if (in.time > 0.0) r["time"] = in.time;
+  if (d.max_depth != -1) r["max_depth"] = d.max_depth;
+  if (in.rr_depth > 0) r["rr_depth"] = in.rr_depth;
+  if (in.photons > 0) r["photons"] = in.photons;
+  if (in.radius > 0.f) r["radius"] = in.radius;
+  if (in.alpha > 0.f) r["alpha"] = in.alpha;
+  if (in.k > 0) r["k"] = in.k;
+  return r;
+}
+
+std::vector<std::string> camera_names(const SceneDesc& d) {
+  std::vector<std::string> n;
+  for (const CameraDesc& c : d.cameras) n.push_back(c.name);
+  return n;
+}
+
 const char* filter_name(FilterType f) {
   switch (f) {
     case FilterType::kTent: return "tent";
@@ -46,6 +133,7 @@ const char* filter_name(FilterType f) {
 
 NB_MODULE(_native, m) {
   nb::exception<InputError>(m, "InputError", PyExc_ValueError);
+  nb::exception<SceneError>(m, "SceneError", m.attr("InputError"));
 
   m.def("builtin_scenes", &builtin_scenes);
   m.def("default_scene_name", &default_scene_name);
@@ -65,14 +153,60 @@ NB_MODULE(_native, m) {
         if (w <= 0 || h <= 0) throw InputError("width and height must be positive integers");
         s.set_resolution(w, h);
       })
-      .def("set_filter", [](Scene& s, const std::string& f) { s.set_filter(parse_filter(f)); });
+      .def("set_filter", [](Scene& s, const std::string& f) { s.set_filter(parse_filter(f)); })
+      .def_prop_ro("warnings", [](const Scene& s) { return s.desc().warnings; })
+      .def_prop_ro("cameras", [](const Scene& s) { return camera_names(s.desc()); })
+      .def_prop_ro("camera", [](const Scene& s) { return s.desc().camera.name; })
+      .def_prop_ro("integrator_defaults", [](const Scene& s) { return integrator_defaults(s.desc()); })
+      .def("describe", [](const Scene& s) { return describe(s.desc()); },
+           "Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures) and world bounds.")
+      .def("to_json", [](const Scene& s, const std::string& texture_stem) {
+             return scene_call([&] { return scene_desc_to_json(s.desc(), texture_stem); });
+           },
+           nb::arg("texture_stem") = "scene")
+      .def("write_json", [](const Scene& s, const std::string& path) {
+             nb::gil_scoped_release release;
+             scene_call([&] { write_scene_json(s.desc(), path); });
+           });
 
-  m.def("load_scene", [](const std::string& name_or_path) { return Scene::build(load_scene_desc(name_or_path)); },
+  m.def("load_scene",
+        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params) {
+          return build_scene(load_desc(name_or_path, camera, params));
+        },
+        nb::arg("name_or_path"), nb::arg("camera") = "", nb::arg("params") = std::map<std::string, std::string>(),
         nb::call_guard<nb::gil_scoped_release>());
-  m.def("load_scene_json", [](const std::string& text, const std::string& source) {
-        return Scene::build(load_json_scene_text(text, source));
-      },
-      nb::call_guard<nb::gil_scoped_release>());
+  m.def("load_scene_json",
+        [](const std::string& text, const std::string& source, const std::string& base_dir, const std::string& camera) {
+          return build_scene(load_json_desc(text, source, base_dir, camera));
+        },
+        nb::arg("text"), nb::arg("source"), nb::arg("base_dir") = "", nb::arg("camera") = "",
+        nb::call_guard<nb::gil_scoped_release>());
+  // Loading without building (no acceleration structures): for export and describe.
+  m.def("export_scene",
+        [](const std::string& name_or_path, const std::string& out, const std::string& camera,
+           const std::map<std::string, std::string>& params) {
+          SceneDesc d = load_desc(name_or_path, camera, params);
+          scene_call([&] { write_scene_json(d, out); });
+          return d.warnings;
+        },
+        nb::arg("name_or_path"), nb::arg("out"), nb::arg("camera") = "",
+        nb::arg("params") = std::map<std::string, std::string>(), nb::call_guard<nb::gil_scoped_release>());
+  m.def("export_scene_json",
+        [](const std::string& text, const std::string& source, const std::string& base_dir, const std::string& out,
+           const std::string& camera) {
+          SceneDesc d = load_json_desc(text, source, base_dir, camera);
+          scene_call([&] { write_scene_json(d, out); });
+          return d.warnings;
+        },
+        nb::arg("text"), nb::arg("source"), nb::arg("base_dir"), nb::arg("out"), nb::arg("camera") = "",
+        nb::call_guard<nb::gil_scoped_release>());
+  m.def("scene_to_json",
+        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params) {
+          SceneDesc d = load_desc(name_or_path, camera, params);
+          return scene_call([&] { return scene_desc_to_json(d, d.name); });
+        },
+        nb::arg("name_or_path"), nb::arg("camera") = "", nb::arg("params") = std::map<std::string, std::string>(),
+        nb::call_guard<nb::gil_scoped_release>());
 
   nb::class_<RenderJob>(m, "RenderJob")
       .def("__init__",
