@@ -6,7 +6,10 @@ SCENE   ?= smallvcm-spheres
 SPP     ?= 64
 JOBS    ?= $(shell nproc)
 
-.PHONY: all deps build render test test-cpp test-python cuda-check bench clean
+FUZZ_SECONDS ?= 3600
+FUZZ_SEED    ?= 1
+
+.PHONY: all deps build render test test-cpp test-python cuda-check fuzz-build fuzz fuzz-short bench clean
 
 all: build
 
@@ -37,8 +40,21 @@ cuda-check: deps
 	$(VENV)/bin/cmake --build build/cuda
 	@echo "cuda-check: device code compiles with $$($(NVCC) --version | tail -n 2 | head -n 1)"
 
+# The scene-loader fuzzer under AddressSanitizer + UBSan (tests/fuzz, docs/fuzzing.md):
+# `make test` runs it for a minute; `make fuzz` for FUZZ_SECONDS (default an hour).
+fuzz-build: deps
+	$(VENV)/bin/cmake -S . -B build/fuzz -G Ninja -DCAUSTICA_FUZZ=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  -DCMAKE_MAKE_PROGRAM=$(abspath $(VENV)/bin/ninja) > build-fuzz.log 2>&1 || (cat build-fuzz.log; exit 1)
+	$(VENV)/bin/cmake --build build/fuzz -j $(JOBS)
+
+fuzz: fuzz-build
+	ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 build/fuzz/caustica_fuzz tests/fuzz/corpus $(FUZZ_SECONDS) $(FUZZ_SEED) fuzz-findings
+
+fuzz-short: fuzz-build
+	ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 build/fuzz/caustica_fuzz tests/fuzz/corpus 60 $(FUZZ_SEED) fuzz-findings
+
 bench: build
 	$(PY) bench/bench_cornell.py
 
 clean:
-	rm -rf build out build-cuda.log
+	rm -rf build out build-cuda.log build-fuzz.log fuzz-findings

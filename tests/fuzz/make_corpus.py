@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""Writes the fuzzer's seed corpus (tests/fuzz/corpus): one small valid file
+per scene format, each using the features its loader parses (materials,
+textures, transforms, lights, cameras), so mutations reach deep code paths.
+Run it again after changing a seed; the files are committed."""
+import base64
+import json
+import struct
+import sys
+import zlib
+from pathlib import Path
+
+OUT = Path(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).parent / "corpus")
+
+
+def png(w, h, rgb):
+    """A minimal 8-bit RGB PNG (no filter) from a flat list of (r, g, b)."""
+    raw = b"".join(b"\0" + bytes(v for px in rgb[y * w:(y + 1) * w] for v in px) for y in range(h))
+
+    def chunk(tag, data):
+        c = struct.pack(">I", len(data)) + tag + data
+        return c + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+TEX = png(2, 2, [(255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 255)])
+
+
+def main():
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / "checker.png").write_bytes(TEX)
+
+    # caustica JSON
+    scene = {
+        "name": "fuzz",
+        "camera": {"position": [0, 1, 5], "target": [0, 1, 0], "up": [0, 1, 0], "fov": 40, "width": 16, "height": 12},
+        "filter": "tent",
+        "max_depth": 6,
+        "materials": {
+            "white": {"type": "diffuse", "reflectance": 0.8},
+            "gold": {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603], "roughness": 0.2},
+            "glass": {"type": "dielectric", "eta": 1.5},
+            "plastic": {"type": "plastic", "diffuse": [0.2, 0.4, 0.6]},
+        },
+        "shapes": [
+            {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
+            {"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "glass"},
+            {"type": "cube", "material": "gold", "transform": {"scale": 0.3, "translate": [1.5, 0.3, 0]}},
+            {"type": "mesh", "material": "plastic", "positions": [[-2, 0, 0], [-1, 0, 0], [-1, 1, 0]], "indices": [0, 1, 2]},
+            {"type": "disk", "material": "white", "emission": [10, 10, 10],
+             "transform": {"scale": 0.5, "rotate": {"axis": [1, 0, 0], "angle": 90}, "translate": [0, 4, 0]}},
+        ],
+        "lights": [{"type": "point", "position": [0, 3, 2], "intensity": 5},
+                   {"type": "environment", "radiance": 0.1}],
+    }
+    (OUT / "scene.json").write_text(json.dumps(scene, indent=1))
+
+    # OBJ + MTL: two groups, a quad, textures, an emitter, normals and uvs.
+    (OUT / "mesh.mtl").write_text(
+        "newmtl red\nKd 0.8 0.1 0.1\nmap_Kd checker.png\n"
+        "newmtl shiny\nKd 0.2 0.2 0.2\nKs 0.5 0.5 0.5\nNs 200\nillum 2\n"
+        "newmtl glass\nKs 1 1 1\nNi 1.5\nd 0.1\nTf 0.9 0.9 0.9\nillum 7\n"
+        "newmtl lamp\nKd 0 0 0\nKe 5 5 5\n")
+    (OUT / "mesh.obj").write_text(
+        "mtllib mesh.mtl\n"
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 1 0\nv -0.2 2 -0.2\nv 0.2 2 -0.2\nv 0.2 2 0.2\nv -0.2 2 0.2\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 1 0\n"
+        "g floor\nusemtl red\nf 1/1/1 2/2/1 3/3/1 4/4/1\n"
+        "g pyramid\nusemtl shiny\nf 1 2 5\nf 2 3 5\nusemtl glass\nf 3 4 5\nf 4 1 5\n"
+        "o lamp\nusemtl lamp\nf 9 8 7 6\n")
+
+    # PLY, ASCII and binary little-endian: a quad with normals and uvs, a triangle.
+    verts = [(-1, 0, -1, 0, 1, 0, 0, 0), (1, 0, -1, 0, 1, 0, 1, 0), (1, 0, 1, 0, 1, 0, 1, 1),
+             (-1, 0, 1, 0, 1, 0, 0, 1), (0, 1, 0, 0, 1, 0, 0.5, 0.5)]
+    faces = [(0, 1, 2, 3), (0, 1, 4)]
+    header = ("ply\nformat {fmt} 1.0\ncomment caustica fuzz seed\nelement vertex 5\n"
+              "property float x\nproperty float y\nproperty float z\n"
+              "property float nx\nproperty float ny\nproperty float nz\nproperty float u\nproperty float v\n"
+              "element face 2\nproperty list uchar int vertex_indices\nend_header\n")
+    body = "".join(" ".join(str(x) for x in v) + "\n" for v in verts)
+    body += "".join(f"{len(f)} " + " ".join(str(i) for i in f) + "\n" for f in faces)
+    (OUT / "mesh_ascii.ply").write_text(header.format(fmt="ascii") + body)
+    b = header.format(fmt="binary_little_endian").encode()
+    for v in verts:
+        b += struct.pack("<8f", *v)
+    for f in faces:
+        b += struct.pack("<B", len(f)) + struct.pack(f"<{len(f)}i", *f)
+    (OUT / "mesh_binary.ply").write_bytes(b)
+
+    # glTF: a textured quad instanced twice under a transformed parent, an
+    # emissive triangle, a point light, a camera; .gltf with a data-URI buffer
+    # and an external image, and a .glb with everything embedded.
+    pos = struct.pack("<12f", -1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0)
+    uv = struct.pack("<8f", 0, 1, 1, 1, 1, 0, 0, 0)
+    idx = struct.pack("<6H", 0, 1, 2, 0, 2, 3)
+    tri = struct.pack("<9f", 0, 2, 0, 1, 2, 0, 0, 3, 0)
+    buf = pos + uv + idx + b"\0\0" + tri
+
+    def gltf(buffer_uri, image):
+        off_uv, off_idx, off_tri = len(pos), len(pos) + len(uv), len(pos) + len(uv) + len(idx) + 2
+        return {
+            "asset": {"version": "2.0"},
+            "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
+            "scene": 0,
+            "scenes": [{"nodes": [0, 3, 4]}],
+            "nodes": [
+                {"children": [1, 2], "translation": [0, 1, 0], "rotation": [0, 0.3826834, 0, 0.9238795], "scale": [2, 2, 2]},
+                {"mesh": 0},
+                {"mesh": 0, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 3, 0, 0, 1]},
+                {"mesh": 1},
+                {"camera": 0, "translation": [0, 1, 8], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            ],
+            "meshes": [
+                {"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]},
+                {"primitives": [{"attributes": {"POSITION": 3}, "material": 1}]},
+            ],
+            "materials": [
+                {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.2, "roughnessFactor": 0.5},
+                 "doubleSided": True},
+                {"emissiveFactor": [1, 0.8, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}},
+            ],
+            "textures": [{"source": 0, "sampler": 0}],
+            "samplers": [{"magFilter": 9728, "wrapS": 33071, "wrapT": 10497}],
+            "images": [image],
+            "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "aspectRatio": 1.5, "znear": 0.1}}],
+            "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 20, "color": [1, 1, 1]}]}},
+            "buffers": [dict({"byteLength": len(buffer_uri[1])}, **({"uri": buffer_uri[0]} if buffer_uri[0] else {}))],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
+                {"buffer": 0, "byteOffset": off_uv, "byteLength": len(uv)},
+                {"buffer": 0, "byteOffset": off_idx, "byteLength": len(idx), "target": 34963},
+                {"buffer": 0, "byteOffset": off_tri, "byteLength": len(tri)},
+            ] + ([{"buffer": 0, "byteOffset": len(buffer_uri[1]) - len(TEX), "byteLength": len(TEX)}]
+                 if not buffer_uri[0] else []),
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+                {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+                {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"},
+                {"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 2, 0], "max": [1, 3, 0]},
+            ],
+        }
+
+    uri = "data:application/octet-stream;base64," + base64.b64encode(buf).decode()
+    (OUT / "scene.gltf").write_text(json.dumps(gltf((uri, buf), {"uri": "checker.png"}), indent=1))
+    glb_bin = buf + b"\0" * ((4 - len(buf) % 4) % 4) + TEX
+    glb_bin += b"\0" * ((4 - len(glb_bin) % 4) % 4)
+    doc = gltf((None, glb_bin), {"bufferView": 4, "mimeType": "image/png"})
+    doc["bufferViews"][4]["byteOffset"] = len(buf) + (4 - len(buf) % 4) % 4
+    js = json.dumps(doc).encode()
+    js += b" " * ((4 - len(js) % 4) % 4)
+    glb = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(glb_bin))
+    glb += struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(glb_bin), 0x004E4942) + glb_bin
+    (OUT / "scene.glb").write_bytes(glb)
+
+    # Mitsuba 3 XML: defaults and $params, ref, twosided, shapes of each kind, emitters, sensor.
+    (OUT / "scene.xml").write_text("""<scene version="3.0.0">
+  <default name="spp" value="16"/>
+  <default name="res" value="16"/>
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 1, 5" target="0, 1, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" value="$res"/>
+      <rfilter type="gaussian"/></film>
+  </sensor>
+  <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf></bsdf>
+  <bsdf type="roughconductor" id="gold"><string name="material" value="Au"/><float name="alpha" value="0.2"/></bsdf>
+  <bsdf type="dielectric" id="glass"><float name="int_ior" value="1.5"/></bsdf>
+  <bsdf type="plastic" id="plastic"><rgb name="diffuse_reflectance" value="0.2, 0.4, 0.6"/></bsdf>
+  <bsdf type="diffuse" id="tex"><texture type="bitmap" name="reflectance"><string name="filename" value="checker.png"/></texture></bsdf>
+  <shape type="rectangle"><transform name="to_world"><scale value="10"/><rotate x="1" angle="-90"/></transform><ref id="white"/></shape>
+  <shape type="sphere"><point name="center" x="0" y="1" z="0"/><float name="radius" value="1"/><ref id="glass"/></shape>
+  <shape type="cube"><transform name="to_world"><scale value="0.3"/><translate x="1.5" y="0.3" z="0"/></transform><ref id="gold"/></shape>
+  <shape type="obj"><string name="filename" value="mesh.obj"/><ref id="plastic"/></shape>
+  <shape type="ply"><string name="filename" value="mesh_binary.ply"/>
+    <transform name="to_world"><matrix value="1 0 0 -2  0 1 0 0  0 0 1 0  0 0 0 1"/></transform><ref id="tex"/></shape>
+  <shape type="disk">
+    <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate y="4"/></transform>
+    <emitter type="area"><rgb name="radiance" value="10, 10, 10"/></emitter>
+  </shape>
+  <emitter type="point"><point name="position" x="0" y="3" z="2"/><rgb name="intensity" value="5"/></emitter>
+  <emitter type="constant"><rgb name="radiance" value="0.1"/></emitter>
+</scene>
+""")
+
+
+if __name__ == "__main__":
+    main()
