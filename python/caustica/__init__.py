@@ -23,6 +23,7 @@ from ._api import (
     integrators,
     load_dict,
     load_scene,
+    load_scene_desc,
     read_image,
     render,
     render_job,
@@ -31,6 +32,6 @@ from ._api import (
 
 __all__ = [
     "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
-    "default_scene_name", "describe", "export_scene", "integrators", "load_dict", "load_scene", "read_image",
+    "default_scene_name", "describe", "export_scene", "integrators", "load_dict", "load_scene", "load_scene_desc", "read_image",
     "render", "render_job", "write_image",
 ]

@@ -126,10 +126,28 @@ def _override(s, width, height, filter):
     return s
 
 
+def load_scene_desc(scene: Union[str, os.PathLike, dict], camera: Optional[str] = None,
+                    params: Optional[dict] = None) -> "_native.SceneDesc":
+    """Loads a scene's description without building it (no BVH): .describe(), .warnings,
+    .cameras, .integrator_defaults, .write_json(path), .build() -> Scene."""
+    if isinstance(scene, dict):
+        if params:
+            raise InputError("params apply to Mitsuba XML files, not to a dict")
+        d = _native.load_json_desc(_dict_text(scene), "<dict>", "", _camera(camera))
+    elif isinstance(scene, (str, os.PathLike)):
+        d = _native.load_scene_desc(os.fspath(scene), _camera(camera), _params(params))
+    else:
+        raise InputError(f"scene: expected a name, a path or a dict, got {type(scene).__name__}")
+    _warn(d.warnings)
+    return d
+
+
 def describe(scene, camera: Optional[str] = None, params: Optional[dict] = None) -> dict:
     """Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures) and
     world-space bounds ((lo, hi)) of a scene (a name, a path, a dict or a loaded scene)."""
-    return load_scene(scene, camera=camera, params=params).describe()
+    if isinstance(scene, _native.Scene):
+        return scene.describe()
+    return load_scene_desc(scene, camera=camera, params=params).describe()
 
 
 def export_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], path: Union[str, os.PathLike],

@@ -267,7 +267,10 @@ def cmd_render(a) -> int:
 
 
 def cmd_info(a) -> int:
-    scene = _load(a)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", _api.SceneWarning)
+        scene = _api.load_scene_desc(a.scene, camera=a.camera, params=dict(a.param) or None)
+    _print_warnings(caught)
     d = scene.describe()
     if a.json:
         d = dict(d, bounds=[list(d["bounds"][0]), list(d["bounds"][1])], width=scene.width, height=scene.height,

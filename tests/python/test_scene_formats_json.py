@@ -315,3 +315,16 @@ def test_cli_warnings_once_and_camera_param_options(caustica_bin, tmp_path):
     # --param is accepted (it substitutes Mitsuba XML $names; other formats ignore it).
     r = run(caustica_bin, "info", "cornell", "--param", "spp=4", "--param", "res=64")
     assert r.returncode == 0, r.stderr
+
+
+def test_scene_desc_without_building(tmp_path):
+    d = caustica.load_scene_desc("smallvcm-spheres")
+    s = caustica.load_scene("smallvcm-spheres")
+    assert d.describe() == s.describe() == caustica.describe("smallvcm-spheres")
+    assert (d.width, d.height, d.filter, d.max_depth) == (s.width, s.height, s.filter, s.max_depth)
+    out = tmp_path / "d.json"
+    d.write_json(str(out))
+    assert out.read_text() == d.to_json("d")
+    assert np.array_equal(caustica.render(d.build(), spp=1), caustica.render(s, spp=1))
+    with pytest.raises(caustica.SceneError, match="<dict>: /shapes: missing"):
+        caustica.load_scene_desc({"camera": {}})

@@ -169,6 +169,36 @@ NB_MODULE(_native, m) {
              scene_call([&] { write_scene_json(s.desc(), path); });
            });
 
+  // A loaded description without acceleration structures (for info and export of large scenes).
+  nb::class_<SceneDesc>(m, "SceneDesc")
+      .def_prop_ro("name", [](const SceneDesc& d) { return d.name; })
+      .def_prop_ro("width", [](const SceneDesc& d) { return d.camera.width; })
+      .def_prop_ro("height", [](const SceneDesc& d) { return d.camera.height; })
+      .def_prop_ro("filter", [](const SceneDesc& d) { return std::string(filter_name(d.filter)); })
+      .def_prop_ro("max_depth", [](const SceneDesc& d) { return d.max_depth; })
+      .def_prop_ro("warnings", [](const SceneDesc& d) { return d.warnings; })
+      .def_prop_ro("cameras", [](const SceneDesc& d) { return camera_names(d); })
+      .def_prop_ro("camera", [](const SceneDesc& d) { return d.camera.name; })
+      .def_prop_ro("integrator_defaults", [](const SceneDesc& d) { return integrator_defaults(d); })
+      .def("describe", [](const SceneDesc& d) { return describe(d); })
+      .def("to_json", [](const SceneDesc& d, const std::string& texture_stem) {
+             return scene_call([&] { return scene_desc_to_json(d, texture_stem); });
+           },
+           nb::arg("texture_stem") = "scene")
+      .def("write_json", [](const SceneDesc& d, const std::string& path) {
+             nb::gil_scoped_release release;
+             scene_call([&] { write_scene_json(d, path); });
+           })
+      .def("build", [](const SceneDesc& d) { return build_scene(d); }, nb::call_guard<nb::gil_scoped_release>());
+  m.def("load_scene_desc",
+        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params) {
+          return load_desc(name_or_path, camera, params);
+        },
+        nb::arg("name_or_path"), nb::arg("camera") = "", nb::arg("params") = std::map<std::string, std::string>(),
+        nb::call_guard<nb::gil_scoped_release>());
+  m.def("load_json_desc", &load_json_desc, nb::arg("text"), nb::arg("source"), nb::arg("base_dir") = "",
+        nb::arg("camera") = "", nb::call_guard<nb::gil_scoped_release>());
+
   m.def("load_scene",
         [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params) {
           return build_scene(load_desc(name_or_path, camera, params));

@@ -507,7 +507,20 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
   std::error_code ec;
   if (!dir.empty() && !fs::is_directory(dir, ec))
     throw InputError("cannot write '" + path + "': directory '" + dir.string() + "' does not exist");
+  // Only the textures something refers to (a loader may keep images nothing uses).
+  std::vector<bool> used(desc.textures.size(), false);
+  auto mark = [&](int t) {
+    if (t >= 0 && size_t(t) < used.size()) used[t] = true;
+  };
+  for (const Material& m : desc.materials) {
+    mark(m.tex_color);
+    mark(m.tex_roughness);
+    mark(m.tex_normal);
+  }
+  for (const ShapeDesc& sh : desc.shapes) mark(sh.emission_texture);
+  for (const Light& l : desc.lights) mark(l.texture);
   for (size_t i = 0; i < desc.textures.size(); ++i) {
+    if (!used[i]) continue;
     const TextureDesc& t = desc.textures[i];
     std::vector<float> rgb(size_t(t.width) * t.height * 3);
     for (size_t k = 0; k < size_t(t.width) * t.height; ++k)

@@ -16,8 +16,9 @@ namespace caustica {
 std::string scene_desc_to_json(const SceneDesc& desc, const std::string& texture_stem = "scene");
 
 // Writes `path` (atomically: a temporary file renamed into place) and, if the
-// scene has textures, one float EXR per texture beside it, named after the
-// JSON file's stem. Texture alpha channels are not kept.
+// scene has textures, one float EXR per texture in use beside it, named after
+// the JSON file's stem. Texture alpha channels are not kept; textures nothing
+// refers to are dropped.
 void write_scene_json(const SceneDesc& desc, const std::string& path);
 
 // The texture file name scene_desc_to_json uses for texture `index`.

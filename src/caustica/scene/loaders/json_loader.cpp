@@ -495,7 +495,7 @@ std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::str
   std::string full = checked_file(c, j, jpath, &ext);
   std::vector<MeshPart> parts;
   if (ext == ".ply") {
-    MeshDesc m = with_file_context(c, jpath, [&] { return load_ply_mesh(full); });
+    MeshDesc m = with_file_context(c, jpath, [&] { return load_ply_mesh(full, &d.warnings); });
     if (m.name.empty()) m.name = name;
     d.meshes.push_back(std::move(m));
     parts.push_back({name, int(d.meshes.size()) - 1});
