@@ -3,9 +3,14 @@
 //   direction d = (sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi)),
 //   u = phi / (2 pi) (image column from the left), theta = pi * (image row from the top),
 // so the texture's v (bottom = 0) is 1 - theta / pi.
+// Lookups are bilinear (repeating in u, clamped at the poles).
 // Sampling: a piecewise-constant 2D distribution over the image's texels with
-// weights luminance * sin(theta) (pbrt-v4 Sec. A.5.6 "Piecewise-Constant 2D
-// Distributions"; pbrt-v4 Sec. 12.5.2 "ImageInfiniteLight"): the marginal
+// weights M * sin(theta), where M is the largest luminance the bilinear lookup
+// takes inside the texel (the maximum over its centre, edge midpoints and
+// corners), so radiance / density stays bounded even next to a one-texel sun
+// (pbrt-v4 Sec. A.5.6 "Piecewise-Constant 2D Distributions"; pbrt-v4
+// Sec. 12.5.2 "ImageInfiniteLight" builds its distribution from the filtered
+// image for the same reason): the marginal
 // density picks a row, the conditional a column, both inverted through their
 // CDFs. The solid-angle density is p(u, v) / (2 pi^2 sin(theta)) (the Jacobian
 // of the mapping, pbrt-v4 Eq. 12.13 with Mitsuba's axes).
@@ -49,10 +54,26 @@ CHD Vec2f envmap_image_uv(Vec3f d_local) {
   return Vec2f(u, v);
 }
 
+// Bilinear lookup at image coordinates (u from the left, v from the top), wrapping
+// around in u and clamping at the poles in v.
+CHD RGB envmap_texel(const EnvMapView& e, int x, int y) {
+  x = texel_wrap(x, e.width, TexWrap::kRepeat);
+  y = texel_wrap(y, e.height, TexWrap::kClamp);
+  const float* p = e.tex.rgba + (size_t(y) * size_t(e.width) + size_t(x)) * 4;
+  return RGB(p[0], p[1], p[2]);
+}
+CHD RGB envmap_lookup(const EnvMapView& e, Vec2f uv_img) {
+  float x = uv_img.x * float(e.width) - 0.5f, y = uv_img.y * float(e.height) - 0.5f;
+  float fx = std::floor(x), fy = std::floor(y);
+  int x0 = int(fx), y0 = int(fy);
+  float dx = x - fx, dy = y - fy;
+  return envmap_texel(e, x0, y0) * ((1.f - dx) * (1.f - dy)) + envmap_texel(e, x0 + 1, y0) * (dx * (1.f - dy)) +
+         envmap_texel(e, x0, y0 + 1) * ((1.f - dx) * dy) + envmap_texel(e, x0 + 1, y0 + 1) * (dx * dy);
+}
+
 // Radiance of the map (before the light's scale) arriving from world direction -w, i.e. seen along w.
 CHD RGB envmap_eval(const EnvMapView& e, Vec3f w_world) {
-  Vec2f uv = envmap_image_uv(normalize(e.to_local.vector(w_world)));
-  return texture_lookup(e.tex, Vec2f(uv.x, 1.f - uv.y)).rgb();
+  return envmap_lookup(e, envmap_image_uv(normalize(e.to_local.vector(w_world))));
 }
 
 CHD float envmap_pdf(const EnvMapView& e, Vec3f w_world) {

@@ -27,7 +27,7 @@ SceneDesc load_mesh_file(const std::string& path, const std::string& ext) {
   d.name = std::filesystem::path(path).stem().string();
   if (ext == ".ply") {
     d.add_material("default", make_diffuse(RGB(0.5f)));
-    d.meshes.push_back(load_ply_mesh(path));
+    d.meshes.push_back(load_ply_mesh(path, &d.warnings));
     ShapeDesc s;
     s.name = d.name;
     s.mesh = 0;

@@ -339,7 +339,8 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       // normals, which the interaction code treats as "use the geometric normal".
       s.normals.resize(base, Vec3f(0.f));
       for (size_t i = 0; i < mesh->positions.size(); ++i) {
-        Vec3f n = has_n ? normalize(apply(nrm, mesh->normals[i])) : Vec3f(0.f);
+        Vec3f n = has_n ? apply(nrm, mesh->normals[i]) : Vec3f(0.f);
+        n = length_sq(n) > 0.f && isfinite3(n) ? normalize(n) : Vec3f(0.f);  // zero: use the geometric normal
         s.normals.push_back(sh.flip_normals ? -n : n);
       }
     }
@@ -448,14 +449,35 @@ void Scene::build_envmap(const TextureView& tex, const Affine& to_world) {
   env_cond_cdf.resize(size_t(w + 1) * h);
   env_marg_cdf.resize(size_t(h) + 1);
   env_marg_func.resize(size_t(h));
+  // Luminance per texel, then each texel's weight: the largest value the
+  // bilinear lookup takes inside it (centre, edge midpoints, corners), with u
+  // wrapping around and v clamped at the poles as in envmap_lookup.
+  std::vector<float> lum(size_t(w) * h);
+  for (size_t i = 0; i < lum.size(); ++i) {
+    const float* p = tex.rgba + i * 4;
+    float l = luminance(RGB(p[0], p[1], p[2]));
+    lum[i] = std::isfinite(l) ? maxf(l, 0.f) : 0.f;
+  }
+  auto L = [&](int x, int y) {
+    x = texel_wrap(x, w, TexWrap::kRepeat);
+    y = texel_wrap(y, h, TexWrap::kClamp);
+    return lum[size_t(y) * w + x];
+  };
   for (int y = 0; y < h; ++y) {
     float st = std::sin(kPi * (y + 0.5f) / float(h));
     double row = 0.0;
     float* cdf = &env_cond_cdf[size_t(y) * (w + 1)];
     cdf[0] = 0.f;
     for (int x = 0; x < w; ++x) {
-      const float* p = tex.rgba + (size_t(y) * w + x) * 4;
-      float f = maxf(luminance(RGB(p[0], p[1], p[2])), 0.f) * st;
+      float m = L(x, y);
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          float v = dx != 0 && dy != 0 ? 0.25f * (L(x, y) + L(x + dx, y) + L(x, y + dy) + L(x + dx, y + dy))
+                                       : 0.5f * (L(x, y) + L(x + dx, y + dy));
+          m = maxf(m, v);
+        }
+      float f = m * st;
       if (!std::isfinite(f)) f = 0.f;
       env_func[size_t(y) * w + x] = f;
       row += f;

@@ -824,7 +824,7 @@ class Loader {
       } else {
         MeshDesc mesh;
         try {
-          mesh = load_ply_mesh(path.string());
+          mesh = load_ply_mesh(path.string(), &d.warnings);
         } catch (const InputError& e) {
           throw InputError(where(fnode) + ": " + e.what());
         }
