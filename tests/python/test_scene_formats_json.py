@@ -328,3 +328,10 @@ def test_scene_desc_without_building(tmp_path):
     assert np.array_equal(caustica.render(d.build(), spp=1), caustica.render(s, spp=1))
     with pytest.raises(caustica.SceneError, match="<dict>: /shapes: missing"):
         caustica.load_scene_desc({"camera": {}})
+
+
+def test_export_of_a_loaded_scene_keeps_overrides(tmp_path):
+    s = caustica.load_scene("cornell", width=20, height=10, filter="box")
+    caustica.export_scene(s, tmp_path / "o.json")
+    film = json.loads((tmp_path / "o.json").read_text())["film"]
+    assert film == {"width": 20, "height": 10, "filter": "box"}

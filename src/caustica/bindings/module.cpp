@@ -121,6 +121,13 @@ std::vector<std::string> camera_names(const SceneDesc& d) {
   return n;
 }
 
+// The description with the overrides applied since loading (resolution is in desc; the filter only in the view).
+SceneDesc current_desc(const Scene& s) {
+  SceneDesc d = s.desc();
+  d.filter = s.view().filter;
+  return d;
+}
+
 const char* filter_name(FilterType f) {
   switch (f) {
     case FilterType::kTent: return "tent";
@@ -161,12 +168,12 @@ NB_MODULE(_native, m) {
       .def("describe", [](const Scene& s) { return describe(s.desc()); },
            "Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures) and world bounds.")
       .def("to_json", [](const Scene& s, const std::string& texture_stem) {
-             return scene_call([&] { return scene_desc_to_json(s.desc(), texture_stem); });
+             return scene_call([&] { return scene_desc_to_json(current_desc(s), texture_stem); });
            },
            nb::arg("texture_stem") = "scene")
       .def("write_json", [](const Scene& s, const std::string& path) {
              nb::gil_scoped_release release;
-             scene_call([&] { write_scene_json(s.desc(), path); });
+             scene_call([&] { write_scene_json(current_desc(s), path); });
            });
 
   // A loaded description without acceleration structures (for info and export of large scenes).
