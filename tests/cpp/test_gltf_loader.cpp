@@ -502,6 +502,9 @@ TEST(GltfLoader, MalformedInputMessages) {
   // Bad JSON names the line.
   std::string p = write_text("badjson.gltf", "{\n  \"asset\": {\"version\": \"2.0\"},\n  \"nodes\": [,]\n}\n");
   EXPECT_EQ(error_of(p), p + ":3: invalid JSON: syntax error while parsing value - unexpected ','; expected '[', '{', or a literal");
+  // A number too large for a double (found by the fuzzer: it escaped as a JSON library exception).
+  p = write_text("overflow.gltf", "{\n  \"asset\": {\"version\": \"2.0\"},\n  \"x\": 0.9e795\n}\n");
+  EXPECT_EQ(error_of(p), p + ":3: invalid JSON: number overflow parsing '0.9e795'");
   p = write_text("noasset.gltf", "{}");
   EXPECT_EQ(error_of(p), p + ": /asset: missing (every glTF file has an asset object with a version)");
   p = write_text("v1.gltf", R"({"asset": {"version": "1.0"}})");

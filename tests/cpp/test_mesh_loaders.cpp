@@ -290,6 +290,14 @@ TEST(PlyLoader, BinaryErrors) {
   EXPECT_EQ(error_of([&] { load_ply_mesh(p1); }),
             p1 + ": truncated binary data: vertex 1 ends past the end of the file (" + std::to_string(hdr.size() + 20) +
                 " bytes)");
+  // A count the file cannot hold (found by the fuzzer: 2^31 vertices made the loader
+  // allocate 48 GiB) is refused before anything is allocated.
+  std::string huge_hdr = hdr;
+  huge_hdr.replace(huge_hdr.find("vertex 3"), 8, "vertex 2147483648");
+  std::string ph = write("huge.ply", huge_hdr + verts + face0 + face0);
+  EXPECT_EQ(error_of([&] { load_ply_mesh(ph); }),
+            ph + ": line 3 (header): element 'vertex' declares 2147483648 records, but the file has room for at most " +
+                std::to_string((verts.size() + 2 * face0.size() + 1) / 12));
   std::string p2 = write("trunc_f.ply", hdr + verts + face0 + face0.substr(0, 6));
   EXPECT_EQ(error_of([&] { load_ply_mesh(p2); }),
             p2 + ": truncated binary data: face 1 ends past the end of the file (" +

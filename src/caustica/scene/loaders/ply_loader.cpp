@@ -383,6 +383,19 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
   std::vector<std::string> ignored;
 
   for (const Element& e : elems) {
+    // A header count the rest of the file cannot hold is an error before anything
+    // is allocated for it: each record takes at least its scalars' sizes and its
+    // lists' length fields (binary), or one character and a separator per value (ASCII).
+    {
+      size_t min_bytes = 0;
+      for (const Prop& p : e.props) min_bytes += rd.binary() ? size_t(kSize[int(p.list ? p.count_type : p.type)]) : 2;
+      // (Small shortfalls are left to the record reader, whose messages say which
+      // record ends where; this guard only stops absurd counts from allocating.)
+      size_t remaining = rd.size() - rd.pos();
+      if (min_bytes > 0 && e.count > 2 * ((remaining + 1) / min_bytes) + 64)
+        fail_at(e.line, "element '" + e.name + "' declares " + std::to_string(e.count) +
+                            " records, but the file has room for at most " + std::to_string((remaining + 1) / min_bytes));
+    }
     if (&e == vert) {
       m.positions.resize(e.count);
       if (has_n) m.normals.resize(e.count);
