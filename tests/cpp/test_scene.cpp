@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include "caustica/backend/cpu/embree_accel.h"
@@ -118,4 +120,38 @@ TEST(Sphere, IntersectsFromOutsideInsideAndSurface) {
   ASSERT_TRUE(intersect_sphere(far, s, t));
   Vec3f p = far.o + far.d * t;
   EXPECT_NEAR(length(p - s.center), 2.f, 1e-3f);
+}
+
+TEST(SceneBuild, SkipsBrokenPrimitivesWithCountedWarnings) {
+  // Whatever a loader lets through, Scene::build drops what cannot be hit or
+  // sampled and says how many (the fuzzer found NaN centroids reaching the BVH binning).
+  SceneDesc d;
+  d.name = "broken";
+  d.add_material("m", make_diffuse(RGB(0.5f)));
+  MeshDesc m;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {nan, 0, 0}, {2, 0, 0}};
+  m.indices = {0, 1, 2,   // fine
+               0, 1, 3,   // NaN vertex
+               0, 1, 4,   // collinear: zero area
+               0, 1, 9};  // index out of range
+  d.meshes.push_back(m);
+  ShapeDesc s;
+  s.mesh = 0;
+  s.emission = RGB(1.f);  // the broken ones must not become lights either
+  d.shapes.push_back(s);
+  ShapeDesc sp;
+  sp.type = ShapeType::kSphere;
+  sp.radius = 0.f;
+  d.shapes.push_back(sp);
+  auto sc = Scene::build(d);
+  EXPECT_EQ(sc->view().num_triangles, 1u);
+  EXPECT_EQ(sc->view().num_spheres, 0u);
+  EXPECT_EQ(sc->view().num_lights, 1u);
+  const std::vector<std::string> expected = {
+      "scene 'broken': skipped 1 triangles with vertex indices out of range",
+      "scene 'broken': skipped 1 triangles with non-finite coordinates",
+      "scene 'broken': skipped 1 degenerate (zero-area) triangles",
+      "scene 'broken': skipped 1 spheres with a non-finite centre or a radius that is not positive"};
+  EXPECT_EQ(sc->desc().warnings, expected);
 }

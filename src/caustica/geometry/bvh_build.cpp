@@ -47,7 +47,8 @@ struct Builder {
       float scale = kBins / ext[a];
       for (uint32_t i = begin; i < end; ++i) {
         uint32_t p = bvh.prim_index[i];
-        int k = std::min(kBins - 1, int((centroid[p][a] - cb.lo[a]) * scale));
+        float t = (centroid[p][a] - cb.lo[a]) * scale;
+        int k = t >= 0.f ? std::min(kBins - 1, int(std::min(t, float(kBins)))) : 0;  // NaN -> bin 0
         bin_b[k].extend(pb[p]);
         bin_n[k]++;
       }

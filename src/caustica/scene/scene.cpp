@@ -291,6 +291,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   std::vector<uint32_t> sphere_material;
   std::vector<int> sphere_shape;
   const MeshDesc rect = rectangle_mesh(), cube = cube_mesh(), disk = disk_mesh();
+  size_t skipped_index = 0, skipped_nonfinite = 0, skipped_degenerate = 0, skipped_spheres = 0;
 
   for (size_t si = 0; si < desc.shapes.size(); ++si) {
     const ShapeDesc& sh = desc.shapes[si];
@@ -306,6 +307,10 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       if (std::fabs(a - b) > 1e-4f * a || std::fabs(a - c) > 1e-4f * a)
         throw InputError("shape '" + sh.name + "': a sphere's transform must scale uniformly");
       Sphere sp{sh.to_world.point(sh.center), sh.radius * a};
+      if (!isfinite3(sp.center) || !(sp.radius > 0.f) || !std::isfinite(sp.radius)) {
+        ++skipped_spheres;
+        continue;
+      }
       if (emissive)
         area.push_back({uint32_t(s.spheres.size()), true, sh.emission, sh.emission_two_sided, sh.emission_texture});
       s.spheres.push_back(sp);
@@ -346,6 +351,22 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     }
     for (size_t t = 0; t + 2 < mesh->indices.size(); t += 3) {
       uint32_t i0 = mesh->indices[t], i1 = mesh->indices[t + 1], i2 = mesh->indices[t + 2];
+      if (i0 >= mesh->positions.size() || i1 >= mesh->positions.size() || i2 >= mesh->positions.size()) {
+        ++skipped_index;
+        continue;
+      }
+      // Triangles that cannot be hit or sampled (non-finite after the transform, or
+      // of zero area) are dropped here whatever the loader let through.
+      Vec3f q0 = s.positions[base + i0], q1 = s.positions[base + i1], q2 = s.positions[base + i2];
+      if (!isfinite3(q0) || !isfinite3(q1) || !isfinite3(q2)) {
+        ++skipped_nonfinite;
+        continue;
+      }
+      float tri_area = triangle_area(q0, q1, q2);
+      if (!(tri_area > 0.f) || !std::isfinite(tri_area)) {
+        ++skipped_degenerate;
+        continue;
+      }
       if (flip) std::swap(i1, i2);
       uint32_t tri = uint32_t(s.indices.size() / 3);
       s.indices.push_back(base + i0);
@@ -356,6 +377,13 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     }
   }
   if (!s.normals.empty()) s.normals.resize(s.positions.size(), Vec3f(0.f));
+  auto skipped = [&](size_t n, const char* what) {
+    if (n) s.desc_.warnings.push_back("scene '" + desc.name + "': skipped " + std::to_string(n) + " " + what);
+  };
+  skipped(skipped_index, "triangles with vertex indices out of range");
+  skipped(skipped_nonfinite, "triangles with non-finite coordinates");
+  skipped(skipped_degenerate, "degenerate (zero-area) triangles");
+  skipped(skipped_spheres, "spheres with a non-finite centre or a radius that is not positive");
   if (!s.uvs.empty()) s.uvs.resize(s.positions.size(), Vec2f(0.f, 0.f));
   uint32_t num_tri = uint32_t(s.indices.size() / 3);
   for (uint32_t m : sphere_material) s.prim_material.push_back(m);
