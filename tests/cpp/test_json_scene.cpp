@@ -642,3 +642,11 @@ TEST(JsonLoader, MeshFilesThroughTheMeshLoaders) {
   EXPECT_EQ(d.material_names[d.shapes[3].material], "red");
   EXPECT_FLOAT_EQ(d.shapes[3].to_world.m[2][3], 1.f);
 }
+
+TEST(JsonLoader, InvalidJsonIsOneLineWithItsLine) {
+  EXPECT_EQ(error_of("{\n  \"name\": \"x\",\n  \"shapes\": [,]\n}"),
+            "s.json:3: invalid JSON: syntax error while parsing value - unexpected ','; expected '[', '{', or a literal");
+  // A number too large for a double (a fuzzer finding: it escaped as the JSON library's exception).
+  EXPECT_EQ(error_of("{\n  \"name\": \"x\",\n  \"max_depth\": 3e983\n}"),
+            "s.json:3: invalid JSON: number overflow parsing '3e983'");
+}

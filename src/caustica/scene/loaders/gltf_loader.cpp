@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "../../base/error.h"
+#include "json_text.h"
 #include "../load.h"
 
 namespace caustica {
@@ -1196,28 +1197,7 @@ SceneDesc load_gltf_scene(const std::string& path) {
     text.assign(bytes.begin(), bytes.end());
   }
   json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    size_t line = 1, byte = std::min<size_t>(e.byte, text.size());
-    for (size_t i = 0; i + 1 < byte; ++i) line += text[i] == '\n';
-    std::string msg = e.what();
-    auto p = msg.find("syntax error");
-    throw InputError(path + ":" + std::to_string(line) + ": invalid JSON: " + (p == std::string::npos ? msg : msg.substr(p)));
-  } catch (const json::exception& e) {
-    // e.g. out_of_range 406, a number too large for a double: no position is given,
-    // so the line is that of the first occurrence of the quoted literal.
-    std::string msg = e.what();
-    auto q0 = msg.find('\''), q1 = msg.rfind('\'');
-    size_t line = 0;
-    if (q0 != std::string::npos && q1 > q0) {
-      size_t at = text.find(msg.substr(q0 + 1, q1 - q0 - 1));
-      if (at != std::string::npos) line = 1 + size_t(std::count(text.begin(), text.begin() + long(at), '\n'));
-    }
-    auto b = msg.find("] ");
-    throw InputError(path + (line ? ":" + std::to_string(line) : std::string()) + ": invalid JSON: " +
-                     (b == std::string::npos ? msg : msg.substr(b + 2)));
-  }
+  root = parse_json_text<json>(text, path);
   SceneDesc d;
   d.name = fs::path(path).stem().string();
   check_structure(c, root, has_bin, d.warnings);

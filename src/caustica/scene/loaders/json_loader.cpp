@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "../../base/error.h"
+#include "json_text.h"
 #include "../../integrator/render.h"
 #include "mesh_loaders.h"
 
@@ -667,15 +668,7 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
   SceneDesc d;
   Ctx c{source, fs::path(base_dir), &d, {}};
   json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    size_t line = 1, byte = std::min<size_t>(e.byte, text.size());
-    for (size_t i = 0; i + 1 < byte; ++i) line += text[i] == '\n';
-    std::string msg = e.what();
-    auto p = msg.find("syntax error");
-    throw InputError(source + ":" + std::to_string(line) + ": invalid JSON: " + (p == std::string::npos ? msg : msg.substr(p)));
-  }
+  root = parse_json_text<json>(text, source);
   check_keys(c, root, "", {"$schema", "name", "film", "camera", "cameras", "filter", "max_depth", "integrator", "materials",
                            "meshes", "shapes", "lights"});
   d.name = root.contains("name") ? str(c, root["name"], "/name") : source;
