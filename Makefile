@@ -23,7 +23,7 @@ render: build
 	@mkdir -p out
 	$(VENV)/bin/caustica render $(SCENE) --spp $(SPP) -o out/default.exr -o out/default.png
 
-test: build cuda-check test-cpp test-python
+test: build cuda-check test-cpp test-python fuzz-short
 
 test-cpp:
 	cd build/py && ctest --output-on-failure -j 1
