@@ -120,9 +120,9 @@ TEST(MitsubaCornell, EqualsBuiltin) {
   }
   EXPECT_TRUE(x.lights.empty());
   std::string f = data_file("cornell.xml");
-  EXPECT_TRUE(has_warning(x, f + ":24: <sampler type=\"independent\">: the sampler and its sample_count are ignored: "
-                                 "caustica's render options choose them (spp, sampler)"))
-      << all_warnings(x);
+  // The sensor's sampler gives the scene's default spp and sampler (render options override them).
+  EXPECT_EQ(x.integrator.spp, 64);
+  EXPECT_EQ(x.integrator.sampler, "independent");
   EXPECT_TRUE(has_warning(x, f + ":17: <float name=\"near_clip\">: ignored (no effect on caustica's light transport)"))
       << all_warnings(x);
   // It builds, through the format dispatch too.
@@ -664,9 +664,7 @@ TEST(MitsubaSensor, DefaultCameraAndIntegrator) {
   EXPECT_TRUE(has_warning(d, f + ": no sensor in the file; using Mitsuba's default camera (fov 45, looking along +z at "
                                  "the scene)"))
       << all_warnings(d);
-  EXPECT_TRUE(has_warning(d, f + ":2: <integer name=\"rr_depth\">: rr_depth is a render option in caustica (rr_depth / "
-                                 "--rr-depth); Russian roulette changes noise, not the expected image"))
-      << all_warnings(d);
+  EXPECT_EQ(d.integrator.rr_depth, 10);  // the scene's default Russian-roulette depth
   EXPECT_TRUE(d.lights.empty());  // no light is invented: the image is black, as in Mitsuba
 }
 

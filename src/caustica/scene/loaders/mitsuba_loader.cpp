@@ -1037,10 +1037,18 @@ class Loader {
     for (xml_node s : p.take_objects("sampler")) {
       check_attrs(s, {"type", "id", "name"});
       Props sp(*this, s);
-      sp.get("sample_count");
+      sp.declare({"sample_count"});
+      int spp = sp.get_int("sample_count", 4);
+      if (spp <= 0) fail(sp.get("sample_count"), "expected a positive sample_count");
       sp.get("seed");
-      sp.finish({"sample_count", "seed", "jitter", "scramble_seed", "strata"});
-      warn(s, "sampler", "the sampler and its sample_count are ignored: caustica's render options choose them (spp, sampler)");
+      sp.finish({"seed", "jitter", "scramble_seed", "strata"});
+      // The first sensor's sampler gives the scene's default spp and sampler
+      // (explicit render options override them): Mitsuba's independent sampler
+      // is caustica's; its stratified and low-discrepancy samplers map to Sobol.
+      if (d.cameras.empty()) {
+        d.integrator.spp = spp;
+        d.integrator.sampler = attr(s, "type") == "independent" ? "independent" : "sobol";
+      }
     }
     for (xml_node m : p.take_objects("medium")) fail(m, "participating media are not supported");
     if (p.has("principal_point_offset_x") || p.has("principal_point_offset_y")) {
@@ -1108,10 +1116,9 @@ class Loader {
     int md = p.get_int("max_depth", -1);
     if (md == 0 || md < -1) fail(p.get("max_depth"), "expected a positive max_depth or -1 (unlimited)");
     d.max_depth = md;
-    if (p.get_int("rr_depth", 5) != 5)
-      warn(p.get("rr_depth"), "rr_depth",
-           "rr_depth is a render option in caustica (rr_depth / --rr-depth); Russian roulette changes noise, not the "
-           "expected image");
+    int rr = p.get_int("rr_depth", 5);
+    if (rr <= 0) fail(p.get("rr_depth"), "expected a positive rr_depth");
+    d.integrator.rr_depth = rr;
     if (p.get_bool("hide_emitters", false)) fail(p.get("hide_emitters"), "hide_emitters=true is not supported");
     p.finish();
   }
