@@ -5,9 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 
+#include "caustica/base/error.h"
 #include "caustica/base/rng.h"
+#include "caustica/film/image_io.h"
 #include "caustica/integrator/render.h"
 #include "caustica/light/light_emit.h"
 #include "caustica/light/light_sample.h"
@@ -323,4 +327,57 @@ TEST(Absorption, IndexMatchedAbsorbingCubeTransmitsExpMinusSigmaD) {
       EXPECT_NEAR(p[1], std::exp(-1.0f), 2e-3f);
       EXPECT_NEAR(p[2], std::exp(-2.0f), 2e-3f);
     }
+}
+
+// stb_image_write is compiled into Debian's libstb.
+extern "C" int stbi_write_png(const char* filename, int w, int h, int comp, const void* data, int stride_in_bytes);
+extern "C" int stbi_write_jpg(const char* filename, int w, int h, int comp, const void* data, int quality);
+extern "C" int stbi_write_hdr(const char* filename, int w, int h, int comp, const float* data);
+
+TEST(TextureFiles, EveryFormatDecodesOnceWithItsColourSpace) {
+  namespace fs = std::filesystem;
+  fs::path dir = fs::temp_directory_path() / "caustica_tex_files";
+  fs::create_directories(dir);
+  const unsigned char px8[4 * 3] = {128, 128, 128, 255, 0, 0, 0, 255, 0, 0, 0, 255};  // 2 x 2
+  const float pxf[4 * 3] = {0.5f, 0.5f, 0.5f, 2.f, 0.f, 0.f, 0.f, 3.f, 0.f, 0.f, 0.f, 4.f};
+  std::string png = (dir / "t.png").string(), jpg = (dir / "t.jpg").string(), hdr = (dir / "t.hdr").string(),
+              exr = (dir / "t.exr").string();
+  ASSERT_TRUE(stbi_write_png(png.c_str(), 2, 2, 3, px8, 6));
+  ASSERT_TRUE(stbi_write_jpg(jpg.c_str(), 2, 2, 3, px8, 100));
+  ASSERT_TRUE(stbi_write_hdr(hdr.c_str(), 2, 2, 3, pxf));
+  write_image(exr, std::vector<float>(pxf, pxf + 12), 2, 2);
+  SceneDesc d;
+  // sRGB 128/255 -> linear 0.2158605 (IEC 61966-2-1); raw: 128/255.
+  int a = load_texture(d, png, true, "s.json");
+  EXPECT_NEAR(d.textures[a].rgba[0], 0.2158605f, 1e-6f);
+  EXPECT_EQ(d.textures[a].rgba[3], 1.f);  // RGB files get alpha 1
+  int b = load_texture(d, png, false, "s.json");
+  EXPECT_NE(a, b);
+  EXPECT_NEAR(d.textures[b].rgba[0], 128.f / 255.f, 1e-6f);
+  EXPECT_EQ(load_texture(d, png, true, "s.json"), a);  // cached: decoded once
+  EXPECT_EQ(d.textures.size(), 2u);
+  int j = load_texture(d, jpg, true, "s.json");
+  EXPECT_NEAR(d.textures[j].rgba[0], 0.2158605f, 0.02f);  // lossy at quality 100: a few codes off
+  // HDR and EXR are linear floats whatever the flag says.
+  for (const std::string& f : {hdr, exr}) {
+    int k = load_texture(d, f, true, "s.json");
+    EXPECT_NEAR(d.textures[k].rgba[0], 0.5f, 0.5f / 128.f) << f;  // RGBE keeps 8 mantissa bits
+    EXPECT_NEAR(d.textures[k].rgba[4], 2.f, 2.f / 128.f) << f;
+    EXPECT_NEAR(d.textures[k].rgba[4 * 3 + 2], 4.f, 4.f / 128.f) << f;
+  }
+  std::string missing = (dir / "none.png").string();
+  try {
+    load_texture(d, missing, true, "s.json");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "s.json: texture file '" + missing + "' does not exist");
+  }
+  std::string bad = (dir / "bad.png").string();
+  { std::ofstream(bad) << "not a png"; }
+  try {
+    load_texture(d, bad, true, "s.json");
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("s.json: cannot read texture '" + bad + "': ", 0), 0u) << e.what();
+  }
 }
