@@ -20,11 +20,13 @@ CHD Vec2f triangle_uv(const SceneView& s, uint32_t tri, float b1, float b2) {
   const uint32_t* ix = s.indices + 3 * tri;
   return s.uvs[ix[0]] * (1.f - b1 - b2) + s.uvs[ix[1]] * b1 + s.uvs[ix[2]] * b2;
 }
-// Sphere parameterisation (Mitsuba's): u = phi / 2pi around +z, v = theta / pi from +z.
+// Sphere parameterisation: u = phi / 2pi around +z, v = 1 - theta / pi with theta
+// from +z, so the image's top row is at the +z pole (Mitsuba's layout, whose
+// v = theta / pi is counted downwards in the image).
 CHD Vec2f sphere_uv(Vec3f n) {
   float phi = std::atan2(n.y, n.x);
   if (phi < 0.f) phi += 2.f * kPi;
-  return Vec2f(phi * (0.5f * kInvPi), std::acos(clampf(n.z, -1.f, 1.f)) * kInvPi);
+  return Vec2f(phi * (0.5f * kInvPi), 1.f - std::acos(clampf(n.z, -1.f, 1.f)) * kInvPi);
 }
 
 CHD void triangle_vertices(const SceneView& s, uint32_t tri, Vec3f& p0, Vec3f& p1, Vec3f& p2) {

@@ -198,6 +198,7 @@ Vec3f apply(const Mat3& a, Vec3f v) {
 MeshDesc rectangle_mesh() {
   MeshDesc m;
   m.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+  m.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // upright seen from +z (the normal's side)
   m.indices = {0, 1, 2, 0, 2, 3};
   return m;
 }
@@ -213,6 +214,7 @@ MeshDesc cube_mesh() {
       m.positions.push_back(n + u - v);
       m.positions.push_back(n + u + v);
       m.positions.push_back(n - u + v);
+      for (Vec2f t : {Vec2f(0, 0), Vec2f(1, 0), Vec2f(1, 1), Vec2f(0, 1)}) m.uvs.push_back(t);  // the face's (u, v)
       for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) m.indices.push_back(base + i);
     }
   }
@@ -222,9 +224,11 @@ MeshDesc disk_mesh() {
   MeshDesc m;
   const int n = 128;
   m.positions.push_back({0, 0, 0});
+  m.uvs.push_back({0.5f, 0.5f});
   for (int i = 0; i < n; ++i) {
     float phi = 2.f * kPi * i / n;
     m.positions.push_back({std::cos(phi), std::sin(phi), 0.f});
+    m.uvs.push_back({0.5f + 0.5f * std::cos(phi), 0.5f + 0.5f * std::sin(phi)});  // planar: the image on the plate
   }
   for (int i = 0; i < n; ++i) {
     m.indices.push_back(0);

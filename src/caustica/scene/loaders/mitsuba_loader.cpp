@@ -570,9 +570,14 @@ class Loader {
       double sx = std::hypot(a, c), sy = std::hypot(b, e);
       if (sx == 0 || sy == 0 || std::fabs(a * b + c * e) > 1e-6 * sx * sy || a * e - b * c < 0)
         fail(n, "to_uv: only translations, rotations and scales of the uv plane are supported");
-      rotation = float(std::atan2(c, a));
+      // Mitsuba looks textures up with v down (row = v); caustica with v up (row =
+      // 1 - v), and its meshes carry v_c = 1 - v_m. So the transform caustica
+      // applies is F T F with F(u, v) = (u, 1 - v): rotation -r, the same scales,
+      // offset (o_u - s_v sin r, 1 - o_v - s_v cos r).
+      double r = std::atan2(c, a), ou = uv.a[0][3], ov = uv.a[1][3];
+      rotation = float(-r);
       scale = Vec2f(float(sx), float(sy));
-      offset = Vec2f(float(uv.a[0][3]), float(uv.a[1][3]));
+      offset = Vec2f(float(ou - sy * std::sin(r)), float(1.0 - ov - sy * std::cos(r)));
     }
     TextureDesc& td = d.textures[t];
     bool same = td.wrap == w && td.nearest == nearest && td.uv_scale.x == scale.x && td.uv_scale.y == scale.y &&
@@ -828,6 +833,9 @@ class Loader {
         } catch (const InputError& e) {
           throw InputError(where(fnode) + ": " + e.what());
         }
+        // Mitsuba reads PLY texture coordinates as they are (v down, its texture
+        // convention), caustica's v is up: flip (OBJ needs nothing, Mitsuba flips OBJ's v itself).
+        for (Vec2f& t : mesh.uvs) t.y = 1.f - t.y;
         mesh.name = shape_name;
         d.meshes.push_back(std::move(mesh));
         ShapeDesc s;
@@ -1394,11 +1402,87 @@ M4 Props::get_transform(const std::string& name, bool* present) {
 
 }  // namespace
 
+namespace {
+
+// Mitsuba's own texture coordinates on its analytic shapes, in caustica's
+// convention (v_c = 1 - v_m): rectangle uv_m = ((x+1)/2, (y+1)/2); disk uv_m =
+// (r, phi / 2pi); cube: Mitsuba's 24-vertex table (read from Mitsuba 3.9.1's
+// `cube` mesh). caustica's own rectangle, disk and cube are parameterised
+// otherwise (docs/materials.md), so textured ones become meshes with these UVs;
+// untextured ones keep their shape type (the UVs cannot matter).
+MeshDesc mitsuba_rectangle() {
+  MeshDesc m;
+  m.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+  m.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
+  m.indices = {0, 1, 2, 0, 2, 3};
+  return m;
+}
+MeshDesc mitsuba_disk() {
+  // A fan with the seam duplicated and one centre vertex per triangle, so the
+  // polar coordinate interpolates without wrapping across a triangle.
+  MeshDesc m;
+  const int n = 128;
+  for (int i = 0; i <= n; ++i) {
+    float phi = 2.f * kPi * float(i) / float(n);
+    m.positions.push_back({std::cos(phi), std::sin(phi), 0.f});
+    m.uvs.push_back({1.f, 1.f - float(i) / float(n)});
+  }
+  for (int i = 0; i < n; ++i) {
+    m.positions.push_back({0.f, 0.f, 0.f});
+    m.uvs.push_back({0.f, 1.f - (float(i) + 0.5f) / float(n)});
+    uint32_t c = uint32_t(m.positions.size() - 1);
+    m.indices.insert(m.indices.end(), {c, uint32_t(i), uint32_t(i + 1)});
+  }
+  return m;
+}
+MeshDesc mitsuba_cube() {
+  static const float P[24][3] = {{1, -1, -1}, {1, -1, 1},  {-1, -1, 1}, {-1, -1, -1}, {1, 1, -1},  {-1, 1, -1},
+                                 {-1, 1, 1},  {1, 1, 1},   {1, -1, -1}, {1, 1, -1},   {1, 1, 1},   {1, -1, 1},
+                                 {1, -1, 1},  {1, 1, 1},   {-1, 1, 1},  {-1, -1, 1},  {-1, -1, 1}, {-1, 1, 1},
+                                 {-1, 1, -1}, {-1, -1, -1}, {1, 1, -1}, {1, -1, -1},  {-1, -1, -1}, {-1, 1, -1}};
+  static const float T[4][2] = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};  // per face, in vertex order
+  MeshDesc m;
+  for (int i = 0; i < 24; ++i) {
+    m.positions.push_back({P[i][0], P[i][1], P[i][2]});
+    m.uvs.push_back({T[i % 4][0], 1.f - T[i % 4][1]});
+  }
+  for (uint32_t f = 0; f < 6; ++f) {
+    uint32_t b = 4 * f;
+    m.indices.insert(m.indices.end(), {b, b + 1, b + 2, b + 3, b, b + 2});
+  }
+  return m;
+}
+
+bool uses_texture(const SceneDesc& d, const ShapeDesc& s) {
+  if (s.emission_texture >= 0) return true;
+  if (s.material < 0 || size_t(s.material) >= d.materials.size()) return false;
+  const Material& m = d.materials[s.material];
+  return m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0;
+}
+
+void mitsuba_shape_uvs(SceneDesc& d) {
+  int mesh_of[3] = {-1, -1, -1};  // rectangle, disk, cube: one shared mesh each
+  for (ShapeDesc& s : d.shapes) {
+    int k = s.type == ShapeType::kRectangle ? 0 : s.type == ShapeType::kDisk ? 1 : s.type == ShapeType::kCube ? 2 : -1;
+    if (k < 0 || !uses_texture(d, s)) continue;
+    if (mesh_of[k] < 0) {
+      d.meshes.push_back(k == 0 ? mitsuba_rectangle() : k == 1 ? mitsuba_disk() : mitsuba_cube());
+      d.meshes.back().name = k == 0 ? "mitsuba-rectangle" : k == 1 ? "mitsuba-disk" : "mitsuba-cube";
+      mesh_of[k] = int(d.meshes.size()) - 1;
+    }
+    s.type = ShapeType::kMesh;
+    s.mesh = mesh_of[k];
+  }
+}
+
+}  // namespace
+
 SceneDesc load_mitsuba_scene(const std::string& path, const std::map<std::string, std::string>& params) {
   Loader L;
   L.params = params;
   for (const auto& kv : params) L.given_params.insert(kv.first);
   L.load(path);
+  mitsuba_shape_uvs(L.d);
   return std::move(L.d);
 }
 

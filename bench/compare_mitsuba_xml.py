@@ -1,0 +1,160 @@
+#!/usr/bin/env python3
+"""caustica and Mitsuba 3 render the same Mitsuba XML files; how far apart are the images?
+
+For each scene: both renderers' path tracers at the same resolution, max_depth and spp, two seeds each.
+If the scenes mean the same thing, the difference between caustica and Mitsuba is noise only, so
+relMSE(caustica, Mitsuba) is about the mean of relMSE(caustica seed 1, seed 2) and relMSE(Mitsuba seed 1,
+seed 2) (each is the noise of two independent renders: sigma_c^2 + sigma_m^2 against 2 sigma_c^2 and
+2 sigma_m^2). The ratio is printed (1 = indistinguishable at this sample count), with the whole-image
+mean of each and the worst 16x16 region's difference in standard errors (from the region's pixel spread,
+which bounds the noise from above).
+
+Scenes (written to bench/out/xml/): Mitsuba's cornell_box() (tests/data/mitsuba/cornell.xml), an
+environment map with coloured quadrants and a sun over a diffuse sphere, a rough gold sphere and a floor
+(checks the envmap's orientation and importance sampling), and a textured floor with a plastic sphere, a
+point light and an area light.
+
+usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
+(needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
+"""
+import argparse
+import datetime
+import math
+import os
+import platform
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "python"))
+import caustica  # noqa: E402
+
+OUT = os.path.join(ROOT, "bench", "out", "xml")
+
+
+def relmse(a, b):
+    return float(np.mean((a - b) ** 2 / (b ** 2 + 0.01)))
+
+
+def write_scenes(res):
+    os.makedirs(OUT, exist_ok=True)
+    # Environment: sky gradient, coloured quadrants in u (orientation), a sun.
+    h, w = 64, 128
+    env = np.zeros((h, w, 3), np.float32)
+    theta = (np.arange(h) + 0.5) / h * math.pi
+    env[:] = (0.3 + 0.5 * np.cos(theta).clip(0))[:, None, None]
+    quad = [(1.0, 0.4, 0.4), (0.4, 1.0, 0.4), (0.4, 0.4, 1.0), (1.0, 1.0, 0.4)]
+    for q in range(4):
+        env[:, q * w // 4:(q + 1) * w // 4] *= np.array(quad[q], np.float32)
+    env[12:15, 80:83] = (300, 280, 220)
+    caustica.write_image(os.path.join(OUT, "sky.exr"), env)
+    tex = np.zeros((8, 8, 3), np.float32)
+    tex[(np.add.outer(np.arange(8), np.arange(8)) % 2) == 0] = (0.8, 0.8, 0.8)
+    tex[(np.add.outer(np.arange(8), np.arange(8)) % 2) == 1] = (0.1, 0.3, 0.6)
+    caustica.write_image(os.path.join(OUT, "checker.exr"), tex)
+    sensor = f"""<sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 2, 6" target="0, 0.7, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
+      <rfilter type="box"/></film></sensor>"""
+    with open(os.path.join(OUT, "envmap.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  {sensor}
+  <emitter type="envmap"><string name="filename" value="sky.exr"/>
+    <transform name="to_world"><rotate y="1" angle="30"/></transform></emitter>
+  <shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="-0.9" y="0.7" z="0"/><float name="radius" value="0.7"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0.9" y="0.7" z="0"/><float name="radius" value="0.7"/>
+    <bsdf type="roughconductor"><string name="material" value="Au"/><string name="distribution" value="ggx"/>
+      <float name="alpha" value="0.15"/></bsdf></shape>
+</scene>
+""")
+    with open(os.path.join(OUT, "textured.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="checker.exr"/>
+      <string name="filter_type" value="nearest"/></texture></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0" y="0.8" z="0"/><float name="radius" value="0.8"/>
+    <bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.4, 0.2"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate y="3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+  <emitter type="point"><point name="position" x="2" y="2" z="2"/><rgb name="intensity" value="6, 6, 8"/></emitter>
+</scene>
+""")
+    return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
+            "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml")}
+
+
+def render_caustica(path, res, spp, seed):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        s = caustica.load_scene(path, width=res, height=res)
+        return np.asarray(caustica.render(s, spp=spp, seed=seed), np.float64)
+
+
+def render_mitsuba(path, res, spp, seed):
+    import mitsuba as mi
+    scene = mi.load_file(path, res=res) if "cornell" in path else mi.load_file(path)
+    img = mi.render(scene, spp=spp, seed=seed)
+    return np.asarray(img, np.float64)[:, :, :3]
+
+
+def worst_region(c, m):
+    """Largest |mean_c - mean_m| over 16x16 regions and channels in standard errors, each region's
+    standard error from its pixels' spread (an upper bound on the noise: the spread includes the
+    image's own structure)."""
+    n = c.shape[0] // 16
+
+    def stats(x):
+        r = x[:n * 16, :n * 16].reshape(n, 16, n, 16, 3)
+        return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / 16.0
+
+    mc, sc = stats(c)
+    mm, sm = stats(m)
+    return float((np.abs(mc - mm) / np.sqrt(sc ** 2 + sm ** 2 + 1e-12)).max())
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--res", type=int, default=128)
+    ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
+    args = ap.parse_args()
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() else "scalar_rgb")
+    scenes = write_scenes(args.res)
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                            text=True).stdout.strip()
+    machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores"
+    rows = []
+    for name, path in scenes.items():
+        c1, c2 = (render_caustica(path, args.res, args.spp, s) for s in (1, 2))
+        m1, m2 = (render_mitsuba(path, args.res, args.spp, s) for s in (1, 2))
+        noise = relmse(c1, c2)
+        cross = relmse(c1, m1)
+        mnoise = relmse(m1, m2)
+        worst = worst_region(c1, m1)
+        ratio = cross / (0.5 * (noise + mnoise))
+        print(f"{name:9s} mean caustica {c1.mean():.4f} mitsuba {m1.mean():.4f}  relMSE(c,m) {cross:.5f}  "
+              f"relMSE(c1,c2) {noise:.5f}  relMSE(m1,m2) {mnoise:.5f}  ratio {ratio:.2f}  "
+              f"worst 16x16 region {worst:.1f} standard errors")
+        rows.append(f"| {datetime.date.today()} | {machine} | {commit} | `bench/compare_mitsuba_xml.py --spp "
+                    f"{args.spp} --res {args.res}` | {name}: mean {c1.mean():.4f} vs Mitsuba {mi.__version__} "
+                    f"{m1.mean():.4f}; relMSE(caustica, Mitsuba) / mean relMSE(two seeds of each) = "
+                    f"{ratio:.2f}; worst 16x16 region {worst:.1f} standard errors |")
+        caustica.write_image(os.path.join(OUT, f"{name}_caustica.exr"), c1.astype(np.float32))
+        caustica.write_image(os.path.join(OUT, f"{name}_mitsuba.exr"), m1.astype(np.float32))
+    if args.rows:
+        print("\n".join(rows))
+
+
+if __name__ == "__main__":
+    main()
