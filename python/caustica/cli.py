@@ -20,6 +20,7 @@ import math
 import os
 import sys
 import time as _time
+import importlib
 import warnings
 
 from . import _api
@@ -85,6 +86,9 @@ _depth = _number("--max-depth", int, lambda v: v == -1 or v > 0, "a positive int
 _seconds = _seconds_named("--time")
 
 
+COMMAND_MODULES = ("compare", "converge", "study")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="caustica", description="Physically based global illumination renderer.")
     p.add_argument("--version", action="version", version=f"caustica {_api.__version__}")
@@ -135,6 +139,13 @@ def build_parser() -> argparse.ArgumentParser:
     _scene_options(e, nargs=None)
     e.add_argument("-o", "--output", required=True, help="the .json file to write (textures go beside it as .exr)")
     sub.add_parser("scenes", help="list the built-in scenes")
+    # Commands in their own modules (caustica/commands/<name>.py): each defines
+    # add_parser(sub) -> the subparser and run(args) -> exit status.
+    for name in COMMAND_MODULES:
+        mod = importlib.import_module(f"caustica.commands.{name}")
+        sp = mod.add_parser(sub)
+        if sp is not None:
+            sp.set_defaults(_module=mod)
     return p
 
 
@@ -321,6 +332,8 @@ def main(argv=None) -> int:
             return cmd_info(a)
         if a.command == "export":
             return cmd_export(a)
+        if getattr(a, "_module", None) is not None:
+            return a._module.run(a)
         return cmd_scenes(a)
     except (UsageError, _api.InputError) as e:
         print(f"caustica: error: {e}", file=sys.stderr)
