@@ -212,7 +212,9 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
                pass_offset: int = 0, stochastic_hash: bool = False, k: Optional[int] = None,
                checkpoint: Optional[Callable[[np.ndarray], Any]] = None,
-               checkpoint_interval: Optional[float] = None) -> RenderResult:
+               checkpoint_interval: Optional[float] = None,
+               target_error: Optional[float] = None, reference=None,
+               target_noise: Optional[float] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -222,11 +224,20 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
     `k` (pm): photons per k-nearest density estimate (default 50).
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
+    Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
+    `target_error` with `reference` (a path to an .exr/.pfm or an (H, W, 3) array) stops when
+    relMSE(image, reference) <= target_error; `target_noise` (integrator path) stops when the
+    relMSE estimated from the two half images (even and odd passes) <= target_noise. relMSE is
+    the mean of (x - r)^2 / (r^2 + 0.01). stats["error"], stats["noise"] hold the last values
+    checked and stats["target_reached"] says whether a target ended the render.
     Options left as None come from the scene's integrator defaults (see resolve_options);
     stats["integrator"] names the integrator used."""
     scene = load_scene(scene)
+    until_target = spp is None and time is None and (target_error is not None or target_noise is not None)
     o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k)
     integrator, spp, time, rr_depth, sampler = o["integrator"], o["spp"], o["time"], o["rr_depth"], o["sampler"]
+    if until_target:  # a target alone renders until it is met (not the scene's default spp)
+        spp = time = None
     photons, radius, alpha, k = o["photons"], o["radius"], o["alpha"], o["k"]
     if integrator not in integrators():
         raise InputError(f"unknown integrator '{integrator}' (allowed: {', '.join(integrators())})")
@@ -252,11 +263,12 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     for name, v in (("seed", seed), ("threads", threads), ("pass_offset", pass_offset)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
             raise InputError(f"{name} must be a non-negative integer, got {v!r}")
+    targets = _targets(scene, target_error, reference, target_noise)
     job = _native.RenderJob(scene, integrator=integrator, spp=spp_i, time=float(time or 0.0), seed=int(seed),
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
                             sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),
                             alpha=float(alpha), pass_offset=int(pass_offset), stochastic_hash=bool(stochastic_hash),
-                            k=_positive_int("k", k))
+                            k=_positive_int("k", k), **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -280,6 +292,32 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     return RenderResult(image=job.image(), stats=stats, interrupted=interrupted)
 
 
+def _targets(scene, target_error, reference, target_noise) -> dict:
+    """Checks the stop-on-quality options and loads the reference as (H, W, 3) float32."""
+    out = {}
+    for name, v in (("target_error", target_error), ("target_noise", target_noise)):
+        if v is None:
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0 or v != v or v == float("inf"):
+            raise InputError(f"{name} must be a positive number, got {v!r}")
+        out[name] = float(v)
+    if reference is not None and target_error is None:
+        raise InputError("reference is used with target_error (the relMSE to stop at)")
+    if target_error is not None:
+        if reference is None:
+            raise InputError("target_error needs a reference image (reference=path or array)")
+        if isinstance(reference, (str, os.PathLike)):
+            ref = read_image(reference)
+        else:
+            ref = np.asarray(reference, dtype=np.float32)
+        if ref.ndim != 3 or ref.shape[2] != 3:
+            raise InputError(f"the reference must be an (H, W, 3) image, got shape {ref.shape}")
+        if ref.shape[:2] != (scene.height, scene.width):
+            raise InputError(f"the reference is {ref.shape[1]}x{ref.shape[0]}, the render {scene.width}x{scene.height}")
+        out["reference"] = np.ascontiguousarray(ref, dtype=np.float32)
+    return out
+
+
 def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, time: Optional[float] = None,
            seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: Optional[int] = None,
            sampler: Optional[str] = None, accel: str = "embree",
@@ -293,7 +331,8 @@ def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, t
     (passes, target_passes, samples, rays, shadow_rays, seconds); returning False stops
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,
-    pass_offset=, stochastic_hash= (see render_job)."""
+    pass_offset=, stochastic_hash=; stop on quality: target_error= with reference=, and
+    target_noise= (see render_job)."""
     r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
                    **photon_options)
     if r.interrupted:

@@ -131,6 +131,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="photon maps keep one photon per hash cell (Hachisuka & Jensen 2010)")
     r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
                    help="write the image so far every S seconds (atomically)")
+    r.add_argument("--target-error", type=_float("--target-error"), default=None,
+                   help="stop when relMSE against --reference is at or under this (checked after each pass)")
+    r.add_argument("--reference", default=None, help="reference image (.exr or .pfm) for --target-error")
+    r.add_argument("--target-noise", type=_float("--target-noise"), default=None,
+                   help="path: stop when the relMSE estimated from two half images (even/odd passes) is at or "
+                        "under this")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     i = sub.add_parser("info", help="describe a scene: counts of shapes, triangles, lights, materials; bounds")
     _scene_options(i, nargs=None)
@@ -193,6 +199,10 @@ class _Progress:
         post = f"{rate / 1e6:.2f} M samples/s"
         if st.get("photons"):
             post = f"{st['passes'] / elapsed if elapsed > 0 else 0:.2f} passes/s, {st['photons'] / elapsed / 1e6:.2f} M photons/s"
+        if st.get("error") is not None:
+            post += f", relMSE {st['error']:.3g}"
+        if st.get("noise") is not None:
+            post += f", noise {st['noise']:.3g}"
         self.bar.set_postfix_str(post, refresh=False)
         self.bar.refresh()
         return True
@@ -242,7 +252,14 @@ def cmd_render(a) -> int:
     o = _api.resolve_options(scene, a.integrator, a.spp, a.time, a.rr_depth, a.sampler, a.photons, a.radius,
                              a.alpha, a.k)
     integrator, spp, seconds = o["integrator"], o["spp"], o["time"]
-    if spp is None and seconds is None:
+    target = a.target_error is not None or a.target_noise is not None
+    if a.reference is not None and a.target_error is None:
+        raise _api.InputError("--reference goes with --target-error (the relMSE to stop at)")
+    if a.target_error is not None and a.reference is None:
+        raise _api.InputError("--target-error needs --reference (an image to measure the error against)")
+    if target and a.spp is None and a.time is None:
+        spp = seconds = None  # render until the target is met
+    elif spp is None and seconds is None:
         spp = 16
     prog = _Progress(spp, seconds, enabled=not a.quiet)
 
@@ -256,7 +273,8 @@ def cmd_render(a) -> int:
                               sampler=o["sampler"], accel=a.accel, progress=prog, photons=o["photons"],
                               radius=o["radius"], alpha=o["alpha"], pass_offset=a.pass_offset,
                               stochastic_hash=a.stochastic_hash, k=o["k"], checkpoint=write_all if a.checkpoint else None,
-                              checkpoint_interval=a.checkpoint)
+                              checkpoint_interval=a.checkpoint, target_error=a.target_error,
+                              reference=a.reference, target_noise=a.target_noise)
     finally:
         prog.close()
     st = res.stats
@@ -271,6 +289,12 @@ def cmd_render(a) -> int:
         msg = (f"{scene.name}: {st['passes']} spp, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
                f"{st['samples'] / secs / 1e6:.2f} M samples/s, "
                f"{(st['rays'] + st['shadow_rays']) / secs / 1e6:.2f} M rays/s -> {', '.join(outputs)}")
+    if st.get("error") is not None:
+        msg += f"; relMSE vs reference {st['error']:.4g}"
+    if st.get("noise") is not None:
+        msg += f"; estimated relMSE from noise {st['noise']:.4g}"
+    if target:
+        msg += "; target reached" if st.get("target_reached") else "; target not reached"
     if res.interrupted:
         msg = "interrupted: wrote the image accumulated so far. " + msg
     print(msg, file=sys.stderr)

@@ -2,6 +2,7 @@
 // C++ thread without the GIL), image output and the BSDF/sampling routines the
 // tests need. The pure-Python package (python/caustica) builds the API on it.
 #include <nanobind/nanobind.h>
+#include <nanobind/stl/optional.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/map.h>
 #include <nanobind/stl/pair.h>
@@ -250,7 +251,9 @@ NB_MODULE(_native, m) {
            [](RenderJob* self, std::shared_ptr<Scene> scene, const std::string& integrator, int64_t spp, double time,
               uint64_t seed, int threads, int max_depth, int rr_depth, const std::string& sampler,
               const std::string& accel, int64_t photons, float radius, float alpha, int64_t pass_offset,
-              bool stochastic_hash, int k) {
+              bool stochastic_hash, int k, double target_error,
+              std::optional<nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>> reference,
+              double target_noise) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -269,6 +272,13 @@ NB_MODULE(_native, m) {
              o.pass_offset = pass_offset;
              o.stochastic_hash = stochastic_hash;
              o.k = k;
+             o.target_error = target_error;
+             o.target_noise = target_noise;
+             if (reference) {
+               if (reference->shape(2) != 3) throw InputError("the reference image must have 3 channels (H, W, 3)");
+               const float* p = reference->data();
+               o.reference.assign(p, p + reference->size());
+             }
              nb::gil_scoped_release release;
              new (self) RenderJob(std::move(scene), o);
            },
@@ -276,7 +286,8 @@ NB_MODULE(_native, m) {
            nb::arg("seed") = 0, nb::arg("threads") = 0, nb::arg("max_depth") = -2, nb::arg("rr_depth") = 5,
            nb::arg("sampler") = "sobol", nb::arg("accel") = "embree", nb::arg("photons") = 0,
            nb::arg("radius") = 0.f, nb::arg("alpha") = 0.7f, nb::arg("pass_offset") = 0,
-           nb::arg("stochastic_hash") = false, nb::arg("k") = 50)
+           nb::arg("stochastic_hash") = false, nb::arg("k") = 50, nb::arg("target_error") = 0.0,
+           nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0)
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
@@ -295,6 +306,9 @@ NB_MODULE(_native, m) {
         d["cancelled"] = s.cancelled;
         d["photons"] = s.photons;
         d["radius"] = s.radius;
+        d["error"] = s.error >= 0.0 ? nb::cast(s.error) : nb::none();
+        d["noise"] = s.noise >= 0.0 ? nb::cast(s.noise) : nb::none();
+        d["target_reached"] = s.target_reached;
         return d;
       })
       .def("image", [](const RenderJob& j) {

@@ -30,6 +30,31 @@ std::vector<float> Film::image() const {
   return img;
 }
 
+double Film::noise_relmse() const {
+  double acc = 0.0;
+  size_t n = 0;
+  for (size_t i = 0; i < size_t(width) * height; ++i) {
+    double wo = odd[4 * i + 3], we = sum[4 * i + 3] - wo;
+    if (wo <= 0.0 || we <= 0.0) continue;
+    for (int c = 0; c < 3; ++c) {
+      double so = odd[4 * i + c], se = sum[4 * i + c] - so;
+      double a = se / we, b = so / wo, m = sum[4 * i + c] / sum[4 * i + 3];
+      acc += 0.25 * (a - b) * (a - b) / (m * m + 0.01);
+    }
+    n += 3;
+  }
+  return n ? acc / double(n) : -1.0;
+}
+
+double relmse(const std::vector<float>& img, const std::vector<float>& ref) {
+  double acc = 0.0;
+  for (size_t i = 0; i < img.size(); ++i) {
+    double d = double(img[i]) - double(ref[i]);
+    acc += d * d / (double(ref[i]) * double(ref[i]) + 0.01);
+  }
+  return img.empty() ? 0.0 : acc / double(img.size());
+}
+
 void RenderJob::validate(const RenderOptions& o) {
   const auto& names = integrator_names();
   bool known = false;
@@ -51,13 +76,26 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.pass_offset < 0) throw InputError("--pass-offset must be a non-negative integer");
   if (o.accel != "embree" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: embree, bvh)");
+  if (o.target_error < 0 || !std::isfinite(o.target_error)) throw InputError("--target-error must be a positive number");
+  if (o.target_error > 0 && o.reference.empty())
+    throw InputError("--target-error needs --reference (an image to measure the error against)");
+  if (o.target_noise < 0 || !std::isfinite(o.target_noise)) throw InputError("--target-noise must be a positive number");
+  if (o.target_noise > 0 && o.integrator != "path")
+    throw InputError("--target-noise needs independent passes: integrator 'path' (use --target-error with a "
+                     "reference for '" + o.integrator + "')");
 }
 
 RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     : scene_(std::move(scene)), opt_(std::move(opt)),
       film_(scene_->view().camera.width, scene_->view().camera.height) {
   validate(opt_);
-  if (opt_.spp == 0 && opt_.time == 0.0) opt_.spp = 16;
+  if (!opt_.reference.empty() &&
+      opt_.reference.size() != size_t(scene_->view().camera.width) * scene_->view().camera.height * 3)
+    throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
+                     " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
+                     std::to_string(scene_->view().camera.height));
+  bool target = opt_.target_error > 0 || opt_.target_noise > 0;
+  if (opt_.spp == 0 && opt_.time == 0.0 && !target) opt_.spp = 16;
   if (is_photon_integrator(opt_.integrator)) photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
 }
 
@@ -102,7 +140,7 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
             ++invalid;
             continue;
           }
-          film_.add(st.pixel, st.L, st.weight);
+          film_.add(st.pixel, st.L, st.weight, (pass & 1) != 0);
         }
       }
     }
@@ -140,6 +178,10 @@ void RenderJob::run() {
       }
       if (!cancel_.load()) passes_ = pass + 1;
       seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (!cancel_.load() && target_met(pass + 1)) {
+        target_reached_ = true;
+        break;
+      }
     }
   } catch (const std::exception& e) {
     error_ = e.what();
@@ -163,6 +205,28 @@ bool RenderJob::wait(double timeout_seconds) {
   return true;
 }
 
+// Checked after each complete pass (the noise estimate after even pass counts,
+// when both halves hold the same number of samples); costs O(pixels), small
+// next to a pass of O(pixels) paths.
+bool RenderJob::target_met(int64_t passes_done) {
+  bool met = false;
+  if (opt_.target_noise > 0 && passes_done >= 2 && passes_done % 2 == 0) {
+    double n;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      n = film_.noise_relmse();
+    }
+    noise_value_ = n;
+    met |= n >= 0.0 && n <= opt_.target_noise;
+  }
+  if (opt_.target_error > 0) {
+    double e = relmse(image(), opt_.reference);
+    error_value_ = e;
+    met |= e <= opt_.target_error;
+  }
+  return met;
+}
+
 RenderStats RenderJob::stats() const {
   RenderStats s;
   s.passes = passes_.load();
@@ -176,6 +240,9 @@ RenderStats RenderJob::stats() const {
   s.radius = photon_ ? photon_->initial_radius() : 0.f;
   s.done = finished_.load();
   s.cancelled = cancel_.load();
+  s.error = error_value_.load();
+  s.noise = noise_value_.load();
+  s.target_reached = target_reached_.load();
   return s;
 }
 

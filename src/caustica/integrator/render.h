@@ -32,7 +32,16 @@ struct RenderOptions {
   int64_t pass_offset = 0;   // pppm: render passes [pass_offset, pass_offset + spp)
   bool stochastic_hash = false;  // keep one photon per hash cell (Hachisuka & Jensen 2010)
   int k = 50;                // pm: photons per k-nearest density estimate
+  // Stop on quality (checked at the end of passes; whichever of spp, time and a
+  // target comes first ends the render). The error is relMSE with epsilon 0.01:
+  // mean over pixels and channels of (x - r)^2 / (r^2 + 0.01).
+  double target_error = 0.0;    // > 0: stop when relMSE(image, reference) <= target_error
+  std::vector<float> reference; // H*W*3 linear RGB, for target_error
+  double target_noise = 0.0;    // > 0 (path): stop when the estimated relMSE from noise <= target_noise
 };
+
+// relMSE of an image against a reference (both H*W*3), epsilon 0.01 (shared/scenes/cornell-box.md).
+double relmse(const std::vector<float>& img, const std::vector<float>& ref);
 
 struct RenderStats {
   int64_t passes = 0;        // completed passes (samples per pixel)
@@ -46,24 +55,43 @@ struct RenderStats {
   double seconds = 0.0;
   bool done = false;
   bool cancelled = false;
+  double error = -1.0;           // the last relMSE checked against the reference (-1: none)
+  double noise = -1.0;           // the last noise estimate (-1: none)
+  bool target_reached = false;   // stopped because a target was met
 };
 
 // Names of the integrators this build offers (the registry).
 const std::vector<std::string>& integrator_names();
 
+// Accumulated radiance per pixel, with the odd passes also kept apart so that
+// the two half images (even passes, odd passes) give a per-pixel variance
+// estimate: for N samples split evenly, E[(A - B)^2] = 4 Var(mean of N)
+// (the "two half buffers" of LuxCore's halt threshold and Cycles' adaptive sampling).
 class Film {
  public:
-  Film(int w, int h) : width(w), height(h), sum(size_t(w) * h * 4, 0.0) {}
-  void add(uint32_t pixel, RGB L, float w) {
+  Film(int w, int h) : width(w), height(h), sum(size_t(w) * h * 4, 0.0), odd(size_t(w) * h * 4, 0.0) {}
+  void add(uint32_t pixel, RGB L, float w, bool odd_pass) {
     double* p = &sum[size_t(pixel) * 4];
     p[0] += double(L.x) * w;
     p[1] += double(L.y) * w;
     p[2] += double(L.z) * w;
     p[3] += w;
+    if (odd_pass) {
+      double* q = &odd[size_t(pixel) * 4];
+      q[0] += double(L.x) * w;
+      q[1] += double(L.y) * w;
+      q[2] += double(L.z) * w;
+      q[3] += w;
+    }
   }
   std::vector<float> image() const;  // H*W*3, weighted mean per pixel
+  // Estimated relMSE of image() due to noise: mean over pixels and channels of
+  // ((A - B) / 2)^2 / (I^2 + 0.01), A and B the even- and odd-pass means, I the
+  // full mean (valid after an even number of passes); -1 before two passes.
+  double noise_relmse() const;
   int width, height;
   std::vector<double> sum;  // r, g, b, weight per pixel
+  std::vector<double> odd;  // the same over odd passes only
 };
 
 class PhotonIntegrator;
@@ -96,6 +124,9 @@ class RenderJob {
   std::atomic<int64_t> passes_{0};
   std::atomic<uint64_t> samples_{0}, rays_{0}, shadow_rays_{0}, invalid_{0};
   std::atomic<double> seconds_{0.0};
+  std::atomic<double> error_value_{-1.0}, noise_value_{-1.0};
+  std::atomic<bool> target_reached_{false};
+  bool target_met(int64_t passes_done);
   std::thread thread_;
   std::unique_ptr<PhotonIntegrator> photon_;
   std::atomic<uint64_t> photons_{0};
