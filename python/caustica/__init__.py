@@ -29,9 +29,10 @@ from ._api import (
     render_job,
     write_image,
 )
+from . import metrics  # image metrics: caustica.metrics.relmse, .flip, .evaluate (docs/metrics.md)
 
 __all__ = [
     "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
     "default_scene_name", "describe", "export_scene", "integrators", "load_dict", "load_scene", "load_scene_desc", "read_image",
-    "render", "render_job", "write_image",
+    "render", "render_job", "write_image", "metrics",
 ]
