@@ -30,6 +30,7 @@ from ._api import (
     write_image,
 )
 from . import metrics  # image metrics: caustica.metrics.relmse, .flip, .evaluate (docs/metrics.md)
+from . import study  # caustica.study.realtime(...): spp and frame time for a FLIP target (docs/realtime-study.md)
 
 __all__ = [
     "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",

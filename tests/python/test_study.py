@@ -1,0 +1,87 @@
+"""caustica.study.realtime and `caustica study realtime`: a tiny run writes the report, the table and the
+plots; the spp needed grows as the threshold falls; bad input is one line and exit status 2."""
+import json
+import os
+
+import pytest
+
+import caustica
+from caustica import cli
+from caustica import study as S
+
+
+def test_spp_needed_interpolates_and_marks():
+    levels = [1, 2, 4, 8]
+    flips = [0.4, 0.2, 0.1, 0.05]           # slope -1 in log-log
+    assert S.spp_needed(levels, flips, 0.5) == (1.0, "<=")
+    n, how = S.spp_needed(levels, flips, 0.1)
+    assert how == "interpolated" and n == pytest.approx(4.0)
+    n, how = S.spp_needed(levels, flips, 0.141421356)
+    assert how == "interpolated" and n == pytest.approx(2.0 ** 1.5, rel=1e-6)
+    n, how = S.spp_needed(levels, flips, 0.025)
+    assert how == "extrapolated" and n == pytest.approx(16.0, rel=1e-6)
+    assert S.spp_needed(levels, [0.3, 0.3, 0.3, 0.3], 0.1) == (None, "not reached")
+    assert S.spp_levels(10) == [1, 2, 4, 8, 10]
+
+
+def test_realtime_study_tiny(tmp_path, capsys):
+    out = tmp_path / "rt"
+    thresholds = ["0.3", "0.15", "0.08"]
+    rc = cli.main(["study", "realtime", "cornell", "--integrators", "path", "sppm", "--size", "24x24",
+                   "--max-spp", "8", "--seeds", "2", "--ref-spp", "128", "--thresholds", *thresholds,
+                   "--out", str(out), "--quiet"])
+    assert rc == 0
+    printed = capsys.readouterr().out
+    assert "| integrator | mean FLIP ≤ | spp needed |" in printed
+    report = (out / "report.md").read_text()
+    assert "| integrator | mean FLIP ≤ | spp needed | throughput (samples/s) |" in report
+    assert "no GPU backend" in report
+    for f in ("flip_vs_spp.png", "flip_vs_spp.svg", "flip_vs_frame_time.png", "results.json"):
+        assert (out / f).stat().st_size > 0, f
+    assert (out / "flip_vs_spp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    refs = list((out / "reference").glob("*.exr"))
+    assert len(refs) == 1 and refs[0].with_suffix(".json").exists()
+    res = json.loads((out / "results.json").read_text())
+    rows = res["table"]
+    assert len(rows) == 2 * len(thresholds)
+    for integ in ("path", "sppm"):
+        mine = sorted((r for r in rows if r["integrator"] == integ), key=lambda r: -r["threshold"])
+        needed = [r["spp_needed"] for r in mine]
+        assert all(n is not None for n in needed), mine
+        assert needed == sorted(needed) and needed[0] < needed[-1], mine        # lower threshold: more spp
+        for r in mine:
+            assert r["frame_ms"] == pytest.approx(1000 * r["spp_needed"] * 1920 * 1080 / r["samples_per_s"])
+            assert r["speedup_missing"] == pytest.approx(r["frame_ms"] / (1000 / 60))
+        flips = [c["flip"] for c in res["curves"][integ]]
+        assert flips[-1] < flips[0]
+
+    # The Python function: same table shape; the cached reference is reused (its sidecar's date is kept).
+    meta = json.loads(refs[0].with_suffix(".json").read_text())
+    r2 = caustica.study.realtime("cornell", integrators=["path"], size=(24, 24), max_spp=2, seeds=1, ref_spp=128,
+                                 thresholds=[0.3], out=out)
+    assert [set(r) >= {"integrator", "threshold", "spp_needed", "frame_ms", "speedup_missing"} for r in r2["table"]]
+    assert r2["reference"]["date"] == meta["date"]
+
+
+@pytest.mark.parametrize("argv", [
+    ["study", "realtime", "no-such-scene"],
+    ["study", "realtime", "cornell", "--integrators", "bogus"],
+    ["study", "realtime", "cornell", "--thresholds", "1.5"],
+    ["study", "realtime", "cornell", "--size", "10"],
+    ["study", "realtime", "cornell", "--max-spp", "0"],
+    ["study"],
+])
+def test_study_bad_input_exits_2(argv, capsys, tmp_path):
+    assert cli.main(argv + ["--out", str(tmp_path / "x")] if len(argv) > 1 else argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("caustica: error:"), err
+    assert not (tmp_path / "x").exists()
+
+
+def test_study_python_bad_input():
+    with pytest.raises(caustica.InputError):
+        caustica.study.realtime("cornell", thresholds=[0])
+    with pytest.raises(caustica.InputError):
+        caustica.study.realtime("cornell", integrators=["nope"])
+    with pytest.raises(caustica.InputError):
+        caustica.study.realtime("cornell", max_spp=0)
