@@ -31,9 +31,10 @@ from ._api import (
 )
 from . import metrics  # image metrics: caustica.metrics.relmse, .flip, .evaluate (docs/metrics.md)
 from . import study  # caustica.study.realtime(...): spp and frame time for a FLIP target (docs/realtime-study.md)
+from .converge import converge
 
 __all__ = [
     "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
     "default_scene_name", "describe", "export_scene", "integrators", "load_dict", "load_scene", "load_scene_desc", "read_image",
-    "render", "render_job", "write_image", "metrics",
+    "render", "render_job", "write_image", "metrics", "converge",
 ]
