@@ -95,6 +95,7 @@ class Film {
 };
 
 class PhotonIntegrator;
+class VcmIntegrator;
 
 class RenderJob {
  public:
@@ -129,6 +130,7 @@ class RenderJob {
   bool target_met(int64_t passes_done);
   std::thread thread_;
   std::unique_ptr<PhotonIntegrator> photon_;
+  std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::atomic<uint64_t> photons_{0};
   std::string error_;
 };

@@ -47,7 +47,7 @@ struct CellEntry {
 }  // namespace
 
 void PhotonHashGrid::build(const std::vector<Photon>& photons, const Bounds3& bounds, float cell_size,
-                           bool stochastic, uint64_t seed) {
+                           bool stochastic, uint64_t seed, bool keep_ids) {
   if (!(cell_size > 0.f) || !std::isfinite(cell_size))
     throw std::invalid_argument("PhotonHashGrid: cell_size must be positive and finite, got " +
                                 std::to_string(cell_size));
@@ -70,7 +70,7 @@ void PhotonHashGrid::build(const std::vector<Photon>& photons, const Bounds3& bo
   if (stochastic)
     build_sorted(select_one_per_cell(photons, seed));  // same quantizer: the kept photons keep their cells
   else
-    build_sorted(photons);
+    build_sorted(photons, keep_ids);
 }
 
 // The grid's geometry without its arrays (for cell_of).
@@ -82,7 +82,7 @@ PhotonGridView PhotonHashGrid::shape() const {
   return v;
 }
 
-void PhotonHashGrid::build_sorted(const std::vector<Photon>& photons) {
+void PhotonHashGrid::build_sorted(const std::vector<Photon>& photons, bool keep_ids) {
   const size_t n = photons.size();
   const uint32_t table = table_size_for(n);
   const uint32_t mask = table - 1;
@@ -104,6 +104,12 @@ void PhotonHashGrid::build_sorted(const std::vector<Photon>& photons) {
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t j = r.begin(); j != r.end(); ++j) photons_[j] = compact[uint32_t(keys[j])];
   });
+  ids_.clear();
+  if (keep_ids) {
+    ids_.resize(n);
+    for (size_t j = 0; j < n; ++j) ids_[j] = uint32_t(keys[j]);
+  }
+  ids_.shrink_to_fit();
   fill_cell_start(n, table, [&](size_t j) { return uint32_t(keys[j] >> 32); }, cell_start_);
   cell_start_.shrink_to_fit();
 }
@@ -152,11 +158,13 @@ PhotonGridView PhotonHashGrid::view() const {
   v.cell_size = cell_size_;
   v.inv_cell_size = cell_size_ > 0.f ? 1.f / cell_size_ : 0.f;
   v.quant = quant_;
+  v.ids = ids_.empty() ? nullptr : ids_.data();
   return v;
 }
 
 size_t PhotonHashGrid::bytes() const {
-  return sizeof(*this) + photons_.capacity() * sizeof(CompactPhoton) + cell_start_.capacity() * sizeof(uint32_t);
+  return sizeof(*this) + photons_.capacity() * sizeof(CompactPhoton) + cell_start_.capacity() * sizeof(uint32_t) +
+         ids_.capacity() * sizeof(uint32_t);
 }
 
 }  // namespace caustica

@@ -77,6 +77,7 @@ struct PhotonGridView {
   uint32_t table_mask = 0;                 // table_size - 1
   float cell_size = 0.f, inv_cell_size = 0.f;
   PhotonQuantizer quant;                   // the grid's origin is quant.lo
+  const uint32_t* ids = nullptr;           // with build(..., keep_ids): each record's index in the input
 
   // The grid cell of a point, as a key (the key the build files a photon under, given its decoded position).
   CHD uint64_t cell_of(Vec3f p) const {
@@ -88,6 +89,14 @@ struct PhotonGridView {
   // photon_dist2(p, x) <= radius^2. Precondition: radius <= cell_size.
   template <class F>
   CHD void query(Vec3f p, float radius, F&& f) const {
+    query_indexed(p, radius, [&](uint32_t, const Photon& ph) { f(ph); });
+  }
+
+  // The same, calling f(uint32_t id, const Photon& decoded) with the photon's index in the array given to
+  // build() when the grid keeps ids (else its position in the grid's own order). Integrators that keep
+  // more per photon than the compact record (VCM's light vertices) look it up by this index.
+  template <class F>
+  CHD void query_indexed(Vec3f p, float radius, F&& f) const {
     if (num_photons == 0) return;
     const float r2 = radius * radius;
     const float ru = radius * inv_cell_size;
@@ -138,7 +147,7 @@ struct PhotonGridView {
           ph.wi = oct_decode(c.oct);
           ph.power = compact_power(c);
           ph.flags = compact_flags(c);
-          f(static_cast<const Photon&>(ph));
+          f(ids ? ids[j] : j, static_cast<const Photon&>(ph));
         }
       }
     }
@@ -158,8 +167,10 @@ class PhotonHashGrid {
   // so photons outside it are never clamped. cell_size > 0 (for queries of radius r, 2r is the usual
   // choice). With `stochastic`, keeps one photon per occupied cell (see the top of this file), chosen by
   // `seed`. Throws std::invalid_argument on a bad cell size or more than 2^32 - 1 photons.
+  // With `keep_ids` (not with `stochastic`), the grid also keeps each record's input index (4 bytes per
+  // photon) for PhotonGridView::query_indexed.
   void build(const std::vector<Photon>& photons, const Bounds3& bounds, float cell_size, bool stochastic = false,
-             uint64_t seed = 0);
+             uint64_t seed = 0, bool keep_ids = false);
 
   PhotonGridView view() const;
   size_t size() const { return photons_.size(); }                   // photons stored
@@ -172,11 +183,12 @@ class PhotonHashGrid {
 
  private:
   PhotonGridView shape() const;
-  void build_sorted(const std::vector<Photon>& photons);
+  void build_sorted(const std::vector<Photon>& photons, bool keep_ids = false);
   std::vector<Photon> select_one_per_cell(const std::vector<Photon>& photons, uint64_t seed) const;
 
   std::vector<CompactPhoton> photons_;
   std::vector<uint32_t> cell_start_;
+  std::vector<uint32_t> ids_;  // input index per record (keep_ids)
   PhotonQuantizer quant_;
   float cell_size_ = 0.f;
 };

@@ -1,0 +1,768 @@
+// Bidirectional light transport as stage functions: light tracing (`light`),
+// bidirectional path tracing (`bdpt`), bidirectional photon mapping (`bpm`) and
+// vertex connection and merging (`vcm`), one implementation with four modes.
+//
+// Papers:
+//   Veach 1997, "Robust Monte Carlo Methods for Light Transport Simulation",
+//     Ch. 10 (bidirectional path tracing, Eq. 10.9 the power heuristic over the
+//     strategies (s, t)); camera importance W_e as in pbrt-v4 Sec. 5.4.
+//   Georgiev, Krivanek, Davidovic, Slusallek 2012, "Light Transport Simulation
+//     with Vertex Connection and Merging" (SIGGRAPH Asia): vertex merging as a
+//     path sampling technique with pdf p_VM = p_VC * P_acc, P_acc ~ pi r^2 p(x)
+//     (Eqs. 9-12), eta_VCM = N_VM pi r^2 (Eq. 13), the radius schedule
+//     r_i = r_1 i^((alpha - 1) / 2) (Sec. 5).
+//   Georgiev 2012, "Implementing Vertex Connection and Merging" (technical
+//     report): the MIS weights computed from three running quantities per
+//     subpath vertex, dVCM, dVC and dVM, so a weight needs only the pdfs at the
+//     two vertices being joined. Equation numbers below refer to it:
+//       weights of a connection/merge split into a light and a camera part,
+//         w = 1 / (w_light + 1 + w_camera)            (Eqs. 18-20)
+//       light subpath start                           (Eqs. 31-33)
+//       camera subpath start                          (the analogue, Sec. 5.1)
+//       after tracing a segment (area conversion)     (Eqs. 34-36)
+//       after sampling a BSDF direction               (Eqs. 34-36 expanded,
+//                                                      Sec. 5.1 "SampleScattering")
+//       camera hits a light (s = 0)                   (Eq. 37)
+//       next-event estimation (s = 1)                 (Eqs. 38-39)
+//       light vertex to camera (t = 1)                (Eqs. 40-41)
+//       light vertex to camera vertex (s, t > 1)      (Eqs. 42-44)
+//       merging                                       (Eqs. 45-47)
+//     mis(x) = x^beta: beta = 2 (power heuristic, default) or 1 (balance).
+//
+// Conventions. Depth counts segments (Mitsuba's convention, as path.h): a light
+// subpath vertex after L segments and a camera vertex after T segments joined
+// by a connection make a path of L + T + 1 segments, by a merge L + T. Densities
+// carry the light selection probability where the report's do. Russian roulette
+// (on throughput) is not part of the MIS densities: the weights still sum to one
+// over the strategies (they use the same densities for every strategy), and
+// each strategy divides by its true sampling density.
+//
+// Pixel filters. A camera sample of pixel j lands at raster offset d from the
+// pixel centre with density p(d) (filter importance sampling, film/filter.h)
+// and measures h(d), the normalised filter. Camera strategies weight a sample
+// by h/p; light-tracing splats go to every pixel whose filter covers the raster
+// point, each with h(d) and its own MIS weight using p(d) as the camera's
+// raster density (box and tent: p = h; gaussian: p is the untruncated shape).
+//
+// Modes (as SmallVCM's algorithms): kLight uses only t = 1 (light tracing, no
+// MIS) plus camera rays through specular chains for L S* E; kBpt all
+// connections; kBpm all merges (plus emission on purely specular camera
+// chains); kVcm both.
+#pragma once
+#include "../base/sampler.h"
+#include "../light/light_sample.h"
+#include "../material/bsdf.h"
+#include "../photon/hash_grid.h"
+#include "../scene/shading.h"
+
+namespace caustica {
+
+enum class VcmMode : uint32_t { kLight = 0, kBpt, kBpm, kVcm };
+
+struct VcmParams {
+  VcmMode mode = VcmMode::kVcm;
+  uint32_t max_depth = 0xffffffffu;  // segments
+  uint32_t rr_depth = 5;
+  uint64_t seed = 0;
+  uint32_t pass = 0;
+  SamplerType sampler = SamplerType::kSobol;
+  bool balance = false;     // balance heuristic instead of the power heuristic
+  float n_light = 1.f;      // light subpaths per pass (N_VM in the paper)
+  float radius = 0.f;       // merge radius of this pass
+  float vm_factor = 0.f;    // mis(eta_VCM), 0 without merging   (report Sec. 5.1)
+  float vc_factor = 0.f;    // mis(1 / eta_VCM), 0 without connections
+  float vm_norm = 0.f;      // 1 / (pi r^2 N_VM)
+  CHD bool use_vc() const { return mode == VcmMode::kBpt || mode == VcmMode::kVcm; }
+  CHD bool use_vm() const { return mode == VcmMode::kBpm || mode == VcmMode::kVcm; }
+  CHD bool use_lt() const { return mode != VcmMode::kBpm; }  // t = 1 strategies
+};
+
+CHD float vcm_mis(const VcmParams& p, float x) { return p.balance ? x : x * x; }
+
+// Fills the factors for a pass with radius r (eta_VCM = N pi r^2, report Eq. 13 of the paper).
+CHD void vcm_set_radius(VcmParams& p, float r) {
+  p.radius = r;
+  float eta = kPi * r * r * p.n_light;
+  p.vm_factor = p.use_vm() ? vcm_mis(p, eta) : 0.f;
+  p.vc_factor = p.use_vc() ? vcm_mis(p, 1.f / eta) : 0.f;
+  p.vm_norm = p.use_vm() ? 1.f / eta : 0.f;
+}
+
+// ---------------------------------------------------------------------------
+// The running MIS quantities and their updates (report Eqs. 31-36).
+struct VcmMis {
+  float dVCM = 0.f, dVC = 0.f, dVM = 0.f;
+};
+
+// After tracing a segment of length `dist` that arrives with |cos| = cos_in at
+// the new vertex (Eqs. 34-36): densities of the previous vertex's direction
+// become area densities at this one. `area` is false for the first segment from
+// an infinite light, whose densities stay per solid angle (report Sec. 5.1).
+CHD void vcm_after_segment(const VcmParams& p, VcmMis& m, float dist, float cos_in, bool area) {
+  if (area) m.dVCM *= vcm_mis(p, dist * dist);
+  float ic = 1.f / vcm_mis(p, maxf(cos_in, 1e-8f));
+  m.dVCM *= ic;
+  m.dVC *= ic;
+  m.dVM *= ic;
+}
+
+// After sampling the next direction with |cos| = cos_out at the vertex, forward
+// density pdf_dir and reverse density pdf_rev (both per solid angle).
+CHD void vcm_after_scatter(const VcmParams& p, VcmMis& m, float cos_out, float pdf_dir, float pdf_rev, bool delta) {
+  if (delta) {
+    // A delta vertex cannot end a subpath: no connection or merge there.
+    m.dVCM = 0.f;
+    m.dVC *= vcm_mis(p, cos_out);
+    m.dVM *= vcm_mis(p, cos_out);
+    return;
+  }
+  float g = vcm_mis(p, cos_out / pdf_dir);
+  float dVC = g * (m.dVC * vcm_mis(p, pdf_rev) + m.dVCM + p.vm_factor);
+  float dVM = g * (m.dVM * vcm_mis(p, pdf_rev) + m.dVCM * p.vc_factor + 1.f);
+  m.dVC = dVC;
+  m.dVM = dVM;
+  m.dVCM = vcm_mis(p, 1.f / pdf_dir);
+}
+
+// Light subpath start (Eqs. 31-33). emission_pdf_w and direct_pdf_a include the
+// light selection probability; cos_light is 1 for infinite lights.
+CHD VcmMis vcm_light_start_mis(const VcmParams& p, float direct_pdf_a, float emission_pdf_w, float cos_light,
+                               bool delta) {
+  VcmMis m;
+  m.dVCM = vcm_mis(p, direct_pdf_a / emission_pdf_w);
+  m.dVC = delta ? 0.f : vcm_mis(p, cos_light / emission_pdf_w);
+  m.dVM = m.dVC * p.vc_factor;
+  return m;
+}
+
+// Camera subpath start: camera_pdf_w is the solid-angle density of the camera
+// ray; dVCM = mis(N_light / p_camera) (the t = 1 strategies splat N_light paths).
+CHD VcmMis vcm_camera_start_mis(const VcmParams& p, float camera_pdf_w) {
+  VcmMis m;
+  m.dVCM = vcm_mis(p, p.n_light / camera_pdf_w);
+  return m;
+}
+
+// Camera subpath hits an emitter (s = 0, Eq. 37); densities include the light
+// selection probability. Returns the weight for camera path length >= 2.
+CHD float vcm_weight_hit(const VcmParams& p, const VcmMis& cam, float direct_pdf_a, float emission_pdf_w) {
+  float w_camera = vcm_mis(p, direct_pdf_a) * cam.dVCM + vcm_mis(p, emission_pdf_w) * cam.dVC;
+  return 1.f / (1.f + w_camera);
+}
+
+// Next-event estimation (s = 1, Eqs. 38-39). direct_pdf_w: density of choosing
+// the light point per solid angle at the camera vertex without the selection
+// probability (d^2 for point lights, 1 for directional ones); emission_pdf_w
+// without it too; bsdf_dir_pdf_w: camera BSDF towards the light (0 for delta
+// lights); bsdf_rev_pdf_w: the reverse.
+CHD float vcm_weight_nee(const VcmParams& p, const VcmMis& cam, float pick, float direct_pdf_w, float emission_pdf_w,
+                         float cos_at_light, float cos_to_light, float bsdf_dir_pdf_w, float bsdf_rev_pdf_w) {
+  float w_light = vcm_mis(p, bsdf_dir_pdf_w / (pick * direct_pdf_w));
+  float w_camera = vcm_mis(p, emission_pdf_w * cos_to_light / (direct_pdf_w * cos_at_light)) *
+                   (p.vm_factor + cam.dVCM + cam.dVC * vcm_mis(p, bsdf_rev_pdf_w));
+  return 1.f / (w_light + 1.f + w_camera);
+}
+
+// Light vertex to camera (t = 1, Eqs. 40-41): camera_pdf_a is the camera's
+// density of the light vertex (raster density -> area at the vertex).
+CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camera_pdf_a, float bsdf_rev_pdf_w) {
+  float w_light = vcm_mis(p, camera_pdf_a / p.n_light) * (p.vm_factor + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
+  return 1.f / (w_light + 1.f);
+}
+
+// Light vertex to camera vertex (Eqs. 42-44). *_dir_pdf_a: each side's BSDF
+// density of the other vertex (area); *_rev_pdf_w: each side's reverse density.
+CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_a,
+                             float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w) {
+  float w_light = vcm_mis(p, cam_dir_pdf_a) * (p.vm_factor + light.dVCM + light.dVC * vcm_mis(p, light_rev_pdf_w));
+  float w_camera = vcm_mis(p, light_dir_pdf_a) * (p.vm_factor + cam.dVCM + cam.dVC * vcm_mis(p, cam_rev_pdf_w));
+  return 1.f / (w_light + 1.f + w_camera);
+}
+
+// Merging at a camera vertex (Eqs. 45-47): cam_dir_pdf_w is the camera BSDF's
+// density of the light vertex's incoming direction, cam_rev_pdf_w the reverse.
+CHD float vcm_weight_merge(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_w,
+                           float cam_rev_pdf_w) {
+  float w_light = light.dVCM * p.vc_factor + light.dVM * vcm_mis(p, cam_dir_pdf_w);
+  float w_camera = cam.dVCM * p.vc_factor + cam.dVM * vcm_mis(p, cam_rev_pdf_w);
+  return 1.f / (w_light + 1.f + w_camera);
+}
+
+// ---------------------------------------------------------------------------
+// Pixel filters: the normalised measurement h and the sampling density p.
+CHD float vcm_filter_radius(FilterType t) {
+  return t == FilterType::kTent ? 1.f : t == FilterType::kGaussian ? 2.f : 0.5f;
+}
+CHD float vcm_gauss(float x) { return std::exp(-2.f * x * x); }  // sigma = 1/2
+// Integrals over [-2, 2] of g and of g - g(2) (sigma = 1/2): G = sigma sqrt(2 pi) erf(2 sqrt 2), F = G - 4 g(2).
+constexpr float kGaussG = 1.2532350f;
+constexpr float kGaussF = 1.2518932f;
+CHD float vcm_filter_h1(FilterType t, float x) {
+  float a = std::fabs(x);
+  switch (t) {
+    case FilterType::kTent: return a < 1.f ? 1.f - a : 0.f;
+    case FilterType::kGaussian: return a < 2.f ? maxf(0.f, vcm_gauss(x) - vcm_gauss(2.f)) / kGaussF : 0.f;
+    default: return a <= 0.5f ? 1.f : 0.f;
+  }
+}
+CHD float vcm_filter_p1(FilterType t, float x) {
+  if (t == FilterType::kGaussian) return std::fabs(x) < 2.f ? vcm_gauss(x) / kGaussG : 0.f;
+  return vcm_filter_h1(t, x);
+}
+
+// ---------------------------------------------------------------------------
+// Camera importance (pbrt-v4 Sec. 5.4; Veach 1997 Ch. 10). A camera ray at
+// angle theta to the view axis through raster point x: d omega = A_pix cos^3
+// theta dx, with A_pix the area of a pixel on the image plane at distance 1
+// (the same for the thin lens, whose rays pass the focus plane at distance
+// focus_distance). So a raster density p(x) is p / (A_pix cos^3 theta) per solid
+// angle, and a light vertex y seen from lens point c contributes to pixel j
+//   beta f |cos_y| h_j(x) / (|y - c|^2 A_pix cos^3 theta N_light).
+CHD float camera_pixel_area(const Camera& c) {
+  return 4.f * c.tan_half_x * c.tan_half_y / (float(c.width) * float(c.height));
+}
+CHD Vec3f camera_lens_point(const Camera& c, Vec2f u) {
+  if (c.aperture_radius <= 0.f) return c.position;
+  Vec2f pl = square_to_concentric_disk(u) * c.aperture_radius;
+  return c.position + c.right * pl.x + c.up * pl.y;
+}
+// Raster position of the camera ray from lens point `pl` towards `p`, and the
+// cosine of that ray with the view axis; false behind the camera.
+CHD bool camera_project(const Camera& c, Vec3f pl, Vec3f p, Vec2f& raster, float& cos_theta) {
+  Vec3f d = p - pl;
+  float dz = dot(d, c.forward);
+  if (!(dz > 0.f)) return false;
+  float dx = dot(d, c.right), dy = dot(d, c.up);
+  float sx, sy;
+  if (c.aperture_radius > 0.f) {
+    Vec3f o = pl - c.position;
+    float t = c.focus_distance / dz;
+    sx = (dot(o, c.right) + dx * t) / c.focus_distance;
+    sy = (dot(o, c.up) + dy * t) / c.focus_distance;
+  } else {
+    sx = dx / dz;
+    sy = dy / dz;
+  }
+  raster = Vec2f((sx / c.tan_half_x + 1.f) * 0.5f * float(c.width), (1.f - sy / c.tan_half_y) * 0.5f * float(c.height));
+  cos_theta = dz / length(d);
+  return std::isfinite(raster.x) && std::isfinite(raster.y);
+}
+
+// ---------------------------------------------------------------------------
+// Light densities (report Sec. 5.1's Emit / Illuminate / GetRadiance).
+struct VcmEmission {
+  Ray ray;
+  RGB Le_cos{0.f};          // emitted radiance x cos (intensity, irradiance for delta and distant lights)
+  float emission_pdf_w = 0.f;  // position x direction density, without the light selection probability
+  float direct_pdf_a = 0.f;    // NEE density of the point (area; per solid angle for the environment); < 0:
+                               // depends on the receiver (area lights), computed at the first hit
+  float cos_light = 1.f;
+  Vec3f p, n;                  // emission point and normal (area lights)
+  bool delta = false, infinite = false;
+};
+
+CHD float vcm_area_light_area(const SceneView& s, const Light& l) {
+  if (l.type == LightType::kTriangle) {
+    Vec3f p0, p1, p2;
+    triangle_vertices(s, l.prim, p0, p1, p2);
+    return triangle_area(p0, p1, p2);
+  }
+  const Sphere& sp = s.spheres[l.prim - s.num_triangles];
+  return 4.f * kPi * sp.radius * sp.radius;
+}
+
+// Emission density (position x direction) of a light leaving towards w (world),
+// from point p_l with normal n_l for area lights; without the selection probability.
+CHD float vcm_emission_pdf(const SceneView& s, const Light& l, Vec3f n_l, Vec3f w) {
+  const float R = s.bsphere_radius;
+  switch (l.type) {
+    case LightType::kTriangle:
+    case LightType::kSphere: {
+      float c = dot(n_l, w);
+      if (!l.two_sided && c <= 0.f) return 0.f;
+      return std::fabs(c) * kInvPi / (vcm_area_light_area(s, l) * (l.two_sided ? 2.f : 1.f));
+    }
+    case LightType::kPoint: return uniform_sphere_pdf();
+    case LightType::kSpot: return uniform_cone_pdf(l.cos_total);
+    case LightType::kDirectional: return 1.f / (kPi * R * R);
+    case LightType::kEnvironment: return environment_pdf(s, l, -w) / (kPi * R * R);
+  }
+  return 0.f;
+}
+
+CHD bool vcm_sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f u_dir, float u_side,
+                             VcmEmission& e) {
+  const float R = s.bsphere_radius;
+  e = VcmEmission();
+  switch (l.type) {
+    case LightType::kTriangle:
+    case LightType::kSphere: {
+      Vec2f uv;
+      if (l.type == LightType::kTriangle) {
+        Vec3f p0, p1, p2;
+        triangle_vertices(s, l.prim, p0, p1, p2);
+        Vec2f b = square_to_uniform_triangle(u_pos);
+        e.p = p0 * (1.f - b.x - b.y) + p1 * b.x + p2 * b.y;
+        e.n = normalize(cross(p1 - p0, p2 - p0));
+        uv = triangle_uv(s, l.prim, b.x, b.y);
+      } else {
+        const Sphere& sp = s.spheres[l.prim - s.num_triangles];
+        e.n = square_to_uniform_sphere(u_pos);
+        e.p = sp.center + e.n * sp.radius;
+        uv = sphere_uv(e.n);
+      }
+      Vec3f n_side = e.n;
+      if (l.two_sided && u_side < 0.5f) n_side = -n_side;
+      Vec3f wl = square_to_cosine_hemisphere(u_dir);
+      Vec3f d = Frame(n_side).to_world(wl);
+      e.ray = Ray{offset_ray_origin(e.p, e.n, d), d, kInf};
+      e.cos_light = wl.z;
+      e.emission_pdf_w = vcm_emission_pdf(s, l, e.n, d);
+      e.direct_pdf_a = -1.f;
+      RGB Le = l.L;
+      if (l.texture >= 0) Le = Le * texture_lookup(s.textures[l.texture], uv).rgb();
+      e.Le_cos = Le * wl.z;
+      return e.emission_pdf_w > 0.f && !is_black(e.Le_cos);
+    }
+    case LightType::kPoint:
+    case LightType::kSpot: {
+      Vec3f d;
+      float falloff = 1.f;
+      if (l.type == LightType::kPoint) d = square_to_uniform_sphere(u_dir);
+      else {
+        Vec3f w = square_to_uniform_cone(u_dir, l.cos_total);
+        falloff = spot_falloff(l, w.z);
+        d = Frame(l.dir).to_world(w);
+      }
+      e.ray = Ray{l.p, d, kInf};
+      e.emission_pdf_w = vcm_emission_pdf(s, l, Vec3f(0.f), d);
+      e.direct_pdf_a = 1.f;
+      e.Le_cos = l.L * falloff;
+      e.delta = true;
+      return !is_black(e.Le_cos);
+    }
+    case LightType::kDirectional:
+    case LightType::kEnvironment: {
+      Vec3f dir = l.dir;
+      float dir_pdf = 1.f;
+      if (l.type == LightType::kEnvironment) {
+        Vec3f w;
+        if (l.texture >= 0) {
+          if (!envmap_sample(s.envmap, u_dir, w, dir_pdf)) return false;
+        } else {
+          w = square_to_uniform_sphere(u_dir);
+          dir_pdf = uniform_sphere_pdf();
+        }
+        dir = -w;
+      }
+      Frame f(dir);
+      Vec2f dd = square_to_concentric_disk(u_pos) * R;
+      e.ray = Ray{s.bsphere_center + f.to_world(Vec3f(dd.x, dd.y, -R)), dir, kInf};
+      e.emission_pdf_w = dir_pdf / (kPi * R * R);
+      e.direct_pdf_a = dir_pdf;
+      e.infinite = true;
+      e.delta = l.type == LightType::kDirectional;
+      e.Le_cos = l.type == LightType::kDirectional ? l.L : environment_radiance(s, l, -dir);
+      return !is_black(e.Le_cos);
+    }
+  }
+  return false;
+}
+
+// NEE density of an area light point p_l (normal n_l) seen from ref, per unit
+// area, without the selection probability.
+CHD float vcm_direct_pdf_a(const SceneView& s, const Light& l, Vec3f ref, Vec3f p_l, Vec3f n_l) {
+  Vec3f d = p_l - ref;
+  float d2 = length_sq(d);
+  if (!(d2 > 0.f)) return 0.f;
+  return light_pdf(s, l, ref, p_l, n_l) * absdot(n_l, d) / (std::sqrt(d2) * d2);
+}
+
+// ---------------------------------------------------------------------------
+// Per-path state and light vertices.
+struct VcmLightVertex {
+  SurfaceHit sh;  // before surface_material (the material is rebuilt at use)
+  Vec3f wi;       // world direction towards the previous vertex
+  RGB beta{0.f};  // throughput arriving at the vertex
+  uint32_t length = 0;  // segments from the light
+  VcmMis mis;
+};
+
+struct VcmPathState {
+  Ray ray;
+  RGB beta{1.f};
+  RGB L{0.f};            // camera: radiance gathered (already weighted by h/p)
+  VcmMis mis;
+  uint32_t length = 0;   // segments traced before `ray`
+  bool specular = true;  // every scattering so far was a delta lobe
+  bool active = true;
+  Vec3f prev_p;
+  // light subpaths
+  int32_t light = -1;
+  float pick = 1.f, emission_pdf_w = 0.f;
+  Vec3f light_p, light_n;
+  bool infinite = false, receiver_pdf = false;
+  uint32_t pixel = 0;
+  Sampler sampler;       // camera: the pixel sampler; light: an independent stream
+  // The vertex just hit (set by the *_hit stages).
+  SurfaceHit sh;
+  Material m;
+  Frame frame;
+  Vec3f wo_world, wo;    // towards the previous vertex
+  Vec3f p_front;
+  bool vertex_valid = false;
+};
+
+// The light subpath of index `index` in pass p.pass: its random stream is independent of the camera's.
+CHD void vcm_light_start(const SceneView& s, const VcmParams& p, uint32_t index, VcmPathState& st) {
+  st = VcmPathState();
+  st.active = false;
+  st.sampler.start(SamplerType::kIndependent, hash3(p.seed, 0x6c69676874ull, p.pass), index, p.pass);
+  if (s.num_lights == 0) return;
+  float pick;
+  uint32_t li = s.light_sampler.sample(st.sampler.next_1d(), pick);
+  const Light& l = s.lights[li];
+  Vec2f up = st.sampler.next_2d(), ud = st.sampler.next_2d();
+  float us = st.sampler.next_1d();
+  VcmEmission e;
+  if (!vcm_sample_emission(s, l, up, ud, us, e)) return;
+  st.light = int32_t(li);
+  st.pick = pick;
+  st.emission_pdf_w = e.emission_pdf_w * pick;
+  st.beta = e.Le_cos / st.emission_pdf_w;
+  st.ray = e.ray;
+  st.prev_p = e.ray.o;
+  st.light_p = e.p;
+  st.light_n = e.n;
+  st.infinite = e.infinite;
+  st.receiver_pdf = e.direct_pdf_a < 0.f;
+  st.mis = vcm_light_start_mis(p, e.direct_pdf_a < 0.f ? 1.f : e.direct_pdf_a * pick, st.emission_pdf_w,
+                               e.infinite ? 1.f : e.cos_light, e.delta);
+  st.active = isfinite3(st.beta) && !is_black(st.beta);
+}
+
+// The light subpath reached `hit`: MIS update, the vertex (if not delta).
+CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st, const Hit& hit, VcmLightVertex& v) {
+  st.vertex_valid = false;
+  if (!hit.valid()) {
+    st.active = false;
+    return false;
+  }
+  st.length += 1;
+  st.sh = make_surface_hit(s, st.ray, hit);
+  st.beta *= segment_transmittance(s, st.ray.d, hit.t, st.sh);
+  st.wo_world = -st.ray.d;
+  st.m = surface_material(s, st.sh);
+  st.frame = Frame(st.sh.ns);
+  st.wo = st.frame.to_local(st.wo_world);
+  float cos_in = std::fabs(st.wo.z);
+  if (st.length == 1 && st.receiver_pdf) {
+    // Area lights: the NEE density of the emission point depends on this receiver
+    // (cone sampling of spheres); dVCM = mis(p_direct / p_emit) with p_direct per area.
+    const Light& l = s.lights[st.light];
+    float pa = vcm_direct_pdf_a(s, l, st.sh.p, st.light_p, st.light_n) * st.pick;
+    st.mis.dVCM = vcm_mis(p, pa / st.emission_pdf_w);
+  }
+  vcm_after_segment(p, st.mis, hit.t, cos_in, st.length > 1 || !st.infinite);
+  st.p_front = offset_ray_origin(st.sh.p, st.sh.ng, st.wo_world);
+  if (material_is_delta(st.m)) return false;
+  st.vertex_valid = true;
+  v.sh = st.sh;
+  v.wi = st.wo_world;
+  v.beta = st.beta;
+  v.length = st.length;
+  v.mis = st.mis;
+  return true;
+}
+
+// A light-tracing splat (t = 1): the contribution to pixel j is
+// C h_j(x) / (1 + w_light_j) with w_light_j = mis(p_j(x) K / N) Q (Eq. 41).
+struct VcmSplat {
+  Ray ray;       // visibility
+  Vec2f raster;
+  RGB C{0.f};    // beta f K / N_light, K = |cos_y| / (d^2 A_pix cos^3 theta)
+  float K = 0.f; // camera area density per unit raster density
+  float Q = 0.f; // vm_factor + dVCM + dVC mis(p_rev)
+  bool active = false;
+};
+
+CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathState& st, VcmSplat& sp) {
+  sp.active = false;
+  if (!st.vertex_valid || !p.use_lt() || st.length + 1 > p.max_depth) return;
+  const Camera& c = s.camera;
+  Vec3f pl = camera_lens_point(c, st.sampler.next_2d());
+  Vec2f raster;
+  float cos_theta;
+  if (!camera_project(c, pl, st.sh.p, raster, cos_theta)) return;
+  float fr = vcm_filter_radius(s.filter);
+  if (raster.x < -fr || raster.y < -fr || raster.x > float(c.width) + fr || raster.y > float(c.height) + fr) return;
+  Vec3f d = pl - st.sh.p;
+  float d2 = length_sq(d);
+  Vec3f w = d / std::sqrt(d2);
+  Vec3f wl = st.frame.to_local(w);
+  RGB f = bsdf_eval(st.m, st.wo, wl, TransportMode::kImportance);
+  if (is_black(f)) return;
+  float cos_y = std::fabs(wl.z);
+  float K = cos_y / (d2 * camera_pixel_area(c) * cos_theta * cos_theta * cos_theta);
+  sp.C = st.beta * f * (K / p.n_light);
+  sp.K = K;
+  sp.Q = p.mode == VcmMode::kLight ? 0.f
+                                   : p.vm_factor + st.mis.dVCM + st.mis.dVC * vcm_mis(p, bsdf_pdf(st.m, wl, st.wo));
+  sp.raster = raster;
+  Vec3f o = dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
+  sp.ray = spawn_ray_to(o, pl, Vec3f(0.f));
+  sp.active = isfinite3(sp.C) && !is_black(sp.C);
+}
+
+// Calls add(pixel, RGB) for every pixel the splat reaches, with its MIS weight.
+template <typename Add>
+CHD void vcm_splat_pixels(const SceneView& s, const VcmParams& p, const VcmSplat& sp, Add&& add) {
+  const Camera& c = s.camera;
+  float r = vcm_filter_radius(s.filter);
+  int x0 = int(std::ceil(sp.raster.x - 0.5f - r)), x1 = int(std::floor(sp.raster.x - 0.5f + r));
+  int y0 = int(std::ceil(sp.raster.y - 0.5f - r)), y1 = int(std::floor(sp.raster.y - 0.5f + r));
+  if (s.filter == FilterType::kBox) {  // the pixel containing the point (half-open)
+    x0 = x1 = int(std::floor(sp.raster.x));
+    y0 = y1 = int(std::floor(sp.raster.y));
+  }
+  for (int y = y0 > 0 ? y0 : 0; y <= y1 && y < c.height; ++y)
+    for (int x = x0 > 0 ? x0 : 0; x <= x1 && x < c.width; ++x) {
+      float dx = sp.raster.x - (float(x) + 0.5f), dy = sp.raster.y - (float(y) + 0.5f);
+      float h, pr;
+      if (s.filter == FilterType::kBox) h = pr = 1.f;
+      else {
+        h = vcm_filter_h1(s.filter, dx) * vcm_filter_h1(s.filter, dy);
+        pr = vcm_filter_p1(s.filter, dx) * vcm_filter_p1(s.filter, dy);
+      }
+      if (h <= 0.f) continue;
+      float w = p.mode == VcmMode::kLight ? 1.f : 1.f / (1.f + vcm_mis(p, pr * sp.K / p.n_light) * sp.Q);
+      add(uint32_t(y) * uint32_t(c.width) + uint32_t(x), sp.C * (h * w));
+    }
+}
+
+// Samples the next direction (both subpaths); false ends the path.
+CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
+  float uc = st.sampler.next_1d();
+  Vec2f u = st.sampler.next_2d();
+  float u_rr = st.sampler.next_1d();
+  BSDFSample bs;
+  if (!bsdf_sample(st.m, st.wo, uc, u, bs, mode)) return st.active = false;
+  Vec3f wi_world = st.frame.to_world(bs.wi);
+  if (dot(wi_world, st.sh.ng) * bs.wi.z * dot(st.sh.ns, st.sh.ng) < 0.f) return st.active = false;
+  float pdf_rev = bs.delta ? bs.pdf : bsdf_pdf(st.m, bs.wi, st.wo);
+  vcm_after_scatter(p, st.mis, std::fabs(bs.wi.z), bs.pdf, pdf_rev, bs.delta);
+  st.specular = st.specular && bs.delta;
+  RGB prev = st.beta;
+  st.beta *= bs.weight;
+  if (is_black(st.beta) || !isfinite3(st.beta)) return st.active = false;
+  if (st.length >= p.rr_depth) {
+    float q = minf(1.f, max_component(st.beta) / maxf(max_component(prev), 1e-30f));
+    if (!(u_rr < q)) return st.active = false;
+    st.beta /= q;
+  }
+  st.ray.o = dot(wi_world, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front
+                                                                        : offset_ray_origin(st.sh.p, st.sh.ng, wi_world);
+  st.ray.d = wi_world;
+  st.ray.tmax = kInf;
+  st.prev_p = st.ray.o;
+  return true;
+}
+
+CHD void vcm_light_continue(const VcmParams& p, VcmPathState& st) {
+  if (!st.active) return;
+  // A vertex after L segments is used by paths of at least L + 1 segments; the next one by L + 2.
+  if (p.max_depth != 0xffffffffu && st.length + 2 > p.max_depth) {
+    st.active = false;
+    return;
+  }
+  vcm_scatter(p, st, TransportMode::kImportance);
+}
+
+// ---------------------------------------------------------------------------
+// Camera subpaths.
+
+// Starts pixel (px, py)'s camera path of pass p.pass.
+CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, uint32_t py, VcmPathState& st) {
+  st = VcmPathState();
+  const Camera& c = s.camera;
+  st.pixel = py * uint32_t(c.width) + px;
+  st.sampler.start(p.sampler, p.seed, st.pixel, p.pass);
+  FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
+  Vec2f lens = st.sampler.next_2d();
+  st.ray = c.generate_ray(Vec2f(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y), lens);
+  st.prev_p = st.ray.o;
+  float h = 1.f, pr = 1.f;
+  if (s.filter != FilterType::kBox) {
+    h = vcm_filter_h1(s.filter, fs.offset.x) * vcm_filter_h1(s.filter, fs.offset.y);
+    pr = vcm_filter_p1(s.filter, fs.offset.x) * vcm_filter_p1(s.filter, fs.offset.y);
+  }
+  if (!(pr > 0.f) || !(h > 0.f)) {
+    st.active = false;
+    return;
+  }
+  st.beta = RGB(h / pr);
+  float ct = dot(st.ray.d, c.forward);
+  float camera_pdf_w = pr / (camera_pixel_area(c) * ct * ct * ct);
+  st.mis = vcm_camera_start_mis(p, camera_pdf_w);
+}
+
+// Emission weight of a camera path reaching a light (s = 0).
+CHD float vcm_camera_emission_weight(const VcmParams& p, const VcmPathState& st, float direct_pdf_a,
+                                     float emission_pdf_w) {
+  if (st.length == 1) return 1.f;  // the light seen directly: no other strategy
+  if (!p.use_vc()) return st.specular ? 1.f : 0.f;  // light tracing / merging cover every other path
+  return vcm_weight_hit(p, st.mis, direct_pdf_a, emission_pdf_w);
+}
+
+// The camera path reached `hit` (or escaped): MIS update, emission; sets
+// st.vertex_valid when the vertex can be connected/merged.
+CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st, const Hit& hit) {
+  st.vertex_valid = false;
+  st.length += 1;
+  if (!hit.valid()) {
+    if (s.environment_light >= 0) {
+      const Light& env = s.lights[s.environment_light];
+      RGB Le = environment_radiance(s, env, st.ray.d);
+      if (!is_black(Le)) {
+        float pick = s.light_sampler.pmf[s.environment_light];
+        float dp = environment_pdf(s, env, st.ray.d) * pick;
+        float ep = dp / (kPi * s.bsphere_radius * s.bsphere_radius);
+        st.L += st.beta * Le * vcm_camera_emission_weight(p, st, dp, ep);
+      }
+    }
+    st.active = false;
+    return;
+  }
+  st.sh = make_surface_hit(s, st.ray, hit);
+  st.beta *= segment_transmittance(s, st.ray.d, hit.t, st.sh);
+  st.wo_world = -st.ray.d;
+  Vec3f ns = st.sh.ns;
+  vcm_after_segment(p, st.mis, hit.t, absdot(ns, st.wo_world), true);
+  if (st.sh.light >= 0) {
+    const Light& l = s.lights[st.sh.light];
+    RGB Le = area_radiance(s, l, st.sh.ng, st.wo_world, st.sh.uv);
+    if (!is_black(Le)) {
+      float pick = s.light_sampler.pmf[st.sh.light];
+      float dp = vcm_direct_pdf_a(s, l, st.prev_p, st.sh.p, st.sh.ng) * pick;
+      float ep = vcm_emission_pdf(s, l, st.sh.ng, st.wo_world) * pick;
+      st.L += st.beta * Le * vcm_camera_emission_weight(p, st, dp, ep);
+    }
+  }
+  if (st.length >= p.max_depth) {
+    st.active = false;
+    return;
+  }
+  st.m = surface_material(s, st.sh);
+  st.frame = Frame(st.sh.ns);
+  st.wo = st.frame.to_local(st.wo_world);
+  st.p_front = offset_ray_origin(st.sh.p, st.sh.ng, st.wo_world);
+  st.vertex_valid = !material_is_delta(st.m);
+}
+
+struct VcmShadow {
+  Ray ray;
+  RGB contrib{0.f};
+  bool active = false;
+};
+
+CHD Vec3f vcm_origin_towards(const VcmPathState& st, Vec3f w) {
+  return dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
+}
+
+// Next-event estimation from the camera vertex (s = 1).
+CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st, VcmShadow& sr) {
+  sr.active = false;
+  float ul = st.sampler.next_1d();
+  Vec2f u2 = st.sampler.next_2d();
+  if (!st.vertex_valid || !p.use_vc() || s.num_lights == 0 || st.length + 1 > p.max_depth) return;
+  float pick;
+  uint32_t li = s.light_sampler.sample(ul, pick);
+  const Light& l = s.lights[li];
+  LightSample ls;
+  if (!sample_light(s, l, st.p_front, u2, ls)) return;
+  Vec3f wi = st.frame.to_local(ls.wi);
+  RGB f = bsdf_eval(st.m, st.wo, wi);
+  if (is_black(f)) return;
+  float cos_to_light = std::fabs(wi.z);
+  // Report Sec. 5.1's conventions: point lights have direct_pdf_w = d^2 (area
+  // density 1 converted), their "radiance" the intensity.
+  float direct_pdf_w = ls.pdf, cos_at_light = 1.f;
+  if (l.type == LightType::kPoint || l.type == LightType::kSpot) direct_pdf_w = ls.dist * ls.dist;
+  else if (l.type == LightType::kTriangle || l.type == LightType::kSphere) cos_at_light = absdot(ls.n_l, ls.wi);
+  float emission_pdf_w = vcm_emission_pdf(s, l, ls.n_l, -ls.wi);
+  float dir_pdf = ls.delta ? 0.f : bsdf_pdf(st.m, st.wo, wi);
+  float rev_pdf = bsdf_pdf(st.m, wi, st.wo);
+  float w = vcm_weight_nee(p, st.mis, pick, direct_pdf_w, emission_pdf_w, cos_at_light, cos_to_light, dir_pdf, rev_pdf);
+  sr.contrib = st.beta * f * ls.Li * (cos_to_light * w / (pick * ls.pdf));
+  Vec3f o = vcm_origin_towards(st, ls.wi);
+  if (std::isfinite(ls.dist)) sr.ray = spawn_ray_to(o, ls.p_l, ls.n_l);
+  else sr.ray = Ray{o, ls.wi, kInf};
+  sr.active = isfinite3(sr.contrib) && !is_black(sr.contrib);
+}
+
+// Connection of the camera vertex to a light vertex.
+CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPathState& st, const VcmLightVertex& v,
+                            VcmShadow& sr) {
+  sr.active = false;
+  if (!st.vertex_valid || !p.use_vc() || v.length + st.length + 1 > p.max_depth) return;
+  Vec3f d = v.sh.p - st.sh.p;
+  float d2 = length_sq(d);
+  if (!(d2 > 0.f)) return;
+  float dist = std::sqrt(d2);
+  Vec3f w = d / dist;
+  Vec3f wc = st.frame.to_local(w);
+  RGB fc = bsdf_eval(st.m, st.wo, wc);
+  if (is_black(fc)) return;
+  SurfaceHit vsh = v.sh;
+  Material vm = surface_material(s, vsh);
+  Frame vf(vsh.ns);
+  Vec3f vwo = vf.to_local(v.wi), vwl = vf.to_local(-w);
+  RGB fl = bsdf_eval(vm, vwo, vwl, TransportMode::kImportance);
+  if (is_black(fl)) return;
+  float cos_c = std::fabs(wc.z), cos_l = std::fabs(vwl.z);
+  float G = cos_c * cos_l / d2;
+  float cam_dir_a = bsdf_pdf(st.m, st.wo, wc) * cos_l / d2;
+  float cam_rev_w = bsdf_pdf(st.m, wc, st.wo);
+  float light_dir_a = bsdf_pdf(vm, vwo, vwl) * cos_c / d2;
+  float light_rev_w = bsdf_pdf(vm, vwl, vwo);
+  float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, cam_rev_w, light_dir_a, light_rev_w);
+  sr.contrib = st.beta * fc * fl * v.beta * (G * mw);
+  Vec3f o = vcm_origin_towards(st, w);
+  Vec3f target = offset_ray_origin(vsh.p, vsh.ng, -w);
+  sr.ray = Ray{o, target - o, 1.f - 1e-4f};
+  sr.active = isfinite3(sr.contrib) && !is_black(sr.contrib);
+}
+
+// Merging at the camera vertex with the light vertices within the radius
+// (Eqs. 45-47; the density estimate of the paper's Eq. 11 with the constant kernel).
+CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
+                          const VcmLightVertex* vertices) {
+  if (!st.vertex_valid || !p.use_vm()) return;
+  RGB sum(0.f);
+  grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
+    const VcmLightVertex& v = vertices[id];
+    if (v.length + st.length > p.max_depth) return;
+    Vec3f wl = st.frame.to_local(v.wi);
+    RGB f = bsdf_eval(st.m, st.wo, wl);
+    if (is_black(f)) return;
+    float w = vcm_weight_merge(p, v.mis, st.mis, bsdf_pdf(st.m, st.wo, wl), bsdf_pdf(st.m, wl, st.wo));
+    sum += f * v.beta * w;
+  });
+  (void)s;
+  st.L += st.beta * sum * p.vm_norm;
+}
+
+CHD void vcm_camera_continue(const VcmParams& p, VcmPathState& st) {
+  if (!st.active) return;
+  if (p.mode == VcmMode::kLight && st.vertex_valid) {  // light tracing covers the rest
+    st.active = false;
+    return;
+  }
+  vcm_scatter(p, st, TransportMode::kRadiance);
+}
+
+CHD void vcm_shadow(VcmPathState& st, const VcmShadow& sr, bool occluded) {
+  if (sr.active && !occluded) st.L += sr.contrib;
+}
+
+}  // namespace caustica

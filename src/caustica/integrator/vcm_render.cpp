@@ -1,0 +1,203 @@
+// CPU driver of light / bdpt / bpm / vcm (see vcm_render.h and vcm.h).
+#include "vcm_render.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "../backend/cpu/embree_accel.h"
+#include "../base/error.h"
+#include "../photon/hash_grid.h"
+#include "vcm.h"
+
+namespace caustica {
+
+bool is_vcm_integrator(const std::string& n) { return n == "light" || n == "bdpt" || n == "bpm" || n == "vcm"; }
+
+VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt)
+    : scene_(std::move(scene)), opt_(opt) {
+  const SceneView& v = scene_->view();
+  mode_ = int(opt.integrator == "light"  ? VcmMode::kLight
+              : opt.integrator == "bdpt" ? VcmMode::kBpt
+              : opt.integrator == "bpm"  ? VcmMode::kBpm
+                                         : VcmMode::kVcm);
+  int md = opt.max_depth == -2 ? scene_->desc().max_depth : opt.max_depth;
+  max_depth_ = md < 0 ? 0xffffffffu : uint32_t(md);
+  W_ = v.camera.width;
+  H_ = v.camera.height;
+  sum_.assign(size_t(W_) * H_ * 3, 0.0);
+  // Initial radius: as the photon integrators, twice the median pixel footprint
+  // (first-hit distance x pixel angle) of camera rays, unless given.
+  r0_ = opt.radius;
+  if (!(r0_ > 0.f)) {
+    std::vector<float> fp;
+    const float pixel_angle = 2.f * v.camera.tan_half_y / float(H_);
+    for (int y = 0; y < H_; y += std::max(1, H_ / 32))
+      for (int x = 0; x < W_; x += std::max(1, W_ / 32)) {
+        Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
+        Hit h;
+        if (scene_->embree().intersect(r, h)) fp.push_back(h.t * pixel_angle);
+      }
+    if (fp.empty()) r0_ = 1e-3f * v.bsphere_radius;
+    else {
+      std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
+      r0_ = 2.f * fp[fp.size() / 2];
+    }
+  }
+}
+
+float VcmIntegrator::radius(int64_t pass) const {
+  return float(double(r0_) * std::pow(double(pass + 1), 0.5 * (double(opt_.alpha) - 1.0)));
+}
+
+bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
+  const SceneView& s = scene_->view();
+  const EmbreeAccel& accel = scene_->embree();
+  VcmParams p;
+  p.mode = VcmMode(mode_);
+  p.max_depth = max_depth_;
+  p.rr_depth = uint32_t(opt_.rr_depth);
+  p.seed = opt_.seed;
+  p.pass = uint32_t(pass);
+  p.sampler = opt_.sampler;
+  const uint32_t n = uint32_t(W_) * uint32_t(H_);
+  p.n_light = float(n);
+  vcm_set_radius(p, radius(pass));
+
+  // 1. Light subpaths in fixed chunks: vertices and splats per chunk.
+  const uint32_t chunk = 1024;
+  const uint32_t nchunks = (n + chunk - 1) / chunk;
+  std::vector<std::vector<VcmLightVertex>> cverts(nchunks);
+  std::vector<std::vector<uint32_t>> ccount(nchunks);  // vertices per light path
+  std::vector<std::vector<VcmSplat>> csplats(nchunks);
+  std::atomic<uint64_t> rays{0};
+  const bool keep_vertices = p.use_vc() || p.use_vm();
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nchunks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+    uint64_t nrays = 0;
+    for (uint32_t c = r.begin(); c < r.end(); ++c) {
+      if (cancel.load(std::memory_order_relaxed)) break;
+      uint32_t end = std::min(n, (c + 1) * chunk);
+      ccount[c].reserve(end - c * chunk);
+      for (uint32_t i = c * chunk; i < end; ++i) {
+        VcmPathState st;
+        vcm_light_start(s, p, i, st);
+        uint32_t count = 0;
+        while (st.active) {
+          Hit hit;
+          accel.intersect(st.ray, hit);
+          ++nrays;
+          VcmLightVertex v;
+          if (vcm_light_hit(s, p, st, hit, v) && keep_vertices) {
+            cverts[c].push_back(v);
+            ++count;
+          }
+          if (!st.active) break;
+          VcmSplat sp;
+          vcm_light_to_camera(s, p, st, sp);
+          if (sp.active) {
+            ++nrays;
+            if (!accel.occluded(sp.ray)) csplats[c].push_back(sp);
+          }
+          vcm_light_continue(p, st);
+        }
+        ccount[c].push_back(count);
+      }
+    }
+    rays += nrays;
+  });
+  if (cancel.load()) return false;
+  std::vector<VcmLightVertex> verts;
+  std::vector<uint32_t> start(size_t(n) + 1, 0);
+  {
+    size_t total = 0;
+    for (auto& cv : cverts) total += cv.size();
+    verts.reserve(total);
+    uint32_t i = 0;
+    for (uint32_t c = 0; c < nchunks; ++c) {
+      verts.insert(verts.end(), cverts[c].begin(), cverts[c].end());
+      for (uint32_t k : ccount[c]) {
+        start[i + 1] = start[i] + k;
+        ++i;
+      }
+      std::vector<VcmLightVertex>().swap(cverts[c]);
+    }
+  }
+
+  // 2. The hash grid of light vertices for merging (cells of 2r).
+  PhotonHashGrid grid;
+  PhotonGridView gv;
+  if (p.use_vm() && !verts.empty()) {
+    std::vector<Photon> ph(verts.size());
+    for (size_t k = 0; k < verts.size(); ++k) {
+      ph[k].p = verts[k].sh.p;
+      ph[k].wi = verts[k].wi;
+      ph[k].power = verts[k].beta;
+    }
+    grid.build(ph, s.bounds, 2.f * p.radius, false, 0, true);
+    gv = grid.view();
+  }
+
+  // 3. Camera subpaths, one per pixel, in parallel over rows (each pixel owned by one task).
+  std::vector<RGB> pass_L(n, RGB(0.f));
+  tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
+    uint64_t nrays = 0;
+    for (int y = r.begin(); y < r.end(); ++y) {
+      if (cancel.load(std::memory_order_relaxed)) break;
+      for (int x = 0; x < W_; ++x) {
+        VcmPathState st;
+        vcm_camera_start(s, p, uint32_t(x), uint32_t(y), st);
+        const uint32_t pix = st.pixel;
+        while (st.active) {
+          Hit hit;
+          accel.intersect(st.ray, hit);
+          ++nrays;
+          vcm_camera_hit(s, p, st, hit);
+          if (!st.active) break;
+          VcmShadow sr;
+          vcm_camera_nee(s, p, st, sr);
+          if (sr.active) {
+            ++nrays;
+            vcm_shadow(st, sr, accel.occluded(sr.ray));
+          }
+          if (st.vertex_valid && p.use_vc())
+            for (uint32_t k = start[pix]; k < start[pix + 1]; ++k) {
+              vcm_camera_connect(s, p, st, verts[k], sr);
+              if (sr.active) {
+                ++nrays;
+                vcm_shadow(st, sr, accel.occluded(sr.ray));
+              }
+            }
+          if (st.vertex_valid && p.use_vm()) vcm_camera_merge(s, p, st, gv, verts.data());
+          vcm_camera_continue(p, st);
+        }
+        if (isfinite3(st.L)) pass_L[pix] = st.L;
+      }
+    }
+    rays += nrays;
+  });
+  if (cancel.load()) return false;
+
+  // 4. Accumulate: camera estimates, then the splats in chunk order.
+  for (uint32_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) sum_[3 * size_t(i) + c] += double(pass_L[i][c]);
+  for (uint32_t c = 0; c < nchunks; ++c)
+    for (const VcmSplat& sp : csplats[c])
+      vcm_splat_pixels(s, p, sp, [&](uint32_t pix, RGB v) {
+        if (!isfinite3(v)) return;
+        for (int k = 0; k < 3; ++k) sum_[3 * size_t(pix) + k] += double(v[k]);
+      });
+  traced_ += n;
+  rays_ += rays.load();
+  return true;
+}
+
+std::vector<float> VcmIntegrator::image(int64_t passes) const {
+  std::vector<float> img(sum_.size(), 0.f);
+  if (passes <= 0) return img;
+  for (size_t i = 0; i < sum_.size(); ++i) img[i] = float(sum_[i] / double(passes));
+  return img;
+}
+
+}  // namespace caustica

@@ -1,0 +1,42 @@
+// The CPU driver of the bidirectional integrators (integrator/vcm.h):
+// light, bdpt, bpm, vcm. Each pass traces one light subpath per pixel (in fixed
+// chunks, in parallel; vertices and light-tracing splats concatenated in chunk
+// order), builds the hash grid of light vertices for merging, then one camera
+// subpath per pixel that connects to the light subpath of the same index
+// (SmallVCM's pairing) and merges with all light vertices. Splats are added to
+// the image in chunk order, so images do not depend on the thread count.
+#pragma once
+#include <atomic>
+#include <memory>
+#include <vector>
+
+#include "render.h"
+
+namespace caustica {
+
+bool is_vcm_integrator(const std::string& name);
+
+class VcmIntegrator {
+ public:
+  VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt);
+  // Renders pass `pass` (0-based); false if cancelled midway (the pass is discarded).
+  bool render_pass(int64_t pass, const std::atomic<bool>& cancel);
+  std::vector<float> image(int64_t passes_done) const;
+  float initial_radius() const { return r0_; }
+  uint64_t photons_traced() const { return traced_; }
+  uint64_t rays() const { return rays_; }
+  // Merge radius of pass i (0-based): r_1 (i + 1)^((alpha - 1) / 2) (Georgiev et al. 2012, Sec. 5).
+  float radius(int64_t pass) const;
+
+ private:
+  std::shared_ptr<Scene> scene_;
+  RenderOptions opt_;
+  int mode_;
+  uint32_t max_depth_;
+  float r0_ = 0.f;
+  int W_, H_;
+  uint64_t traced_ = 0, rays_ = 0;
+  std::vector<double> sum_;  // 3 per pixel: camera-path estimates (weighted by h/p) plus splats, summed over passes
+};
+
+}  // namespace caustica

@@ -1,0 +1,217 @@
+// The MIS bookkeeping of integrator/vcm.h (Georgiev 2012, "Implementing Vertex
+// Connection and Merging"): for a fixed path, the weights that the running
+// quantities dVCM, dVC, dVM give to every strategy that can sample it must sum
+// to one. Random paths x_0 (light) ... x_k (camera) with random diffuse or
+// delta interior vertices; each strategy's weight is computed exactly as the
+// integrator does, from the subpath states built by the integrator's own update
+// functions (vcm_light_start_mis / vcm_camera_start_mis / vcm_after_segment /
+// vcm_after_scatter) and the pdfs at the two joined vertices.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "caustica/base/rng.h"
+#include "caustica/integrator/vcm.h"
+
+using namespace caustica;
+
+namespace {
+
+struct V {
+  Vec3f p, n;
+  bool delta = false;
+};
+
+float g_rev_scale = 1.f;  // perturbation for the sensitivity test
+
+struct TestPath {
+  std::vector<V> x;  // x[0] light, x[k] camera
+  bool point_light = false;
+  float light_area = 0.7f, pick = 0.4f;
+  Vec3f forward;
+  float a_pix = 1e-3f;
+};
+
+Vec3f random_unit(PCG32& r) { return square_to_uniform_sphere(Vec2f(r.next_float(), r.next_float())); }
+
+// Diffuse pdf (two-sided, |cos|/pi) of sampling the direction towards b at vertex i.
+float pdf_w(const TestPath& P, int i, Vec3f b) {
+  Vec3f d = normalize(b - P.x[i].p);
+  return absdot(P.x[i].n, d) * kInvPi;
+}
+float cosv(const TestPath& P, int i, Vec3f b) { return absdot(P.x[i].n, normalize(b - P.x[i].p)); }
+float dist(const TestPath& P, int i, int j) { return length(P.x[i].p - P.x[j].p); }
+float camera_pdf_w(const TestPath& P, Vec3f dir) {
+  float c = dot(dir, P.forward);
+  return 1.f / (P.a_pix * c * c * c);
+}
+float emission_pdf_w(const TestPath& P) {  // without the pick probability
+  if (P.point_light) return uniform_sphere_pdf();
+  return cosv(P, 0, P.x[1].p) * kInvPi / P.light_area;
+}
+
+// Light subpath state at vertex j (reached, not yet scattered).
+VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
+  float dpa = P.point_light ? 1.f : 1.f / P.light_area;
+  VcmMis m = vcm_light_start_mis(p, dpa * P.pick, emission_pdf_w(P) * P.pick,
+                                 P.point_light ? 1.f : cosv(P, 0, P.x[1].p), P.point_light);
+  for (int i = 1; i <= j; ++i) {
+    vcm_after_segment(p, m, dist(P, i - 1, i), cosv(P, i, P.x[i - 1].p), true);
+    if (i < j)
+      vcm_after_scatter(p, m, cosv(P, i, P.x[i + 1].p), pdf_w(P, i, P.x[i + 1].p),
+                        pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta);
+  }
+  return m;
+}
+
+// Camera subpath state at vertex j (reached from x_{j+1}).
+VcmMis camera_state(const VcmParams& p, const TestPath& P, int j) {
+  int k = int(P.x.size()) - 1;
+  VcmMis m = vcm_camera_start_mis(p, camera_pdf_w(P, normalize(P.x[k - 1].p - P.x[k].p)));
+  for (int i = k - 1; i >= j; --i) {
+    vcm_after_segment(p, m, dist(P, i + 1, i), cosv(P, i, P.x[i + 1].p), true);
+    if (i > j)
+      vcm_after_scatter(p, m, cosv(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p),
+                        P.x[i].delta);
+  }
+  return m;
+}
+
+// Sum over all strategies of their weights (VC: s = 0 .. k light vertices; VM at x_1 .. x_{k-1}).
+double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
+  const int k = int(P.x.size()) - 1;
+  double sum = 0.0;
+  int n = 0;
+  if (p.use_vc()) {
+    // s = 0: the camera subpath hits the light.
+    if (!P.point_light) {  // x_1 may be delta: a camera path through a mirror hits the light
+      VcmMis c = camera_state(p, P, 0);
+      sum += vcm_weight_hit(p, c, P.pick / P.light_area, emission_pdf_w(P) * P.pick), ++n;
+    }
+    // s = 1: next-event estimation at x_1.
+    if (!P.x[1].delta) {
+      VcmMis c = camera_state(p, P, 1);
+      float d = dist(P, 0, 1);
+      float cos_l = P.point_light ? 1.f : cosv(P, 0, P.x[1].p);
+      float direct_pdf_w = P.point_light ? d * d : d * d / (cos_l * P.light_area);
+      float dir = P.point_light ? 0.f : pdf_w(P, 1, P.x[0].p);
+      sum += vcm_weight_nee(p, c, P.pick, direct_pdf_w, emission_pdf_w(P), cos_l, cosv(P, 1, P.x[0].p), dir,
+                            pdf_w(P, 1, P.x[2].p));
+      ++n;
+    }
+    // 2 <= s <= k - 1: light vertex x_{s-1} to camera vertex x_s.
+    for (int s = 2; s <= k - 1; ++s) {
+      int a = s - 1, b = s;
+      if (P.x[a].delta || P.x[b].delta) continue;
+      VcmMis l = light_state(p, P, a), c = camera_state(p, P, b);
+      float d2 = dist(P, a, b) * dist(P, a, b);
+      float cam_dir_a = pdf_w(P, b, P.x[a].p) * cosv(P, a, P.x[b].p) / d2;
+      float light_dir_a = pdf_w(P, a, P.x[b].p) * cosv(P, b, P.x[a].p) / d2;
+      sum += vcm_weight_connect(p, l, c, cam_dir_a, pdf_w(P, b, P.x[b + 1].p), light_dir_a, pdf_w(P, a, P.x[a - 1].p));
+      ++n;
+    }
+  }
+  if (p.use_lt() && !P.x[k - 1].delta) {  // s = k: light vertex x_{k-1} to the camera
+    VcmMis l = light_state(p, P, k - 1);
+    float d = dist(P, k - 1, k);
+    float cam_a = camera_pdf_w(P, normalize(P.x[k - 1].p - P.x[k].p)) * cosv(P, k - 1, P.x[k].p) / (d * d);
+    sum += vcm_weight_camera(p, l, cam_a, pdf_w(P, k - 1, P.x[k - 2].p));
+    ++n;
+  }
+  if (p.use_vm())
+    for (int i = 1; i <= k - 1; ++i) {
+      if (P.x[i].delta) continue;
+      VcmMis l = light_state(p, P, i), c = camera_state(p, P, i);
+      sum += vcm_weight_merge(p, l, c, pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p));
+      ++n;
+    }
+  if (used) *used = n;
+  return sum;
+}
+
+TestPath random_path(PCG32& r, int k, bool point_light, bool allow_delta) {
+  TestPath P;
+  P.point_light = point_light;
+  for (int i = 0; i <= k; ++i) {
+    V v;
+    v.p = Vec3f(2.f * r.next_float() - 1.f, 2.f * r.next_float() - 1.f, 2.f * r.next_float() - 1.f) * 2.f;
+    v.n = random_unit(r);
+    v.delta = allow_delta && i > 0 && i < k && r.next_float() < 0.3f;
+    P.x.push_back(v);
+  }
+  // The camera looks roughly at x_{k-1}.
+  Vec3f d = normalize(P.x[k - 1].p - P.x[k].p);
+  P.forward = normalize(d + random_unit(r) * 0.3f);
+  if (dot(P.forward, d) < 0.2f) P.forward = d;
+  return P;
+}
+
+VcmParams params(VcmMode mode, bool balance, float radius) {
+  VcmParams p;
+  p.mode = mode;
+  p.balance = balance;
+  p.n_light = 4096.f;
+  vcm_set_radius(p, radius);
+  return p;
+}
+
+}  // namespace
+
+// BDPT (connections only): Veach's strategies (s, t) partition the path, with
+// delta vertices and point lights excluding the strategies they make impossible.
+TEST(VcmMis, BdptWeightsSumToOne) {
+  PCG32 r(7, 1);
+  for (int trial = 0; trial < 3000; ++trial) {
+    int k = 2 + int(r.next_u32() % 6);
+    bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
+    TestPath P = random_path(r, k, point, true);
+    int n = 0;
+    double s = weight_sum(params(VcmMode::kBpt, balance, 0.01f), P, &n);
+    if (n == 0) continue;  // e.g. x_{k-1} delta with a point light at a delta x_1: no strategy
+    // float weights, each a ratio of sums of squared pdf ratios: 1e-4 relative.
+    EXPECT_NEAR(s, 1.0, 1e-4) << "trial " << trial << " k " << k << " point " << point << " strategies " << n;
+  }
+}
+
+// VCM: connections and merges (merging radius scanned over 5 decades so both
+// kinds dominate somewhere).
+TEST(VcmMis, VcmWeightsSumToOne) {
+  PCG32 r(11, 2);
+  for (int trial = 0; trial < 3000; ++trial) {
+    int k = 2 + int(r.next_u32() % 6);
+    bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
+    float radius = std::pow(10.f, -4.f + 4.f * r.next_float());
+    TestPath P = random_path(r, k, point, true);
+    int n = 0;
+    double s = weight_sum(params(VcmMode::kVcm, balance, radius), P, &n);
+    if (n == 0) continue;
+    EXPECT_NEAR(s, 1.0, 1e-4) << "trial " << trial << " k " << k << " radius " << radius;
+  }
+}
+
+// BPM (merges only): the merges at the non-delta interior vertices partition the path.
+TEST(VcmMis, BpmWeightsSumToOne) {
+  PCG32 r(13, 3);
+  for (int trial = 0; trial < 2000; ++trial) {
+    int k = 2 + int(r.next_u32() % 6);
+    TestPath P = random_path(r, k, r.next_float() < 0.3f, true);
+    int n = 0;
+    double s = weight_sum(params(VcmMode::kBpm, false, 0.05f), P, &n);
+    if (n == 0) continue;
+    EXPECT_NEAR(s, 1.0, 1e-4) << "trial " << trial;
+  }
+}
+
+// The check is sensitive: a wrong update (here the light subpath's reverse
+// densities scaled by 1.2, as a forgotten continuation probability would) breaks the sum.
+TEST(VcmMis, WrongBookkeepingIsDetected) {
+  PCG32 r(5, 4);
+  TestPath P = random_path(r, 5, false, false);
+  VcmParams p = params(VcmMode::kBpt, false, 0.01f);
+  EXPECT_NEAR(weight_sum(p, P), 1.0, 1e-4);
+  g_rev_scale = 1.2f;
+  double bad = weight_sum(p, P);
+  g_rev_scale = 1.f;
+  EXPECT_GT(std::fabs(bad - 1.0), 1e-3);
+}
