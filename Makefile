@@ -54,7 +54,7 @@ fuzz-short: fuzz-build
 	ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 build/fuzz/caustica_fuzz tests/fuzz/corpus 60 $(FUZZ_SEED) fuzz-findings
 
 bench: build
-	$(PY) bench/bench_cornell.py
+	$(PY) bench/run.py $(BENCH_ARGS)
 
 clean:
 	rm -rf build out build-cuda.log build-fuzz.log fuzz-findings
