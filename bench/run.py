@@ -11,8 +11,9 @@ The standard set (STANDARD below):
   cornell           path, sppm, pppm; Mitsuba 3 `path` as the peer (when `import mitsuba` works; see
                     bench/install-mitsuba.sh). Mitsuba's cornell_box() with a box filter, max_depth 8 and
                     rr_depth 5, as in bench/bench_cornell.py (whose Mitsuba set-up functions this reuses).
-  smallvcm-spheres  path, sppm, pppm (glass and mirror spheres: caustics path tracing finds slowly)
-  point-in-glass    sppm, pppm (a point light inside glass: path tracing renders it black, so it is left out)
+  smallvcm-spheres  path, sppm, pppm, vcm (glass and mirror spheres: caustics path tracing finds slowly)
+  point-in-glass    sppm, pppm, vcm (a point light inside glass: path tracing renders it black, so it is left
+                    out)
 All square, at --size (default 128x128; --quick 64x64), box filter.
 
 What it does:
@@ -65,9 +66,9 @@ MITSUBA = "mitsuba"   # the configuration name of the peer
 STANDARD = [
     {"scene": "cornell", "integrators": ["path", "sppm", "pppm"], "baseline": "path", "peer": True,
      "max_depth": bc.MAX_DEPTH, "rr_depth": bc.RR_DEPTH, "ref": "path"},
-    {"scene": "smallvcm-spheres", "integrators": ["path", "sppm", "pppm"], "baseline": "path", "peer": False,
+    {"scene": "smallvcm-spheres", "integrators": ["path", "sppm", "pppm", "vcm"], "baseline": "path", "peer": False,
      "max_depth": None, "rr_depth": None, "ref": "path"},
-    {"scene": "point-in-glass", "integrators": ["sppm", "pppm"], "baseline": "sppm", "peer": False,
+    {"scene": "point-in-glass", "integrators": ["sppm", "pppm", "vcm"], "baseline": "sppm", "peer": False,
      "max_depth": None, "rr_depth": None, "ref": "pppm"},
 ]
 REF_SEED = 1_000_003
