@@ -193,16 +193,18 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
                     photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
                     k: Optional[int] = None) -> dict:
     """Options given explicitly win; the rest come from the scene's integrator defaults (JSON
-    "integrator"), then from caustica's own defaults (path, 16 spp, rr_depth 5, sobol, alpha 0.7,
-    k 50). spp and time go together: giving either ignores both of the scene's."""
+    "integrator"), then from caustica's own defaults (path, 16 spp, rr_depth 5, sobol, alpha 0.7
+    (0.75 for bpm and vcm, Georgiev et al. 2012), k 50). spp and time go together: giving either
+    ignores both of the scene's."""
     dflt = scene.integrator_defaults
     if spp is None and time is None:
         spp, time = dflt.get("spp"), dflt.get("time")
     pick = lambda v, key, own: v if v is not None else dflt.get(key, own)
-    return dict(integrator=pick(integrator, "integrator", "path"), spp=spp, time=time,
+    integrator = pick(integrator, "integrator", "path")
+    return dict(integrator=integrator, spp=spp, time=time,
                 rr_depth=pick(rr_depth, "rr_depth", 5), sampler=pick(sampler, "sampler", "sobol"),
                 photons=pick(photons, "photons", None), radius=pick(radius, "radius", None),
-                alpha=pick(alpha, "alpha", 0.7), k=pick(k, "k", 50))
+                alpha=pick(alpha, "alpha", 0.75 if integrator in ("bpm", "vcm") else 0.7), k=pick(k, "k", 50))
 
 
 def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = None, time: Optional[float] = None,

@@ -120,9 +120,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--photons", type=_positive_int("--photons"), default=None,
                    help="photon integrators: photon paths per pass (default: one per pixel)")
     r.add_argument("--radius", type=_float("--radius"), default=None,
-                   help="photon integrators: initial gather radius (default: automatic, printed)")
+                   help="photon integrators, bpm, vcm: initial gather/merge radius (default: automatic, printed)")
     r.add_argument("--alpha", type=_float("--alpha"), default=None,
-                   help="photon integrators: radius reduction, in (0, 1) (default: the scene's, else 0.7)")
+                   help="photon integrators, bpm, vcm: radius reduction, in (0, 1) (default: the scene's, else 0.7; "
+                        "0.75 for bpm and vcm)")
     r.add_argument("--pass-offset", type=_nonneg_int("--pass-offset"), default=0,
                    help="pppm: first pass index (independent passes can be rendered apart and averaged)")
     r.add_argument("--k", type=_positive_int("--k"), default=None,

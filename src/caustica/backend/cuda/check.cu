@@ -4,6 +4,7 @@
 // `make cuda-check` compiles this with nvcc; the CUDA backend (issue 7) builds
 // its drivers on exactly these kernels.
 #include "../../integrator/path.h"
+#include "../../integrator/vcm.h"
 #include "../../photon/hash_grid.h"
 #include "../../photon/trace.h"
 #include "../../scene/intersect.h"
@@ -70,6 +71,58 @@ __global__ void k_gather(SceneView s, PhotonGridView grid, const Vec3f* points, 
   RGB phi(0.f);
   grid.query(points[i], radius[i], [&](const Photon& ph) { phi += bsdf_eval(m, wol, frame.to_local(ph.wi)) * ph.power; });
   flux[i] = make_float3(phi.x, phi.y, phi.z);
+}
+
+// Bidirectional stages (integrator/vcm.h): one light subpath per thread up to
+// its vertices and splats, then camera subpaths with connections and merges.
+__global__ void k_vcm_light(SceneView s, VcmParams p, uint32_t n, VcmLightVertex* vertices, uint32_t capacity,
+                            uint32_t* n_vertices, VcmSplat* splats, uint32_t* n_splats) {
+  uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  VcmPathState st;
+  vcm_light_start(s, p, i, st);
+  while (st.active) {
+    Hit hit;
+    scene_intersect(s, st.ray, hit);
+    VcmLightVertex v;
+    if (vcm_light_hit(s, p, st, hit, v)) {
+      uint32_t k = atomicAdd(n_vertices, 1u);
+      if (k < capacity) vertices[k] = v;
+    }
+    if (!st.active) break;
+    VcmSplat sp;
+    vcm_light_to_camera(s, p, st, sp);
+    if (sp.active && !scene_occluded(s, sp.ray)) {
+      uint32_t k = atomicAdd(n_splats, 1u);
+      if (k < capacity) splats[k] = sp;
+    }
+    vcm_light_continue(p, st);
+  }
+}
+
+__global__ void k_vcm_camera(SceneView s, VcmParams p, const VcmLightVertex* vertices, const uint32_t* path_start,
+                             PhotonGridView grid, float3* out) {
+  uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  uint32_t n = uint32_t(s.camera.width) * uint32_t(s.camera.height);
+  if (i >= n) return;
+  VcmPathState st;
+  vcm_camera_start(s, p, i % uint32_t(s.camera.width), i / uint32_t(s.camera.width), st);
+  while (st.active) {
+    Hit hit;
+    scene_intersect(s, st.ray, hit);
+    vcm_camera_hit(s, p, st, hit);
+    if (!st.active) break;
+    VcmShadow sr;
+    vcm_camera_nee(s, p, st, sr);
+    if (sr.active) vcm_shadow(st, sr, scene_occluded(s, sr.ray));
+    for (uint32_t k = path_start[i]; k < path_start[i + 1]; ++k) {
+      vcm_camera_connect(s, p, st, vertices[k], sr);
+      if (sr.active) vcm_shadow(st, sr, scene_occluded(s, sr.ray));
+    }
+    vcm_camera_merge(s, p, st, grid, vertices);
+    vcm_camera_continue(p, st);
+  }
+  out[i] = make_float3(st.L.x, st.L.y, st.L.z);
 }
 
 }  // namespace caustica
