@@ -4,29 +4,27 @@
 //
 // Papers:
 //   Veach 1997, "Robust Monte Carlo Methods for Light Transport Simulation",
-//     Ch. 10 (bidirectional path tracing, Eq. 10.9 the power heuristic over the
+//     Ch. 10 (bidirectional path tracing; the power heuristic, Eq. 9.13, over the
 //     strategies (s, t)); camera importance W_e as in pbrt-v4 Sec. 5.4.
 //   Georgiev, Krivanek, Davidovic, Slusallek 2012, "Light Transport Simulation
 //     with Vertex Connection and Merging" (SIGGRAPH Asia): vertex merging as a
-//     path sampling technique with pdf p_VM = p_VC * P_acc, P_acc ~ pi r^2 p(x)
-//     (Eqs. 9-12), eta_VCM = N_VM pi r^2 (Eq. 13), the radius schedule
-//     r_i = r_1 i^((alpha - 1) / 2) (Sec. 5).
+//     path sampling technique whose pdf is the connection's times the
+//     acceptance probability ~ pi r^2 p(x) of the merged vertex, combined with
+//     the connections by MIS; the radius schedule r_i = r_1 i^((alpha - 1) / 2).
 //   Georgiev 2012, "Implementing Vertex Connection and Merging" (technical
 //     report): the MIS weights computed from three running quantities per
 //     subpath vertex, dVCM, dVC and dVM, so a weight needs only the pdfs at the
 //     two vertices being joined. Equation numbers below refer to it:
-//       weights of a connection/merge split into a light and a camera part,
-//         w = 1 / (w_light + 1 + w_camera)            (Eqs. 18-20)
-//       light subpath start                           (Eqs. 31-33)
-//       camera subpath start                          (the analogue, Sec. 5.1)
-//       after tracing a segment (area conversion)     (Eqs. 34-36)
-//       after sampling a BSDF direction               (Eqs. 34-36 expanded,
-//                                                      Sec. 5.1 "SampleScattering")
-//       camera hits a light (s = 0)                   (Eq. 37)
-//       next-event estimation (s = 1)                 (Eqs. 38-39)
-//       light vertex to camera (t = 1)                (Eqs. 40-41)
-//       light vertex to camera vertex (s, t > 1)      (Eqs. 42-44)
-//       merging                                       (Eqs. 45-47)
+//       eta_VCM = N_VM pi r^2 with n_VC = 1, n_VM = N_light      (20)
+//       full weight w = 1 / (w_light + 1 + w_camera)             (37)
+//       subpath start                                            (31)-(33)
+//       after a segment / a non-delta BSDF sample                (34)-(36)
+//       after a delta (specular) BSDF sample                     (53)-(55)
+//       merging: w_light, w_camera                               (38), (39)
+//       light vertex to camera vertex                            (40), (41)
+//       camera hits a light (s = 0): w_light = 0, w_camera       (42), (43)
+//       next-event estimation (s = 1)                            (44), (45)
+//       light vertex to the camera (t = 1): w_light, w_camera = 0 (46), (47)
 //     mis(x) = x^beta: beta = 2 (power heuristic, default) or 1 (balance).
 //
 // Conventions. Depth counts segments (Mitsuba's convention, as path.h): a light
@@ -79,7 +77,7 @@ struct VcmParams {
 
 CHD float vcm_mis(const VcmParams& p, float x) { return p.balance ? x : x * x; }
 
-// Fills the factors for a pass with radius r (eta_VCM = N pi r^2, report Eq. 13 of the paper).
+// Fills the factors for a pass with radius r (eta_VCM = N pi r^2, report Eq. 20).
 CHD void vcm_set_radius(VcmParams& p, float r) {
   p.radius = r;
   float eta = kPi * r * r * p.n_light;
@@ -89,7 +87,7 @@ CHD void vcm_set_radius(VcmParams& p, float r) {
 }
 
 // ---------------------------------------------------------------------------
-// The running MIS quantities and their updates (report Eqs. 31-36).
+// The running MIS quantities and their updates (report Eqs. 31-36, 53-55).
 struct VcmMis {
   float dVCM = 0.f, dVC = 0.f, dVM = 0.f;
 };
@@ -143,14 +141,14 @@ CHD VcmMis vcm_camera_start_mis(const VcmParams& p, float camera_pdf_w) {
   return m;
 }
 
-// Camera subpath hits an emitter (s = 0, Eq. 37); densities include the light
+// Camera subpath hits an emitter (s = 0, Eqs. 42-43, 37); densities include the light
 // selection probability. Returns the weight for camera path length >= 2.
 CHD float vcm_weight_hit(const VcmParams& p, const VcmMis& cam, float direct_pdf_a, float emission_pdf_w) {
   float w_camera = vcm_mis(p, direct_pdf_a) * cam.dVCM + vcm_mis(p, emission_pdf_w) * cam.dVC;
   return 1.f / (1.f + w_camera);
 }
 
-// Next-event estimation (s = 1, Eqs. 38-39). direct_pdf_w: density of choosing
+// Next-event estimation (s = 1, Eqs. 44-45). direct_pdf_w: density of choosing
 // the light point per solid angle at the camera vertex without the selection
 // probability (d^2 for point lights, 1 for directional ones); emission_pdf_w
 // without it too; bsdf_dir_pdf_w: camera BSDF towards the light (0 for delta
@@ -163,14 +161,14 @@ CHD float vcm_weight_nee(const VcmParams& p, const VcmMis& cam, float pick, floa
   return 1.f / (w_light + 1.f + w_camera);
 }
 
-// Light vertex to camera (t = 1, Eqs. 40-41): camera_pdf_a is the camera's
+// Light vertex to camera (t = 1, Eqs. 46-47): camera_pdf_a is the camera's
 // density of the light vertex (raster density -> area at the vertex).
 CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camera_pdf_a, float bsdf_rev_pdf_w) {
   float w_light = vcm_mis(p, camera_pdf_a / p.n_light) * (p.vm_factor + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
   return 1.f / (w_light + 1.f);
 }
 
-// Light vertex to camera vertex (Eqs. 42-44). *_dir_pdf_a: each side's BSDF
+// Light vertex to camera vertex (Eqs. 40-41). *_dir_pdf_a: each side's BSDF
 // density of the other vertex (area); *_rev_pdf_w: each side's reverse density.
 CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_a,
                              float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w) {
@@ -179,7 +177,7 @@ CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmM
   return 1.f / (w_light + 1.f + w_camera);
 }
 
-// Merging at a camera vertex (Eqs. 45-47): cam_dir_pdf_w is the camera BSDF's
+// Merging at a camera vertex (Eqs. 38-39): cam_dir_pdf_w is the camera BSDF's
 // density of the light vertex's incoming direction, cam_rev_pdf_w the reverse.
 CHD float vcm_weight_merge(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_w,
                            float cam_rev_pdf_w) {
@@ -476,7 +474,7 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
 }
 
 // A light-tracing splat (t = 1): the contribution to pixel j is
-// C h_j(x) / (1 + w_light_j) with w_light_j = mis(p_j(x) K / N) Q (Eq. 41).
+// C h_j(x) / (1 + w_light_j) with w_light_j = mis(p_j(x) K / N) Q (Eq. 46).
 struct VcmSplat {
   Ray ray;       // visibility
   Vec2f raster;
@@ -734,7 +732,7 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
 }
 
 // Merging at the camera vertex with the light vertices within the radius
-// (Eqs. 45-47; the density estimate of the paper's Eq. 11 with the constant kernel).
+// (report Eqs. 38-39; the constant-kernel density estimate 1 / (pi r^2 N_light) of the paper's vertex merging).
 CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
                           const VcmLightVertex* vertices) {
   if (!st.vertex_valid || !p.use_vm()) return;
