@@ -281,7 +281,15 @@ def cmd_render(a) -> int:
     st = res.stats
     write_all(res.image)
     secs = max(st["seconds"], 1e-9)
-    if st.get("photons") or integrator != "path":
+    if integrator in ("light", "bdpt", "bpm", "vcm", "upg"):
+        # Bidirectional: one light path (and, except for light, one eye path) per pixel per pass.
+        msg = (f"{scene.name}: {integrator}, {st['passes']} passes, {scene.width}x{scene.height}, "
+               f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} light paths "
+               f"({st['photons'] / secs / 1e6:.2f} M/s)")
+        if integrator in ("bpm", "vcm", "upg"):
+            msg += f", initial radius {st['radius']:.4g}"
+        msg += f" -> {', '.join(outputs)}"
+    elif st.get("photons") or integrator != "path":
         msg = (f"{scene.name}: {integrator}, {st['passes']} passes, {scene.width}x{scene.height}, "
                f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "
                f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g} "
