@@ -21,8 +21,6 @@ import argparse
 import datetime
 import math
 import os
-import platform
-import subprocess
 import sys
 import warnings
 
@@ -31,6 +29,7 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "python"))
 import caustica  # noqa: E402
+from caustica import _provenance  # noqa: E402
 
 OUT = os.path.join(ROOT, "bench", "out", "xml")
 
@@ -131,9 +130,8 @@ def main():
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() else "scalar_rgb")
     scenes = write_scenes(args.res)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                            text=True).stdout.strip()
-    machine = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores"
+    commit = _provenance.commit(ROOT)
+    machine = _provenance.machine()
     rows = []
     for name, path in scenes.items():
         c1, c2 = (render_caustica(path, args.res, args.spp, s) for s in (1, 2))

@@ -81,29 +81,10 @@ def _relmse(img: np.ndarray, ref: np.ndarray) -> float:
 
 
 # ------------------------------------------------------------------------------------------- helpers
-def _machine() -> str:
-    model = platform.processor() or "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return f"{model}, {os.cpu_count()} cores"
+from ._provenance import machine as _machine  # noqa: E402
 
 
-def _commit() -> str:
-    here = os.path.dirname(os.path.abspath(__file__))
-    try:
-        h = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True, text=True,
-                           check=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10).stdout.strip()
-        return h + ("-dirty" if dirty else "")
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
+from ._provenance import commit as _commit  # noqa: E402
 
 
 def _cpu_busy_seconds() -> float:
