@@ -12,13 +12,14 @@
 #include "../base/error.h"
 #include "path.h"
 #include "photon_render.h"
+#include "upg_render.h"
 #include "vcm_render.h"
 
 namespace caustica {
 
 const std::vector<std::string>& integrator_names() {
   static const std::vector<std::string> names = {"path", "sppm", "ppm", "pppm", "pm",
-                                                      "light", "bdpt", "bpm", "vcm"};
+                                                      "light", "bdpt", "bpm", "vcm", "upg"};
   return names;
 }
 
@@ -100,6 +101,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (opt_.spp == 0 && opt_.time == 0.0 && !target) opt_.spp = 16;
   if (is_photon_integrator(opt_.integrator)) photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
+  if (opt_.integrator == "upg") upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
 }
 
 RenderJob::~RenderJob() {
@@ -179,6 +181,12 @@ void RenderJob::run() {
             rays_ = vcm_->rays();
             if (!complete) return;
             samples_ += uint64_t(film_.width) * film_.height;
+          } else if (upg_) {
+            bool complete = upg_->render_pass(pass, cancel_);
+            photons_ = upg_->photons_traced();
+            rays_ = upg_->rays();
+            if (!complete) return;
+            samples_ += uint64_t(film_.width) * film_.height;
           } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);
           else
@@ -246,7 +254,7 @@ RenderStats RenderJob::stats() const {
   s.invalid_samples = invalid_.load();
   s.seconds = seconds_.load();
   s.photons = photons_.load();
-  s.radius = photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : 0.f;
+  s.radius = photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
   s.done = finished_.load();
   s.cancelled = cancel_.load();
   s.error = error_value_.load();
@@ -259,6 +267,7 @@ std::vector<float> RenderJob::image() const {
   std::lock_guard<std::mutex> lock(mutex_);
   if (photon_) return photon_->image(passes_.load());
   if (vcm_) return vcm_->image(passes_.load());
+  if (upg_) return upg_->image(passes_.load());
   return film_.image();
 }
 

@@ -96,6 +96,7 @@ class Film {
 
 class PhotonIntegrator;
 class VcmIntegrator;
+class UpgIntegrator;
 
 class RenderJob {
  public:
@@ -131,6 +132,7 @@ class RenderJob {
   std::thread thread_;
   std::unique_ptr<PhotonIntegrator> photon_;
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
+  std::unique_ptr<UpgIntegrator> upg_;
   std::atomic<uint64_t> photons_{0};
   std::string error_;
 };

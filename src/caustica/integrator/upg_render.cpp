@@ -1,0 +1,233 @@
+// CPU driver of upg (see upg_render.h and upg.h).
+#include "upg_render.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "../backend/cpu/embree_accel.h"
+#include "../photon/hash_grid.h"
+#include "upg.h"
+
+namespace caustica {
+
+UpgIntegrator::UpgIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt)
+    : scene_(std::move(scene)), opt_(opt) {
+  const SceneView& v = scene_->view();
+  int md = opt.max_depth == -2 ? scene_->desc().max_depth : opt.max_depth;
+  max_depth_ = md < 0 ? 0xffffffffu : uint32_t(md);
+  W_ = v.camera.width;
+  H_ = v.camera.height;
+  sum_.assign(size_t(W_) * H_ * 3, 0.0);
+  // The gathering radius is fixed (no shrinking: the estimator is unbiased for any r).
+  // Default: twice the median pixel footprint of first hits, the photon integrators' rule.
+  r_ = opt.radius;
+  if (!(r_ > 0.f)) {
+    std::vector<float> fp;
+    const float pixel_angle = 2.f * v.camera.tan_half_y / float(H_);
+    for (int y = 0; y < H_; y += std::max(1, H_ / 32))
+      for (int x = 0; x < W_; x += std::max(1, W_ / 32)) {
+        Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
+        Hit h;
+        if (scene_->embree().intersect(r, h)) fp.push_back(h.t * pixel_angle);
+      }
+    if (fp.empty()) r_ = 1e-3f * v.bsphere_radius;
+    else {
+      std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
+      r_ = 2.f * fp[fp.size() / 2];
+    }
+  }
+}
+
+bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
+  const SceneView& s = scene_->view();
+  const EmbreeAccel& accel = scene_->embree();
+  VcmParams p;
+  p.mode = VcmMode::kBpt;
+  p.max_depth = max_depth_;
+  p.rr_depth = uint32_t(opt_.rr_depth);
+  p.seed = opt_.seed;
+  p.pass = uint32_t(pass);
+  p.sampler = opt_.sampler;
+  const uint32_t n = uint32_t(W_) * uint32_t(H_);
+  p.n_light = float(n);
+  vcm_set_radius(p, r_);
+
+  // 1. Light subpaths in fixed chunks.
+  const uint32_t chunk = 1024;
+  const uint32_t nchunks = (n + chunk - 1) / chunk;
+  std::vector<std::vector<VcmLightVertex>> cverts(nchunks);
+  std::vector<std::vector<uint32_t>> ccount(nchunks);
+  std::vector<std::vector<VcmSplat>> csplats(nchunks);
+  std::atomic<uint64_t> rays{0}, trials{0}, capped{0};
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nchunks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+    uint64_t nrays = 0;
+    for (uint32_t c = r.begin(); c < r.end(); ++c) {
+      if (cancel.load(std::memory_order_relaxed)) break;
+      uint32_t end = std::min(n, (c + 1) * chunk);
+      for (uint32_t i = c * chunk; i < end; ++i) {
+        VcmPathState st;
+        vcm_light_start(s, p, i, st);
+        uint32_t count = 0;
+        while (st.active) {
+          Hit hit;
+          accel.intersect(st.ray, hit);
+          ++nrays;
+          VcmLightVertex v;
+          if (vcm_light_hit(s, p, st, hit, v)) {
+            cverts[c].push_back(v);
+            ++count;
+          }
+          if (!st.active) break;
+          VcmSplat sp;
+          vcm_light_to_camera(s, p, st, sp);
+          if (sp.active) {
+            ++nrays;
+            if (!accel.occluded(sp.ray)) csplats[c].push_back(sp);
+          }
+          vcm_light_continue(p, st);
+        }
+        ccount[c].push_back(count);
+      }
+    }
+    rays += nrays;
+  });
+  if (cancel.load()) return false;
+  std::vector<VcmLightVertex> verts;
+  std::vector<uint32_t> start(size_t(n) + 1, 0);
+  {
+    uint32_t i = 0;
+    for (uint32_t c = 0; c < nchunks; ++c) {
+      verts.insert(verts.end(), cverts[c].begin(), cverts[c].end());
+      for (uint32_t k : ccount[c]) {
+        start[i + 1] = start[i] + k;
+        ++i;
+      }
+      std::vector<VcmLightVertex>().swap(cverts[c]);
+    }
+  }
+
+  // 2. Hash grid of light vertices. The grid stores quantized positions: queries use the
+  // radius plus a slack above the quantization error, and the exact test |z - y| < r is
+  // made on the full-precision vertex positions.
+  PhotonHashGrid grid;
+  PhotonGridView gv;
+  float slack = 0.f;
+  if (!verts.empty()) {
+    Vec3f ext = s.bounds.hi - s.bounds.lo;
+    float e = std::max(ext.x, std::max(ext.y, ext.z));
+    slack = std::max(0.05f * r_, 2.f * e / 65535.f);
+    std::vector<Photon> ph(verts.size());
+    for (size_t k = 0; k < verts.size(); ++k) {
+      ph[k].p = verts[k].sh.p;
+      ph[k].wi = verts[k].wi;
+      ph[k].power = verts[k].beta;
+    }
+    grid.build(ph, s.bounds, 2.f * (r_ + slack), false, 0, true);
+    gv = grid.view();
+  }
+
+  // 3. Camera subpaths.
+  std::vector<RGB> pass_L(n, RGB(0.f));
+  tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
+    uint64_t nrays = 0, ntrials = 0, ncapped = 0;
+    std::vector<uint32_t> found;
+    for (int y = r.begin(); y < r.end(); ++y) {
+      if (cancel.load(std::memory_order_relaxed)) break;
+      for (int x = 0; x < W_; ++x) {
+        VcmPathState st, prev;
+        bool have_prev = false;  // prev: the previous eye vertex, a non-delta surface vertex
+        vcm_camera_start(s, p, uint32_t(x), uint32_t(y), st);
+        const uint32_t pix = st.pixel;
+        while (st.active) {
+          Hit hit;
+          accel.intersect(st.ray, hit);
+          ++nrays;
+          vcm_camera_hit(s, p, st, hit);
+          // Gather at this eye hit z_t (whatever its material) from z_{t-1} = prev.
+          if (have_prev && hit.valid() && gv.num_photons > 0) {
+            found.clear();
+            gv.query_indexed(st.sh.p, r_ + slack, [&](uint32_t id, const Photon&) {
+              if (upg_in_disc(p, st.sh.p, verts[id].sh.p)) found.push_back(id);
+            });
+            std::sort(found.begin(), found.end());  // a fixed order for the sum
+            for (uint32_t id : found) {
+              const VcmLightVertex& v = verts[id];
+              PCG32 rng = upg_trial_rng(p, pix, prev.length, id);
+              UpgGather g;
+              upg_gather(s, p, prev, v, rng.next_float(), g);
+              if (!g.active) continue;
+              ++nrays;
+              if (accel.occluded(g.conn.ray)) continue;
+              uint32_t N = 0;
+              bool landed = false;
+              while (N < kUpgMaxTrials && !landed) {
+                ++N;
+                Ray tr;
+                if (!upg_trial_ray(p, prev, rng, tr)) continue;
+                Hit th;
+                accel.intersect(tr, th);
+                ++ntrials;
+                landed = upg_trial_lands(s, p, tr, th, v.sh.p);
+              }
+              if (!landed) {
+                ++ncapped;
+                continue;
+              }
+              st.L += g.conn.contrib * float(N);
+            }
+          }
+          if (!st.active) break;
+          VcmShadow sr;
+          vcm_camera_nee(s, p, st, sr);
+          if (sr.active) {
+            ++nrays;
+            vcm_shadow(st, sr, accel.occluded(sr.ray));
+          }
+          if (st.vertex_valid)
+            for (uint32_t k = start[pix]; k < start[pix + 1]; ++k) {
+              upg_camera_connect(s, p, st, verts[k], sr);
+              if (sr.active) {
+                ++nrays;
+                vcm_shadow(st, sr, accel.occluded(sr.ray));
+              }
+            }
+          have_prev = st.vertex_valid;
+          if (have_prev) prev = st;
+          vcm_camera_continue(p, st);
+        }
+        if (isfinite3(st.L)) pass_L[pix] = st.L;
+      }
+    }
+    rays += nrays + ntrials;
+    trials += ntrials;
+    capped += ncapped;
+  });
+  if (cancel.load()) return false;
+
+  // 4. Accumulate: camera estimates, then the splats in chunk order.
+  for (uint32_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) sum_[3 * size_t(i) + c] += double(pass_L[i][c]);
+  for (uint32_t c = 0; c < nchunks; ++c)
+    for (const VcmSplat& sp : csplats[c])
+      vcm_splat_pixels(s, p, sp, [&](uint32_t pix, RGB v) {
+        if (!isfinite3(v)) return;
+        for (int k = 0; k < 3; ++k) sum_[3 * size_t(pix) + k] += double(v[k]);
+      });
+  traced_ += n;
+  rays_ += rays.load();
+  trials_ += trials.load();
+  capped_ += capped.load();
+  return true;
+}
+
+std::vector<float> UpgIntegrator::image(int64_t passes) const {
+  std::vector<float> img(sum_.size(), 0.f);
+  if (passes <= 0) return img;
+  for (size_t i = 0; i < sum_.size(); ++i) img[i] = float(sum_[i] / double(passes));
+  return img;
+}
+
+}  // namespace caustica
