@@ -5,6 +5,7 @@
 // its drivers on exactly these kernels.
 #include "../../integrator/path.h"
 #include "../../integrator/vcm.h"
+#include "../../integrator/upg.h"
 #include "../../photon/hash_grid.h"
 #include "../../photon/trace.h"
 #include "../../scene/intersect.h"
@@ -71,6 +72,35 @@ __global__ void k_gather(SceneView s, PhotonGridView grid, const Vec3f* points, 
   RGB phi(0.f);
   grid.query(points[i], radius[i], [&](const Photon& ph) { phi += bsdf_eval(m, wol, frame.to_local(ph.wi)) * ph.power; });
   flux[i] = make_float3(phi.x, phi.y, phi.z);
+}
+
+// Unbiased photon gathering stages (integrator/upg.h): one gathered photon per thread
+// (connection share, shadow test, trials from the previous eye vertex).
+__global__ void k_upg_gather(SceneView s, VcmParams p, const VcmPathState* prev, const VcmLightVertex* photons,
+                             uint32_t n, float3* out) {
+  uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  PCG32 rng = upg_trial_rng(p, i, prev[i].length, i);
+  UpgGather g;
+  upg_gather(s, p, prev[i], photons[i], rng.next_float(), g);
+  RGB L(0.f);
+  if (g.active && !scene_occluded(s, g.conn.ray)) {
+    uint32_t N = 0;
+    bool landed = false;
+    while (N < kUpgMaxTrials && !landed) {
+      ++N;
+      Ray r;
+      if (!upg_trial_ray(p, prev[i], rng, r)) continue;
+      Hit h;
+      scene_intersect(s, r, h);
+      landed = upg_trial_lands(s, p, r, h, photons[i].sh.p);
+    }
+    if (landed) L = g.conn.contrib * float(N);
+  }
+  VcmShadow sr;
+  upg_camera_connect(s, p, prev[i], photons[i], sr);
+  if (sr.active) L += sr.contrib;
+  out[i] = make_float3(L.x, L.y, L.z);
 }
 
 // Bidirectional stages (integrator/vcm.h): one light subpath per thread up to
