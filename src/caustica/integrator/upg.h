@@ -1,6 +1,6 @@
 // Unbiased photon gathering (`upg`) as stage functions over vcm.h's BDPT stages.
 //
-// Paper: Qin, Sun, Hou, Ren 2015, "Unbiased Photon Gathering for Light Transport
+// Paper: Qin, Sun, Hou, Guo, Zhou 2015, "Unbiased Photon Gathering for Light Transport
 // Simulation", ACM TOG 34(6). A photon y_s (a stored light vertex) found within
 // radius r of an eye vertex z_t makes a full path sample by dropping z_t and
 // connecting y_s to the previous eye vertex z_{t-1}:
