@@ -105,7 +105,7 @@ def test_schema_rejects_what_the_loader_rejects():
         dict(base, materials={"m": {"type": "diffuse", "reflectance": {"file": "x.png"}}}),
         dict(base, lights=[{"type": "spot", "target": [0, 0, 0], "direction": [0, 1, 0]}]),
         dict(base, lights=[{"type": "environment", "radiance": 1, "file": "sky.exr"}]),
-        dict(base, integrator={"type": "bdpt"}),
+        dict(base, integrator={"type": "mlt"}),
         dict(base, film={"width": 0}),
         dict(base, camera={"fov": 200}),
     ]
@@ -146,8 +146,9 @@ def test_load_dict_describe_and_instances():
      "<dict>: /camera: no camera named 'top' in /cameras (cameras: front)"),
     ({"camera": {}, "shapes": [{"type": "cube", "transform": {"look_at": {"origin": [0, 0, 0], "target": [0, 0, 0]}}}]},
      "<dict>: /shapes/0/transform/look_at/target: must differ from the origin"),
-    ({"camera": {}, "shapes": [{"type": "cube"}], "integrator": {"type": "bdpt"}},
-     "<dict>: /integrator/type: unknown integrator 'bdpt' (allowed: path, sppm, ppm, pppm, pm)"),
+    ({"camera": {}, "shapes": [{"type": "cube"}], "integrator": {"type": "mlt"}},
+     "<dict>: /integrator/type: unknown integrator 'mlt' (allowed: path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, "
+     "upg)"),
     ({"camera": {}, "shapes": [{"type": "cube"}], "film": {"width": 1.5}},
      "<dict>: /film/width: expected an integer, got number"),
     ({"camera": {}, "shapes": [{"type": "cube"}], "materials": {"m": {"type": "metallic_roughness", "metallic": -1}}},
@@ -177,7 +178,7 @@ def test_scene_error_for_files_and_names(tmp_path):
     with pytest.raises(caustica.InputError):
         caustica.load_scene("nope")
     with pytest.raises(caustica.InputError) as e:
-        caustica.render("cornell", integrator="bdpt")
+        caustica.render("cornell", integrator="mlt")
     assert not isinstance(e.value, caustica.SceneError)
 
 
