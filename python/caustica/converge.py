@@ -290,7 +290,8 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
 
     Returns one record per checkpoint: integrator, elapsed_s (render seconds at the last
     completed pass of the snapshot), wall_s (seconds since start when it was taken), passes,
-    samples, photons, final, and each metric. A pandas DataFrame (header in .attrs["header"])
+    samples, photons, final, and each metric; the final record also has measure_cpu_s, the CPU
+    seconds this thread spent on snapshots and live metrics while the render ran. A pandas DataFrame (header in .attrs["header"])
     when pandas is installed and as_frame is not False, else a ConvergenceLog (a list with
     .header). render_options: threads, max_depth, rr_depth, sampler, accel, photons, radius,
     alpha, k, stochastic_hash. progress(record) is called at each checkpoint."""
@@ -388,6 +389,7 @@ def _run_one(job, integ, times, ref, live, later, progress):
 
     try:
         t0 = _time.monotonic()
+        cpu0 = _time.thread_time()
         job.start()
         k = 0
         try:
@@ -408,7 +410,9 @@ def _run_one(job, integ, times, ref, live, later, progress):
             while not job.wait(0.1):
                 pass
             raise
+        cpu = _time.thread_time() - cpu0  # this thread's work during the render: copies, live metrics
         take(True)
+        recs[-1]["measure_cpu_s"] = round(cpu, 4)
         final = snaps[len(recs) - 1]
         if later:  # the expensive metrics, now that the render threads are idle
             for i, rec in enumerate(recs):

@@ -66,6 +66,7 @@ def test_log_has_header_and_monotone_checkpoints(run, reference):
         assert all(a < b for a, b in zip(t, t[1:])), t
         assert all(a < b for a, b in zip([r["passes"] for r in rs], [r["passes"] for r in rs][1:]))
         assert rs[-1]["final"] and not any(r["final"] for r in rs[:-1])
+        assert 0 <= rs[-1]["measure_cpu_s"] < 0.5  # the polling thread's CPU during the 2-s render
         assert 1.9 <= rs[-1]["elapsed_s"] <= 2.5
         for r in rs:
             assert r["samples"] == r["passes"] * SIZE * SIZE
