@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <thread>
 
 #include "../backend/cpu/embree_accel.h"
 #include "../base/error.h"
@@ -167,6 +168,9 @@ void RenderJob::run() {
       double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (opt_.time > 0.0 && elapsed >= opt_.time) break;
       if (cancel_.load()) break;
+      // std::mutex is not fair: let a waiting image() snapshot take the film
+      // between passes instead of re-locking at once (it could starve for many passes).
+      while (snapshot_waiting_.load() > 0) std::this_thread::yield();
       {
         std::lock_guard<std::mutex> lock(mutex_);
         arena.execute([&] {
@@ -192,8 +196,9 @@ void RenderJob::run() {
           else
             render_pass(scene_->embree(), pass);
         });
+        // Under the lock, so a snapshot and the pass count always agree.
+        if (!cancel_.load()) passes_ = pass + 1;
       }
-      if (!cancel_.load()) passes_ = pass + 1;
       seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (!cancel_.load() && target_met(pass + 1)) {
         target_reached_ = true;
@@ -264,7 +269,9 @@ RenderStats RenderJob::stats() const {
 }
 
 std::vector<float> RenderJob::image() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  snapshot_waiting_.fetch_add(1);
+  std::unique_lock<std::mutex> lock(mutex_);
+  snapshot_waiting_.fetch_sub(1);
   if (photon_) return photon_->image(passes_.load());
   if (vcm_) return vcm_->image(passes_.load());
   if (upg_) return upg_->image(passes_.load());

@@ -121,6 +121,7 @@ class RenderJob {
   RenderOptions opt_;
   Film film_;
   mutable std::mutex mutex_;  // guards film_ snapshots against an in-flight pass
+  mutable std::atomic<int> snapshot_waiting_{0};  // image() calls waiting for mutex_ (the render loop yields to them)
   std::atomic<bool> cancel_{false};
   std::atomic<bool> finished_{false};
   std::atomic<int64_t> passes_{0};
