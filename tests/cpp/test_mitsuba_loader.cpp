@@ -501,13 +501,7 @@ TEST(MitsubaShape, Meshes) {
       "<boolean name=\"face_normals\" value=\"true\"/><transform name=\"to_world\"><translate x=\"5\"/></transform>"
       "<bsdf type=\"diffuse\"/><emitter type=\"area\"><rgb name=\"radiance\" value=\"4\"/></emitter></shape>\n"
       "<shape type=\"ply\" id=\"quad\"><string name=\"filename\" value=\"mesh/quad.ply\"/></shape>\n");
-  SceneDesc d;
-  try {
-    d = load_mitsuba_scene(f);
-  } catch (const InputError& e) {
-    if (std::strstr(e.what(), "not implemented")) GTEST_SKIP() << "mesh loaders not there yet: " << e.what();
-    throw;
-  }
+  SceneDesc d = load_mitsuba_scene(f);
   ASSERT_EQ(d.shapes.size(), 2u);
   EXPECT_EQ(d.shapes[0].name, "tri");
   EXPECT_EQ(d.shapes[0].type, ShapeType::kMesh);

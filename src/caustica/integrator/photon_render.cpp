@@ -131,6 +131,22 @@ int trace_measurement_points(const SceneView& s, const Accel& accel, Ray ray, ui
 
 }  // namespace
 
+float automatic_radius(const Scene& scene) {
+  const SceneView& v = scene.view();
+  const int W = v.camera.width, H = v.camera.height;
+  std::vector<float> fp;
+  const float pixel_angle = 2.f * v.camera.tan_half_y / float(H);
+  for (int y = 0; y < H; y += std::max(1, H / 32))
+    for (int x = 0; x < W; x += std::max(1, W / 32)) {
+      Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
+      Hit h;
+      if (scene.embree().intersect(r, h)) fp.push_back(h.t * pixel_angle);
+    }
+  if (fp.empty()) return 1e-3f * v.bsphere_radius;
+  std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
+  return 2.f * fp[fp.size() / 2];
+}
+
 std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const EmbreeAccel& accel, uint64_t seed,
                                                     uint32_t pass, uint64_t count, uint32_t max_depth,
                                                     bool keep_direct, const std::atomic<bool>* cancel) {
@@ -176,21 +192,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   // Initial radius: twice the median pixel footprint (distance x pixel angle) of
   // camera rays to their first hit, if not given.
   r0_ = opt.radius;
-  if (!(r0_ > 0.f)) {
-    std::vector<float> fp;
-    const float pixel_angle = 2.f * v.camera.tan_half_y / float(H_);
-    for (int y = 0; y < H_; y += std::max(1, H_ / 32))
-      for (int x = 0; x < W_; x += std::max(1, W_ / 32)) {
-        Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
-        Hit h;
-        if (scene_->embree().intersect(r, h)) fp.push_back(h.t * pixel_angle);
-      }
-    if (fp.empty()) r0_ = 1e-3f * v.bsphere_radius;
-    else {
-      std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
-      r0_ = 2.f * fp[fp.size() / 2];
-    }
-  }
+  if (!(r0_ > 0.f)) r0_ = automatic_radius(*scene_);
   size_t n = size_t(W_) * H_;
   K_ = kind_ == Kind::kPPM ? 8 : 1;
   vp_.assign(n * K_, VisiblePoint());

@@ -36,6 +36,11 @@ struct VisiblePoint {
   bool valid = false;
 };
 
+// The default gather radius of the photon, bidirectional-merging and gathering
+// integrators: twice the median pixel footprint (first-hit distance x pixel
+// angle) of camera rays through a grid of at most 32 x 32 pixels.
+float automatic_radius(const Scene& scene);
+
 class PhotonIntegrator {
  public:
   PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt);

@@ -9,6 +9,7 @@
 
 #include "../backend/cpu/embree_accel.h"
 #include "../photon/hash_grid.h"
+#include "photon_render.h"
 #include "upg.h"
 
 namespace caustica {
@@ -24,21 +25,7 @@ UpgIntegrator::UpgIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   // The gathering radius is fixed (no shrinking: the estimator is unbiased for any r).
   // Default: twice the median pixel footprint of first hits, the photon integrators' rule.
   r_ = opt.radius;
-  if (!(r_ > 0.f)) {
-    std::vector<float> fp;
-    const float pixel_angle = 2.f * v.camera.tan_half_y / float(H_);
-    for (int y = 0; y < H_; y += std::max(1, H_ / 32))
-      for (int x = 0; x < W_; x += std::max(1, W_ / 32)) {
-        Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
-        Hit h;
-        if (scene_->embree().intersect(r, h)) fp.push_back(h.t * pixel_angle);
-      }
-    if (fp.empty()) r_ = 1e-3f * v.bsphere_radius;
-    else {
-      std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
-      r_ = 2.f * fp[fp.size() / 2];
-    }
-  }
+  if (!(r_ > 0.f)) r_ = automatic_radius(*scene_);
 }
 
 bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
