@@ -21,7 +21,6 @@ import datetime as dt
 import os
 import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -35,27 +34,11 @@ from caustica.converge import make_reference
 SECTION = "# Convergence runs: checkpoint overhead (`bench/bench_converge_overhead.py`)"
 
 
-def machine() -> str:
-    model = "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return f"{model}, {os.cpu_count()} cores"
+from caustica._provenance import commit as _provenance_commit, machine  # noqa: E402
 
 
 def commit() -> str:
-    try:
-        h = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                           check=True).stdout.strip()
-        dirty = subprocess.run(["git", "diff", "--quiet", "HEAD", "--"], cwd=ROOT).returncode != 0
-        return h + ("-dirty" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+    return _provenance_commit(ROOT)
 
 
 def busy_jiffies() -> int:

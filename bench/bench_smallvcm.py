@@ -45,7 +45,6 @@ import glob
 import hashlib
 import json
 import os
-import platform
 import resource
 import subprocess
 import sys
@@ -111,28 +110,11 @@ def read_hdr(path: str) -> np.ndarray:
     return rgb.astype(np.float32)
 
 
-def machine() -> str:
-    model = platform.processor() or "unknown CPU"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return f"{model}, {os.cpu_count()} cores"
+from caustica._provenance import commit as _provenance_commit, machine  # noqa: E402
 
 
 def commit() -> str:
-    try:
-        h = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                           check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
-                               capture_output=True, text=True).stdout.strip()
-        return h + ("-dirty" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+    return _provenance_commit(ROOT)
 
 
 def loadavg() -> tuple[float, float, float]:

@@ -20,16 +20,7 @@ import warnings
 from .. import _api
 
 
-def _num(name, parse, ok, expects):
-    def conv(s):
-        try:
-            v = parse(s)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} expects {expects}, got '{s}'") from None
-        if not ok(v):
-            raise argparse.ArgumentTypeError(f"{name} expects {expects}, got '{s}'")
-        return v
-    return conv
+from ..cli import _number as _num  # noqa: E402  (one argparse type factory for every command)
 
 
 def _list(name, parse, ok, expects, n=None):

@@ -19,16 +19,7 @@ from .. import _api
 from .. import study as S
 
 
-def _type(name, parse, ok, expects):
-    def conv(s):
-        try:
-            v = parse(s)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} expects {expects}, got '{s}'") from None
-        if not ok(v):
-            raise argparse.ArgumentTypeError(f"{name} expects {expects}, got '{s}'")
-        return v
-    return conv
+from ..cli import _number as _type  # noqa: E402  (one argparse type factory for every command)
 
 
 def _size(s):
