@@ -11,6 +11,7 @@
 #include "../photon/hash_grid.h"
 #include "photon_render.h"
 #include "upg.h"
+#include "vcm_render.h"
 
 namespace caustica {
 
@@ -42,59 +43,14 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   p.n_light = float(n);
   vcm_set_radius(p, r_);
 
-  // 1. Light subpaths in fixed chunks.
-  const uint32_t chunk = 1024;
-  const uint32_t nchunks = (n + chunk - 1) / chunk;
-  std::vector<std::vector<VcmLightVertex>> cverts(nchunks);
-  std::vector<std::vector<uint32_t>> ccount(nchunks);
-  std::vector<std::vector<VcmSplat>> csplats(nchunks);
-  std::atomic<uint64_t> rays{0}, trials{0}, capped{0};
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nchunks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
-    uint64_t nrays = 0;
-    for (uint32_t c = r.begin(); c < r.end(); ++c) {
-      if (cancel.load(std::memory_order_relaxed)) break;
-      uint32_t end = std::min(n, (c + 1) * chunk);
-      for (uint32_t i = c * chunk; i < end; ++i) {
-        VcmPathState st;
-        vcm_light_start(s, p, i, st);
-        uint32_t count = 0;
-        while (st.active) {
-          Hit hit;
-          accel.intersect(st.ray, hit);
-          ++nrays;
-          VcmLightVertex v;
-          if (vcm_light_hit(s, p, st, hit, v)) {
-            cverts[c].push_back(v);
-            ++count;
-          }
-          if (!st.active) break;
-          VcmSplat sp;
-          vcm_light_to_camera(s, p, st, sp);
-          if (sp.active) {
-            ++nrays;
-            if (!accel.occluded(sp.ray)) csplats[c].push_back(sp);
-          }
-          vcm_light_continue(p, st);
-        }
-        ccount[c].push_back(count);
-      }
-    }
-    rays += nrays;
-  });
-  if (cancel.load()) return false;
-  std::vector<VcmLightVertex> verts;
-  std::vector<uint32_t> start(size_t(n) + 1, 0);
-  {
-    uint32_t i = 0;
-    for (uint32_t c = 0; c < nchunks; ++c) {
-      verts.insert(verts.end(), cverts[c].begin(), cverts[c].end());
-      for (uint32_t k : ccount[c]) {
-        start[i + 1] = start[i] + k;
-        ++i;
-      }
-      std::vector<VcmLightVertex>().swap(cverts[c]);
-    }
-  }
+  // 1. Light subpaths in fixed chunks (trace_light_subpaths in vcm_render.cpp).
+  LightSubpaths lp;
+  if (!trace_light_subpaths(s, p, accel, n, /*keep_vertices=*/true, cancel, lp)) return false;
+  const std::vector<VcmLightVertex>& verts = lp.verts;
+  const std::vector<uint32_t>& start = lp.start;
+  const std::vector<std::vector<VcmSplat>>& csplats = lp.splats;
+  const uint32_t nchunks = uint32_t(csplats.size());
+  std::atomic<uint64_t> rays{lp.rays}, trials{0}, capped{0};
 
   // 2. Hash grid of light vertices. The grid stores quantized positions: queries use the
   // radius plus a slack above the quantization error, and the exact test |z - y| < r is

@@ -39,28 +39,19 @@ float VcmIntegrator::radius(int64_t pass) const {
   return float(double(r0_) * std::pow(double(pass + 1), 0.5 * (double(opt_.alpha) - 1.0)));
 }
 
-bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
-  const SceneView& s = scene_->view();
-  const EmbreeAccel& accel = scene_->embree();
-  VcmParams p;
-  p.mode = VcmMode(mode_);
-  p.max_depth = max_depth_;
-  p.rr_depth = uint32_t(opt_.rr_depth);
-  p.seed = opt_.seed;
-  p.pass = uint32_t(pass);
-  p.sampler = opt_.sampler;
-  const uint32_t n = uint32_t(W_) * uint32_t(H_);
-  p.n_light = float(n);
-  vcm_set_radius(p, radius(pass));
-
-  // 1. Light subpaths in fixed chunks: vertices and splats per chunk.
+// Stage 1 of vcm and upg: n light subpaths traced in fixed chunks of 1024
+// (random streams from (seed, pass, path index), so the result does not depend
+// on the thread count), their vertices concatenated in path order and their
+// camera splats kept per chunk, to be added to the film in chunk order.
+bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAccel& accel, uint32_t n,
+                          bool keep_vertices, const std::atomic<bool>& cancel, LightSubpaths& out) {
   const uint32_t chunk = 1024;
   const uint32_t nchunks = (n + chunk - 1) / chunk;
   std::vector<std::vector<VcmLightVertex>> cverts(nchunks);
   std::vector<std::vector<uint32_t>> ccount(nchunks);  // vertices per light path
-  std::vector<std::vector<VcmSplat>> csplats(nchunks);
+  std::vector<std::vector<VcmSplat>>& csplats = out.splats;
+  csplats.assign(nchunks, {});
   std::atomic<uint64_t> rays{0};
-  const bool keep_vertices = p.use_vc() || p.use_vm();
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nchunks, 1), [&](const tbb::blocked_range<uint32_t>& r) {
     uint64_t nrays = 0;
     for (uint32_t c = r.begin(); c < r.end(); ++c) {
@@ -95,8 +86,11 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
     rays += nrays;
   });
   if (cancel.load()) return false;
-  std::vector<VcmLightVertex> verts;
-  std::vector<uint32_t> start(size_t(n) + 1, 0);
+  out.rays = rays.load();
+  std::vector<VcmLightVertex>& verts = out.verts;
+  std::vector<uint32_t>& start = out.start;
+  verts.clear();
+  start.assign(size_t(n) + 1, 0);
   {
     size_t total = 0;
     for (auto& cv : cverts) total += cv.size();
@@ -111,6 +105,32 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
       std::vector<VcmLightVertex>().swap(cverts[c]);
     }
   }
+  return true;
+}
+
+bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
+  const SceneView& s = scene_->view();
+  const EmbreeAccel& accel = scene_->embree();
+  VcmParams p;
+  p.mode = VcmMode(mode_);
+  p.max_depth = max_depth_;
+  p.rr_depth = uint32_t(opt_.rr_depth);
+  p.seed = opt_.seed;
+  p.pass = uint32_t(pass);
+  p.sampler = opt_.sampler;
+  const uint32_t n = uint32_t(W_) * uint32_t(H_);
+  p.n_light = float(n);
+  vcm_set_radius(p, radius(pass));
+
+  // 1. Light subpaths in fixed chunks (trace_light_subpaths, shared with upg).
+  const bool keep_vertices = p.use_vc() || p.use_vm();
+  LightSubpaths lp;
+  if (!trace_light_subpaths(s, p, accel, n, keep_vertices, cancel, lp)) return false;
+  const std::vector<VcmLightVertex>& verts = lp.verts;
+  const std::vector<uint32_t>& start = lp.start;
+  const std::vector<std::vector<VcmSplat>>& csplats = lp.splats;
+  const uint32_t nchunks = uint32_t(csplats.size());
+  std::atomic<uint64_t> rays{lp.rays};
 
   // 2. The hash grid of light vertices for merging (cells of 2r).
   PhotonHashGrid grid;

@@ -11,10 +11,24 @@
 #include <vector>
 
 #include "render.h"
+#include "vcm.h"
 
 namespace caustica {
 
 bool is_vcm_integrator(const std::string& name);
+
+class EmbreeAccel;
+
+// Light subpaths of one pass (stage 1 of vcm and upg).
+struct LightSubpaths {
+  std::vector<VcmLightVertex> verts;          // every path's stored vertices, in path order
+  std::vector<uint32_t> start;                // path i's vertices: [start[i], start[i + 1])
+  std::vector<std::vector<VcmSplat>> splats;  // unoccluded camera splats, per chunk of 1024 paths
+  uint64_t rays = 0;
+};
+// False if cancelled midway.
+bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAccel& accel, uint32_t n,
+                          bool keep_vertices, const std::atomic<bool>& cancel, LightSubpaths& out);
 
 class VcmIntegrator {
  public:
