@@ -29,10 +29,13 @@ VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   W_ = v.camera.width;
   H_ = v.camera.height;
   sum_.assign(size_t(W_) * H_ * 3, 0.0);
-  // Initial radius: as the photon integrators, twice the median pixel footprint
-  // (first-hit distance x pixel angle) of camera rays, unless given.
+  // Initial radius, unless given: one median pixel footprint (first-hit
+  // distance x pixel angle) of camera rays, half the photon integrators' default.
+  // Every eye vertex merges here (not only one visible point per pixel), so the
+  // merge cost grows with r^2; at twice the footprint vcm lost to SmallVCM on
+  // smallvcm-point, at one footprint it won (bench/RESULTS.md, bidirectional).
   r0_ = opt.radius;
-  if (!(r0_ > 0.f)) r0_ = automatic_radius(*scene_);
+  if (!(r0_ > 0.f)) r0_ = 0.5f * automatic_radius(*scene_);
 }
 
 float VcmIntegrator::radius(int64_t pass) const {
