@@ -24,6 +24,7 @@ struct V {
 };
 
 float g_rev_scale = 1.f;  // perturbation for the sensitivity test
+bool g_upg_rules = true;  // false: upg's merge terms as vcm's (for the sensitivity test)
 
 struct TestPath {
   std::vector<V> x;  // x[0] light, x[k] camera
@@ -51,8 +52,10 @@ float emission_pdf_w(const TestPath& P) {  // without the pick probability
   return cosv(P, 0, P.x[1].p) * kInvPi / P.light_area;
 }
 
-// Light subpath state at vertex j (reached, not yet scattered).
+// Light subpath state at vertex j (reached, not yet scattered), as stored for a
+// connection or merge there (upg's pending term committed, as vcm_light_hit does).
 VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
+  const bool upg = p.mode == VcmMode::kUpg;
   float dpa = P.point_light ? 1.f : 1.f / P.light_area;
   VcmMis m = vcm_light_start_mis(p, dpa * P.pick, emission_pdf_w(P) * P.pick,
                                  P.point_light ? 1.f : cosv(P, 0, P.x[1].p), P.point_light);
@@ -60,10 +63,19 @@ VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
     vcm_after_segment(p, m, dist(P, i - 1, i), cosv(P, i, P.x[i - 1].p), true);
     if (i < j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i + 1].p), pdf_w(P, i, P.x[i + 1].p),
-                        pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta);
+                        pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta, true, upg && g_upg_rules);
   }
-  return m;
+  return vcm_mis_commit(p, m);
 }
+
+// Whether a merge-like strategy exists at camera vertex j for the integrator:
+// always for vcm/bpm; for upg (a gathered photon at x_j joined to x_{j+1}) only if
+// x_{j+1} is a non-delta surface vertex, not the camera (VcmPathState::vm_ok).
+bool camera_vm_ok(const VcmParams& p, const TestPath& P, int j) {
+  int k = int(P.x.size()) - 1;
+  return p.mode != VcmMode::kUpg || !g_upg_rules || (j + 1 < k && !P.x[j + 1].delta);
+}
+float cam_vm(const VcmParams& p, const TestPath& P, int j) { return camera_vm_ok(p, P, j) ? p.vm_factor : 0.f; }
 
 // Camera subpath state at vertex j (reached from x_{j+1}).
 VcmMis camera_state(const VcmParams& p, const TestPath& P, int j) {
@@ -73,12 +85,14 @@ VcmMis camera_state(const VcmParams& p, const TestPath& P, int j) {
     vcm_after_segment(p, m, dist(P, i + 1, i), cosv(P, i, P.x[i + 1].p), true);
     if (i > j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p),
-                        P.x[i].delta);
+                        P.x[i].delta, camera_vm_ok(p, P, i));
   }
   return m;
 }
 
-// Sum over all strategies of their weights (VC: s = 0 .. k light vertices; VM at x_1 .. x_{k-1}).
+// Sum over all strategies of their weights (VC: s = 0 .. k light vertices; VM at
+// x_1 .. x_{k-1}; upg: a gather for each connection of x_{s-1} (s >= 2) with a
+// camera vertex x_s other than the camera, weighted as upg_gather does).
 double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
   const int k = int(P.x.size()) - 1;
   double sum = 0.0;
@@ -97,7 +111,7 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
       float direct_pdf_w = P.point_light ? d * d : d * d / (cos_l * P.light_area);
       float dir = P.point_light ? 0.f : pdf_w(P, 1, P.x[0].p);
       sum += vcm_weight_nee(p, c, P.pick, direct_pdf_w, emission_pdf_w(P), cos_l, cosv(P, 1, P.x[0].p), dir,
-                            pdf_w(P, 1, P.x[2].p));
+                            pdf_w(P, 1, P.x[2].p), cam_vm(p, P, 1));
       ++n;
     }
     // 2 <= s <= k - 1: light vertex x_{s-1} to camera vertex x_s.
@@ -108,8 +122,10 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
       float d2 = dist(P, a, b) * dist(P, a, b);
       float cam_dir_a = pdf_w(P, b, P.x[a].p) * cosv(P, a, P.x[b].p) / d2;
       float light_dir_a = pdf_w(P, a, P.x[b].p) * cosv(P, b, P.x[a].p) / d2;
-      sum += vcm_weight_connect(p, l, c, cam_dir_a, pdf_w(P, b, P.x[b + 1].p), light_dir_a, pdf_w(P, a, P.x[a - 1].p));
-      ++n;
+      float wc = vcm_weight_connect(p, l, c, cam_dir_a, pdf_w(P, b, P.x[b + 1].p), light_dir_a,
+                                    pdf_w(P, a, P.x[a - 1].p), cam_vm(p, P, b));
+      sum += wc, ++n;
+      if (p.mode == VcmMode::kUpg) sum += wc * p.vm_factor * vcm_mis(p, cam_dir_a), ++n;  // the gather of x_a at x_b
     }
   }
   if (p.use_lt() && !P.x[k - 1].delta) {  // s = k: light vertex x_{k-1} to the camera
@@ -119,7 +135,7 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
     sum += vcm_weight_camera(p, l, cam_a, pdf_w(P, k - 1, P.x[k - 2].p));
     ++n;
   }
-  if (p.use_vm())
+  if (p.merges())
     for (int i = 1; i <= k - 1; ++i) {
       if (P.x[i].delta) continue;
       VcmMis l = light_state(p, P, i), c = camera_state(p, P, i);
@@ -201,6 +217,45 @@ TEST(VcmMis, BpmWeightsSumToOne) {
     if (n == 0) continue;
     EXPECT_NEAR(s, 1.0, 1e-4) << "trial " << trial;
   }
+}
+
+// upg: BDPT's strategies and the gathers, weighted as VCM's merges where a gather
+// can sample the path (the photon's camera-side neighbour a non-delta surface
+// vertex); radius scanned over four decades so gathers dominate somewhere.
+TEST(VcmMis, UpgWeightsSumToOne) {
+  PCG32 r(17, 5);
+  int with_gathers = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    int k = 2 + int(r.next_u32() % 6);
+    bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
+    float radius = std::pow(10.f, -4.f + 4.f * r.next_float());
+    TestPath P = random_path(r, k, point, true);
+    int n = 0, n_bdpt = 0;
+    VcmParams p = params(VcmMode::kUpg, balance, radius);
+    double s = weight_sum(p, P, &n);
+    weight_sum(params(VcmMode::kBpt, balance, radius), P, &n_bdpt);
+    if (n == 0) continue;
+    with_gathers += n > n_bdpt;
+    EXPECT_NEAR(s, 1.0, 1e-4) << "trial " << trial << " k " << k << " radius " << radius;
+  }
+  EXPECT_GT(with_gathers, 1000);  // the test exercises gathers, not only BDPT's strategies
+}
+
+// Sensitivity: upg with vcm's rule (a merge term at every non-delta vertex)
+// instead of its own breaks the sum on paths where a gather cannot run.
+TEST(VcmMis, UpgWithVcmMergeRuleIsDetected) {
+  PCG32 r(19, 6);
+  int broken = 0, n = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    TestPath P = random_path(r, 6, false, true);
+    VcmParams p = params(VcmMode::kUpg, false, 0.3f);
+    EXPECT_NEAR(weight_sum(p, P), 1.0, 1e-4);
+    g_upg_rules = false;
+    broken += std::fabs(weight_sum(p, P) - 1.0) > 1e-3;
+    g_upg_rules = true;
+    ++n;
+  }
+  EXPECT_GT(broken, n / 2);
 }
 
 // The check is sensitive: a wrong update (here the light subpath's reverse

@@ -160,10 +160,15 @@ def test_vcm_adds_the_mirrored_caustic_on_the_smallvcm_point_scene():
     # (a streak at rows 105-106, columns 51-53 of a 128x128 image). vcm (4 seeds x 8 passes, measured
     # 0.59 +- 0.02) exceeds bdpt's estimate there, which lacks the L S S D S E paths (measured 0.45 +- 0.09
     # over 4 seeds: its variance comes from rare light-tracing hits); SPPM measured 0.68 +- 0.10.
-    # The assertion (vcm above bdpt's mean by 10%) is the weak form affordable in test time.
+    # The assertion (vcm above bdpt's mean by 10%) is the weak form affordable in test time. The radius is
+    # fixed at twice the pixel footprint (the default until 2026-11-22, with which the figures above were
+    # measured); at the default of one footprint, 4 seeds x 8 passes gave 0.46 +- 0.02: a merge there sees
+    # few light vertices and the estimate is right-skewed at 8 passes. At 128 passes (2 seeds) both agree:
+    # 0.67 (one footprint), 0.64 (two), SPPM 0.66 at 256 passes.
     s = caustica.load_scene("smallvcm-point", width=128, height=128)
     reg = (slice(105, 107), slice(51, 54))
-    v = np.mean([float(caustica.render(s, integrator="vcm", spp=8, seed=k)[reg].mean()) for k in (11, 12)])
+    v = np.mean([float(caustica.render(s, integrator="vcm", spp=8, seed=k, radius=0.0538)[reg].mean())
+                 for k in (11, 12)])
     b = np.mean([float(caustica.render(s, integrator="bdpt", spp=8, seed=k)[reg].mean()) for k in (11, 12, 13, 14)])
     assert v > 1.1 * b, (v, b)
 

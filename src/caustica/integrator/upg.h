@@ -19,22 +19,27 @@
 // gathered eye vertex and for the trials (exact float positions, not the hash
 // grid's quantized ones).
 //
-// MIS. A gathered path is also sampled by BDPT's connection of the same light
-// vertex y_s and camera vertex z_{t-1}. Each BDPT strategy (s, t) keeps its
-// weight w_bdpt from vcm.h (Georgiev 2012's recursive quantities in bdpt mode;
-// every strategy, the pairs themselves included, weighs the others as BDPT
-// does). The connection's share is split between the connection (one light
-// subpath, density p_c = p_light p_eye) and the gather (N_light subpaths, density
-// P p_c, P approximated as p_eye(z_{t-1} -> y_s) pi r^2 for the weights, as the
-// paper does for its MIS): with g = mis(N_light pi r^2 p_eye,A(z_{t-1} -> y_s)),
-//   connection: w_bdpt / (1 + g),   gather: w_bdpt g / (1 + g).
-// Both estimators compute g from the same vertex pair, so the weights of all
-// strategies still sum to one and the combination is unbiased (up to the cap).
-// The gather runs at every eye hit z_t whose predecessor z_{t-1} is a non-delta
-// surface vertex (never from the camera itself), for every stored photon within r.
+// MIS (the paper's combination: gathering as one more strategy in one
+// power-heuristic sum over all strategies, as vertex merging in VCM). The gathered
+// path x = y_0 .. y_s z_{t-1} .. z_0 is also the path of BDPT's connection (s, t-1)
+// of y_s and z_{t-1}; its gathering density, with P approximated for the weights
+// as p_eye,A(z_{t-1} -> y_s) pi r^2 (the probability that the eye's sampling
+// lands in the disc, to first order), is that connection's times
+// N_light pi r^2 p_eye,A(z_{t-1} -> y_s): exactly the density that VCM gives
+// the merge of y_s with an eye vertex sampled from z_{t-1}. So the weights are
+// VCM's (vcm.h, Georgiev's dVCM/dVC recursion, mode kUpg) with each merge read
+// as the gather of the same path, which exists only where the gather can run:
+// the photon's neighbour on the camera side must be a non-delta surface
+// scattering, never the camera (vcm_after_scatter: vm_here / defer; the t = 1
+// weight has no merge term). A gather's weight is then the full weight of the
+// connection of its vertex pair times g = mis(N_light pi r^2 p_eye,A(z_{t-1} -> y_s)),
+// the gather's term in that sum; the connection keeps its own full weight.
+// Every strategy that samples a path computes the same sum, so the weights sum
+// to one (tests/cpp/test_vcm_mis.cpp) and the combination is unbiased (up to
+// the cap); which approximation of P the weights use affects only the variance.
 //
 // Cost control: the trials of a low-weighted gather are skipped by Russian
-// roulette, survival q = min(1, kUpgRrScale * w_gather_share), dividing by q
+// roulette, survival q = min(1, kUpgRrScale * w_gather), dividing by q
 // (unbiased). The expected trial count of a kept photon is 1/P.
 #pragma once
 #include "vcm.h"
@@ -44,37 +49,24 @@ namespace caustica {
 constexpr uint32_t kUpgMaxTrials = 16384;
 constexpr float kUpgRrScale = 4.f;
 
-// eta = N_light pi r^2 (the gathering radius is fixed; p.radius set by vcm_set_radius).
-CHD float upg_eta(const VcmParams& p) { return kPi * p.radius * p.radius * p.n_light; }
-
-// mis(eta p_eye,A(z -> y)) for camera vertex `cam` (non-delta) and light vertex v:
-// the gather's density relative to the connection's.
-CHD float upg_gather_ratio(const SceneView& s, const VcmParams& p, const VcmPathState& cam, const VcmLightVertex& v) {
-  (void)s;
+// g = mis(N_light pi r^2 p_eye,A(z -> y)) for camera vertex `cam` (non-delta) and
+// light vertex v: the gather's density relative to the connection's.
+CHD float upg_gather_ratio(const VcmParams& p, const VcmPathState& cam, const VcmLightVertex& v) {
   Vec3f d = v.sh.p - cam.sh.p;
   float d2 = length_sq(d);
   if (!(d2 > 0.f)) return 0.f;
   Vec3f w = d / std::sqrt(d2);
   float cos_l = absdot(v.sh.ns, w);
   float pdf_a = bsdf_pdf(cam.m, cam.wo, cam.frame.to_local(w)) * cos_l / d2;
-  return vcm_mis(p, upg_eta(p) * pdf_a);
-}
-
-// BDPT connection of camera vertex `cam` with light vertex v, with upg's share
-// taken out (its weight times 1 / (1 + g)).
-CHD void upg_camera_connect(const SceneView& s, const VcmParams& p, const VcmPathState& cam, const VcmLightVertex& v,
-                            VcmShadow& sr) {
-  vcm_camera_connect(s, p, cam, v, sr);
-  if (!sr.active) return;
-  sr.contrib *= 1.f / (1.f + upg_gather_ratio(s, p, cam, v));
+  return p.vm_factor * vcm_mis(p, pdf_a);
 }
 
 // One gathered photon v at the eye hit after `prev` (z_{t-1}, non-delta): the
-// connection's contribution with the gather's MIS share and 1 / N_light, its
+// connection's contribution with the gather's MIS weight and 1 / N_light, its
 // shadow ray, and the roulette probability of running the trials. The caller
 // traces the shadow ray, then multiplies by the trial count N / q.
 struct UpgGather {
-  VcmShadow conn;   // contrib: f / (p_light p_eye) w_bdpt g / (1 + g) / N_light
+  VcmShadow conn;   // contrib: f / (p_light p_eye) w_gather / (N_light q)
   float q = 0.f;    // probability of running the trials (Russian roulette)
   bool active = false;
 };
@@ -82,14 +74,14 @@ struct UpgGather {
 CHD void upg_gather(const SceneView& s, const VcmParams& p, const VcmPathState& prev, const VcmLightVertex& v,
                     float u_rr, UpgGather& g) {
   g.active = false;
-  vcm_camera_connect(s, p, prev, v, g.conn);
+  vcm_camera_connect(s, p, prev, v, g.conn);  // weight: the connection's full weight w_c
   if (!g.conn.active) return;
-  float gr = upg_gather_ratio(s, p, prev, v);
-  float share = gr / (1.f + gr);
-  if (!(share > 0.f)) return;
-  g.q = minf(1.f, kUpgRrScale * share);
+  float gr = upg_gather_ratio(p, prev, v);
+  float w_gather = g.conn.weight * gr;
+  if (!(w_gather > 0.f)) return;
+  g.q = minf(1.f, kUpgRrScale * w_gather);
   if (!(u_rr < g.q)) return;
-  g.conn.contrib *= share / (p.n_light * g.q);
+  g.conn.contrib *= gr / (p.n_light * g.q);
   g.active = isfinite3(g.conn.contrib) && !is_black(g.conn.contrib);
 }
 
@@ -121,6 +113,110 @@ CHD bool upg_trial_lands(const SceneView& s, const VcmParams& p, const Ray& ray,
   if (!hit.valid()) return false;
   SurfaceHit sh = make_surface_hit(s, ray, hit);
   return length_sq(sh.p - photon) < p.radius * p.radius;
+}
+
+// Estimates of 1/P, P = P(the eye's sampling at `prev` lands within r of `photon`),
+// by trials; lands(ray) casts a trial ray and applies the landing test. Both
+// return 0 when the trials reach kUpgMaxTrials; `trials` counts the rays cast.
+//
+// Plain trials (as the paper): repeat the eye's own sampling until one lands;
+// the count N is geometric with success probability P, E[N] = 1/P.
+template <typename Lands>
+CHD float upg_inv_p_plain(const VcmParams& p, const VcmPathState& prev, PCG32& rng, uint32_t& trials,
+                          Lands&& lands) {
+  for (uint32_t n = 1; n <= kUpgMaxTrials; ++n) {
+    Ray ray;
+    if (!upg_trial_ray(p, prev, rng, ray)) continue;
+    ++trials;
+    if (lands(ray)) return float(n);
+  }
+  return 0.f;
+}
+
+// An upper bound M of the BSDF's sampling density (per solid angle) for the
+// materials whose sampled direction alone fixes the density and the weight (no
+// delta lobe, no lobe-dependent weight); 0 for the others (plain trials only).
+CHD float upg_pdf_bound(const Material& m) {
+  if (m.type == MaterialType::kDiffuse) return kInvPi;
+  if (m.type == MaterialType::kPhong) {
+    float pd = phong_diffuse_prob(m);
+    return pd * kInvPi + (1.f - pd) * (m.exponent + 1.f) * kInv2Pi;
+  }
+  return 0.f;
+}
+
+// The cone around `photon` as seen from prev's front-side ray origin: any ray that lands
+// within r of the photon passes through the ball of radius r, so its direction is
+// in this cone of half-angle asin(r / d). Fills the axis frame, 1 - cos(theta_max),
+// and Omega M (solid angle times the pdf bound); false if the origin is inside the ball.
+struct UpgCone {
+  Frame axis;
+  float one_minus_cos = 0.f;
+  float M = 0.f;
+  float omega_m = 0.f;
+};
+CHD bool upg_cone(const VcmParams& p, const VcmPathState& prev, Vec3f photon, float M, UpgCone& c) {
+  Vec3f d = photon - prev.p_front;
+  float d2 = length_sq(d);
+  float r2 = p.radius * p.radius;
+  if (!(M > 0.f) || !(d2 > 1.0001f * r2)) return false;
+  float sin2 = r2 / d2;
+  float cos_max = std::sqrt(1.f - sin2);
+  c.axis = Frame(d / std::sqrt(d2));
+  c.one_minus_cos = sin2 / (1.f + cos_max);  // without cancellation for small cones
+  c.M = M;
+  c.omega_m = 2.f * kPi * c.one_minus_cos * M;
+  return true;
+}
+
+// Cone trials (the paper's idea of sampling only towards the disc, made exact by
+// rejection): a trial draws a direction w uniformly in the cone and accepts it
+// with probability p_bsdf(w) v(w) q(w) / M, where v is the eye's validity test and
+// q its Russian-roulette survival for w (what upg_trial_ray would apply), then
+// casts it. Its success probability is (1 / Omega) Int_cone p v q land / M dw =
+// P / (Omega M) (no landing direction lies outside the cone), so the count N is
+// geometric and N / (Omega M) estimates 1/P without bias. Expected trials: Omega M / P,
+// about (cone / disc solid angle) x (M / p), against 1/P for plain trials: use it when
+// Omega M < 1.
+template <typename Lands>
+CHD float upg_inv_p_cone(const VcmParams& p, const VcmPathState& prev, const UpgCone& c, PCG32& rng, uint32_t& trials,
+                         Lands&& lands) {
+  const float mb = maxf(max_component(prev.beta), 1e-30f);
+  for (uint32_t n = 1; n <= kUpgMaxTrials; ++n) {
+    float omc = rng.next_float() * c.one_minus_cos;
+    float phi = 2.f * kPi * rng.next_float();
+    float u_acc = rng.next_float();
+    float sin_t = std::sqrt(maxf(0.f, omc * (2.f - omc)));
+    Vec3f w = c.axis.to_world(Vec3f(sin_t * std::cos(phi), sin_t * std::sin(phi), 1.f - omc));
+    Vec3f wl = prev.frame.to_local(w);
+    if (dot(w, prev.sh.ng) * wl.z * dot(prev.sh.ns, prev.sh.ng) < 0.f) continue;  // validity, as the eye's
+    float pdf = bsdf_pdf(prev.m, prev.wo, wl);
+    if (!(pdf > 0.f)) continue;
+    float acc = pdf;
+    if (prev.length >= p.rr_depth) {
+      RGB beta = prev.beta * bsdf_eval(prev.m, prev.wo, wl) * (std::fabs(wl.z) / pdf);
+      acc *= minf(1.f, max_component(beta) / mb);
+    }
+    if (!(u_acc * c.M < acc)) continue;  // accept with probability acc / M
+    Ray ray;
+    ray.o = vcm_origin_towards(prev, w);
+    ray.d = w;
+    ray.tmax = kInf;
+    ++trials;
+    if (lands(ray)) return float(n) / c.omega_m;
+  }
+  return 0.f;
+}
+
+// 1/P for a gathered photon: cone trials where they are cheaper (a pdf bound and
+// Omega M < 1), else plain trials.
+template <typename Lands>
+CHD float upg_inv_p(const VcmParams& p, const VcmPathState& prev, Vec3f photon, PCG32& rng, uint32_t& trials,
+                    Lands&& lands) {
+  UpgCone cone;
+  if (upg_cone(p, prev, photon, upg_pdf_bound(prev.m), cone) && cone.omega_m < 1.f)
+    return upg_inv_p_cone(p, prev, cone, rng, trials, lands);
+  return upg_inv_p_plain(p, prev, rng, trials, lands);
 }
 
 // The gathering test at an eye hit.

@@ -33,7 +33,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const SceneView& s = scene_->view();
   const EmbreeAccel& accel = scene_->embree();
   VcmParams p;
-  p.mode = VcmMode::kBpt;
+  p.mode = VcmMode::kUpg;
   p.max_depth = max_depth_;
   p.rr_depth = uint32_t(opt_.rr_depth);
   p.seed = opt_.seed;
@@ -104,22 +104,19 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
               if (!g.active) continue;
               ++nrays;
               if (accel.occluded(g.conn.ray)) continue;
-              uint32_t N = 0;
-              bool landed = false;
-              while (N < kUpgMaxTrials && !landed) {
-                ++N;
-                Ray tr;
-                if (!upg_trial_ray(p, prev, rng, tr)) continue;
+              uint32_t cast = 0;
+              auto lands = [&](const Ray& tr) {
                 Hit th;
                 accel.intersect(tr, th);
-                ++ntrials;
-                landed = upg_trial_lands(s, p, tr, th, v.sh.p);
-              }
-              if (!landed) {
+                return upg_trial_lands(s, p, tr, th, v.sh.p);
+              };
+              float inv_p = upg_inv_p(p, prev, v.sh.p, rng, cast, lands);
+              ntrials += cast;
+              if (!(inv_p > 0.f)) {
                 ++ncapped;
                 continue;
               }
-              st.L += g.conn.contrib * float(N);
+              st.L += g.conn.contrib * inv_p;
             }
           }
           if (!st.active) break;
@@ -131,7 +128,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
           }
           if (st.vertex_valid)
             for (uint32_t k = start[pix]; k < start[pix + 1]; ++k) {
-              upg_camera_connect(s, p, st, verts[k], sr);
+              vcm_camera_connect(s, p, st, verts[k], sr);
               if (sr.active) {
                 ++nrays;
                 vcm_shadow(st, sr, accel.occluded(sr.ray));

@@ -55,7 +55,10 @@
 
 namespace caustica {
 
-enum class VcmMode : uint32_t { kLight = 0, kBpt, kBpm, kVcm };
+// kUpg: BDPT's strategies weighed against unbiased photon gathering (upg.h):
+// the MIS of vcm with each merge replaced by the gather that samples the same
+// path (see vcm_after_scatter), no merging.
+enum class VcmMode : uint32_t { kLight = 0, kBpt, kBpm, kVcm, kUpg };
 
 struct VcmParams {
   VcmMode mode = VcmMode::kVcm;
@@ -70,8 +73,11 @@ struct VcmParams {
   float vm_factor = 0.f;    // mis(eta_VCM), 0 without merging   (report Sec. 5.1)
   float vc_factor = 0.f;    // mis(1 / eta_VCM), 0 without connections
   float vm_norm = 0.f;      // 1 / (pi r^2 N_VM)
-  CHD bool use_vc() const { return mode == VcmMode::kBpt || mode == VcmMode::kVcm; }
-  CHD bool use_vm() const { return mode == VcmMode::kBpm || mode == VcmMode::kVcm; }
+  CHD bool use_vc() const { return mode == VcmMode::kBpt || mode == VcmMode::kVcm || mode == VcmMode::kUpg; }
+  // Merge-like strategies in the MIS sums (merges, or upg's gathers).
+  CHD bool use_vm() const { return mode == VcmMode::kBpm || mode == VcmMode::kVcm || mode == VcmMode::kUpg; }
+  // Vertex merging proper (density estimation at camera vertices).
+  CHD bool merges() const { return mode == VcmMode::kBpm || mode == VcmMode::kVcm; }
   CHD bool use_lt() const { return mode != VcmMode::kBpm; }  // t = 1 strategies
 };
 
@@ -90,7 +96,20 @@ CHD void vcm_set_radius(VcmParams& p, float r) {
 // The running MIS quantities and their updates (report Eqs. 31-36, 53-55).
 struct VcmMis {
   float dVCM = 0.f, dVC = 0.f, dVM = 0.f;
+  // upg's light subpaths only: the merge-like term of the vertex just left,
+  // not yet in dVC (as vm_factor pend) and dVM (as pend), because a gather can
+  // sample the path there only if the *next* vertex scatters through a non-delta
+  // lobe (the gathered photon is joined to it). vcm_after_scatter adds it or
+  // drops it; vcm_mis_commit adds it where the subpath ends in a connection.
+  float pend = 0.f;
 };
+
+CHD VcmMis vcm_mis_commit(const VcmParams& p, VcmMis m) {
+  m.dVC += p.vm_factor * m.pend;
+  m.dVM += m.pend;
+  m.pend = 0.f;
+  return m;
+}
 
 // After tracing a segment of length `dist` that arrives with |cos| = cos_in at
 // the new vertex (Eqs. 34-36): densities of the previous vertex's direction
@@ -102,23 +121,38 @@ CHD void vcm_after_segment(const VcmParams& p, VcmMis& m, float dist, float cos_
   m.dVCM *= ic;
   m.dVC *= ic;
   m.dVM *= ic;
+  m.pend *= ic;
 }
 
 // After sampling the next direction with |cos| = cos_out at the vertex, forward
 // density pdf_dir and reverse density pdf_rev (both per solid angle).
-CHD void vcm_after_scatter(const VcmParams& p, VcmMis& m, float cos_out, float pdf_dir, float pdf_rev, bool delta) {
+//
+// The merge term of this vertex (the "+ 1" of dVM, "+ vm_factor" of dVC) is the
+// strategy that merges here. For vcm and bpm it exists at every non-delta vertex.
+// For upg it is the gather whose photon lies here, joined to the neighbour on
+// the camera side, which must be a non-delta surface scattering (not the camera):
+//   camera subpaths pass vm_here = whether the previous camera vertex was such a
+//   vertex (VcmPathState::vm_ok);
+//   light subpaths pass defer = true: the term waits in m.pend until the next
+//   vertex's scattering is known (added if non-delta, dropped if delta).
+CHD void vcm_after_scatter(const VcmParams& p, VcmMis& m, float cos_out, float pdf_dir, float pdf_rev, bool delta,
+                           bool vm_here = true, bool defer = false) {
   if (delta) {
     // A delta vertex cannot end a subpath: no connection or merge there.
     m.dVCM = 0.f;
     m.dVC *= vcm_mis(p, cos_out);
     m.dVM *= vcm_mis(p, cos_out);
+    m.pend = 0.f;  // upg: the previous vertex's gather would join a photon to this delta vertex
     return;
   }
+  m = vcm_mis_commit(p, m);
   float g = vcm_mis(p, cos_out / pdf_dir);
-  float dVC = g * (m.dVC * vcm_mis(p, pdf_rev) + m.dVCM + p.vm_factor);
-  float dVM = g * (m.dVM * vcm_mis(p, pdf_rev) + m.dVCM * p.vc_factor + 1.f);
+  float vm = vm_here && !defer ? 1.f : 0.f;
+  float dVC = g * (m.dVC * vcm_mis(p, pdf_rev) + m.dVCM + p.vm_factor * vm);
+  float dVM = g * (m.dVM * vcm_mis(p, pdf_rev) + m.dVCM * p.vc_factor + vm);
   m.dVC = dVC;
   m.dVM = dVM;
+  m.pend = vm_here && defer ? g : 0.f;
   m.dVCM = vcm_mis(p, 1.f / pdf_dir);
 }
 
@@ -153,27 +187,37 @@ CHD float vcm_weight_hit(const VcmParams& p, const VcmMis& cam, float direct_pdf
 // probability (d^2 for point lights, 1 for directional ones); emission_pdf_w
 // without it too; bsdf_dir_pdf_w: camera BSDF towards the light (0 for delta
 // lights); bsdf_rev_pdf_w: the reverse.
+// cam_vm: the merge term at the camera vertex (p.vm_factor, or for upg 0 where
+// vcm_cam_vm says no gather can sample the path there).
 CHD float vcm_weight_nee(const VcmParams& p, const VcmMis& cam, float pick, float direct_pdf_w, float emission_pdf_w,
-                         float cos_at_light, float cos_to_light, float bsdf_dir_pdf_w, float bsdf_rev_pdf_w) {
+                         float cos_at_light, float cos_to_light, float bsdf_dir_pdf_w, float bsdf_rev_pdf_w,
+                         float cam_vm) {
   float w_light = vcm_mis(p, bsdf_dir_pdf_w / (pick * direct_pdf_w));
   float w_camera = vcm_mis(p, emission_pdf_w * cos_to_light / (direct_pdf_w * cos_at_light)) *
-                   (p.vm_factor + cam.dVCM + cam.dVC * vcm_mis(p, bsdf_rev_pdf_w));
+                   (cam_vm + cam.dVCM + cam.dVC * vcm_mis(p, bsdf_rev_pdf_w));
   return 1.f / (w_light + 1.f + w_camera);
 }
+
+// The merge term at a light vertex joined to the camera (t = 1): for upg none
+// (a gathered photon is never joined to the camera itself).
+CHD float vcm_lt_vm(const VcmParams& p) { return p.mode == VcmMode::kUpg ? 0.f : p.vm_factor; }
 
 // Light vertex to camera (t = 1, Eqs. 46-47): camera_pdf_a is the camera's
 // density of the light vertex (raster density -> area at the vertex).
 CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camera_pdf_a, float bsdf_rev_pdf_w) {
-  float w_light = vcm_mis(p, camera_pdf_a / p.n_light) * (p.vm_factor + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
+  float w_light =
+      vcm_mis(p, camera_pdf_a / p.n_light) * (vcm_lt_vm(p) + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
   return 1.f / (w_light + 1.f);
 }
 
 // Light vertex to camera vertex (Eqs. 40-41). *_dir_pdf_a: each side's BSDF
 // density of the other vertex (area); *_rev_pdf_w: each side's reverse density.
+// cam_vm as for vcm_weight_nee; the light side's merge term (the merge, or upg's
+// gather, of the light vertex joined to this camera vertex) always exists.
 CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_a,
-                             float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w) {
+                             float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w, float cam_vm) {
   float w_light = vcm_mis(p, cam_dir_pdf_a) * (p.vm_factor + light.dVCM + light.dVC * vcm_mis(p, light_rev_pdf_w));
-  float w_camera = vcm_mis(p, light_dir_pdf_a) * (p.vm_factor + cam.dVCM + cam.dVC * vcm_mis(p, cam_rev_pdf_w));
+  float w_camera = vcm_mis(p, light_dir_pdf_a) * (cam_vm + cam.dVCM + cam.dVC * vcm_mis(p, cam_rev_pdf_w));
   return 1.f / (w_light + 1.f + w_camera);
 }
 
@@ -393,6 +437,7 @@ struct VcmPathState {
   VcmMis mis;
   uint32_t length = 0;   // segments traced before `ray`
   bool specular = true;  // every scattering so far was a delta lobe
+  bool vm_ok = false;    // camera: the previous vertex is a surface that scattered through a non-delta lobe
   bool active = true;
   Vec3f prev_p;
   // light subpaths
@@ -469,7 +514,7 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   v.wi = st.wo_world;
   v.beta = st.beta;
   v.length = st.length;
-  v.mis = st.mis;
+  v.mis = vcm_mis_commit(p, st.mis);  // the vertex ends subpaths here: upg's pending term holds
   return true;
 }
 
@@ -504,8 +549,8 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   float K = cos_y / (d2 * camera_pixel_area(c) * cos_theta * cos_theta * cos_theta);
   sp.C = st.beta * f * (K / p.n_light);
   sp.K = K;
-  sp.Q = p.mode == VcmMode::kLight ? 0.f
-                                   : p.vm_factor + st.mis.dVCM + st.mis.dVC * vcm_mis(p, bsdf_pdf(st.m, wl, st.wo));
+  VcmMis lm = vcm_mis_commit(p, st.mis);
+  sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p) + lm.dVCM + lm.dVC * vcm_mis(p, bsdf_pdf(st.m, wl, st.wo));
   sp.raster = raster;
   Vec3f o = dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
   sp.ray = spawn_ray_to(o, pl, Vec3f(0.f));
@@ -548,7 +593,10 @@ CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
   Vec3f wi_world = st.frame.to_world(bs.wi);
   if (dot(wi_world, st.sh.ng) * bs.wi.z * dot(st.sh.ns, st.sh.ng) < 0.f) return st.active = false;
   float pdf_rev = bs.delta ? bs.pdf : bsdf_pdf(st.m, bs.wi, st.wo);
-  vcm_after_scatter(p, st.mis, std::fabs(bs.wi.z), bs.pdf, pdf_rev, bs.delta);
+  const bool upg = p.mode == VcmMode::kUpg, light = mode == TransportMode::kImportance;
+  vcm_after_scatter(p, st.mis, std::fabs(bs.wi.z), bs.pdf, pdf_rev, bs.delta, !upg || light || st.vm_ok,
+                    upg && light);
+  st.vm_ok = !bs.delta;
   st.specular = st.specular && bs.delta;
   RGB prev = st.beta;
   st.beta *= bs.weight;
@@ -660,8 +708,14 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
 struct VcmShadow {
   Ray ray;
   RGB contrib{0.f};
+  float weight = 0.f;  // the MIS weight in contrib
   bool active = false;
 };
+
+// The merge term at camera vertex st (see vcm_weight_nee).
+CHD float vcm_cam_vm(const VcmParams& p, const VcmPathState& st) {
+  return p.mode == VcmMode::kUpg && !st.vm_ok ? 0.f : p.vm_factor;
+}
 
 CHD Vec3f vcm_origin_towards(const VcmPathState& st, Vec3f w) {
   return dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
@@ -690,7 +744,8 @@ CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st
   float emission_pdf_w = vcm_emission_pdf(s, l, ls.n_l, -ls.wi);
   float dir_pdf = ls.delta ? 0.f : bsdf_pdf(st.m, st.wo, wi);
   float rev_pdf = bsdf_pdf(st.m, wi, st.wo);
-  float w = vcm_weight_nee(p, st.mis, pick, direct_pdf_w, emission_pdf_w, cos_at_light, cos_to_light, dir_pdf, rev_pdf);
+  float w = vcm_weight_nee(p, st.mis, pick, direct_pdf_w, emission_pdf_w, cos_at_light, cos_to_light, dir_pdf, rev_pdf,
+                           vcm_cam_vm(p, st));
   sr.contrib = st.beta * f * ls.Li * (cos_to_light * w / (pick * ls.pdf));
   Vec3f o = vcm_origin_towards(st, ls.wi);
   if (std::isfinite(ls.dist)) sr.ray = spawn_ray_to(o, ls.p_l, ls.n_l);
@@ -723,8 +778,9 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   float cam_rev_w = bsdf_pdf(st.m, wc, st.wo);
   float light_dir_a = bsdf_pdf(vm, vwo, vwl) * cos_c / d2;
   float light_rev_w = bsdf_pdf(vm, vwl, vwo);
-  float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, cam_rev_w, light_dir_a, light_rev_w);
+  float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, cam_rev_w, light_dir_a, light_rev_w, vcm_cam_vm(p, st));
   sr.contrib = st.beta * fc * fl * v.beta * (G * mw);
+  sr.weight = mw;
   Vec3f o = vcm_origin_towards(st, w);
   Vec3f target = offset_ray_origin(vsh.p, vsh.ng, -w);
   sr.ray = Ray{o, target - o, 1.f - 1e-4f};
@@ -735,7 +791,7 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
 // (report Eqs. 38-39; the constant-kernel density estimate 1 / (pi r^2 N_light) of the paper's vertex merging).
 CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
                           const VcmLightVertex* vertices) {
-  if (!st.vertex_valid || !p.use_vm()) return;
+  if (!st.vertex_valid || !p.merges()) return;
   RGB sum(0.f);
   grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
     const VcmLightVertex& v = vertices[id];

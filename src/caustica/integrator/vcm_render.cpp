@@ -138,7 +138,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   // 2. The hash grid of light vertices for merging (cells of 2r).
   PhotonHashGrid grid;
   PhotonGridView gv;
-  if (p.use_vm() && !verts.empty()) {
+  if (p.merges() && !verts.empty()) {
     std::vector<Photon> ph(verts.size());
     for (size_t k = 0; k < verts.size(); ++k) {
       ph[k].p = verts[k].sh.p;
@@ -179,7 +179,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
                 vcm_shadow(st, sr, accel.occluded(sr.ray));
               }
             }
-          if (st.vertex_valid && p.use_vm()) vcm_camera_merge(s, p, st, gv, verts.data());
+          if (st.vertex_valid && p.merges()) vcm_camera_merge(s, p, st, gv, verts.data());
           vcm_camera_continue(p, st);
         }
         if (isfinite3(st.L)) pass_L[pix] = st.L;

@@ -85,20 +85,16 @@ __global__ void k_upg_gather(SceneView s, VcmParams p, const VcmPathState* prev,
   upg_gather(s, p, prev[i], photons[i], rng.next_float(), g);
   RGB L(0.f);
   if (g.active && !scene_occluded(s, g.conn.ray)) {
-    uint32_t N = 0;
-    bool landed = false;
-    while (N < kUpgMaxTrials && !landed) {
-      ++N;
-      Ray r;
-      if (!upg_trial_ray(p, prev[i], rng, r)) continue;
+    uint32_t cast = 0;
+    float inv_p = upg_inv_p(p, prev[i], photons[i].sh.p, rng, cast, [&](const Ray& r) {
       Hit h;
       scene_intersect(s, r, h);
-      landed = upg_trial_lands(s, p, r, h, photons[i].sh.p);
-    }
-    if (landed) L = g.conn.contrib * float(N);
+      return upg_trial_lands(s, p, r, h, photons[i].sh.p);
+    });
+    L = g.conn.contrib * inv_p;
   }
   VcmShadow sr;
-  upg_camera_connect(s, p, prev[i], photons[i], sr);
+  vcm_camera_connect(s, p, prev[i], photons[i], sr);
   if (sr.active) L += sr.contrib;
   out[i] = make_float3(L.x, L.y, L.z);
 }
