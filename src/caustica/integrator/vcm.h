@@ -430,6 +430,26 @@ struct VcmLightVertex {
   VcmMis mis;
 };
 
+// What a merge reads of a light vertex (36 bytes against VcmLightVertex's 100):
+// the merging stage keeps these in the photon grid's order, so that the records
+// found by one query lie close together in memory.
+struct VcmMergeVertex {
+  Vec3f wi;
+  RGB beta{0.f};
+  float dVCM = 0.f, dVM = 0.f;
+  uint32_t length = 0;
+};
+
+CHD VcmMergeVertex vcm_merge_vertex(const VcmLightVertex& v) {
+  VcmMergeVertex m;
+  m.wi = v.wi;
+  m.beta = v.beta;
+  m.dVCM = v.mis.dVCM;
+  m.dVM = v.mis.dVM;
+  m.length = v.length;
+  return m;
+}
+
 struct VcmPathState {
   Ray ray;
   RGB beta{1.f};
@@ -789,19 +809,23 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
 
 // Merging at the camera vertex with the light vertices within the radius
 // (report Eqs. 38-39; the constant-kernel density estimate 1 / (pi r^2 N_light) of the paper's vertex merging).
+// `vertices` is indexed as the grid reports (the grid's order when its view has no ids).
 CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
-                          const VcmLightVertex* vertices) {
+                          const VcmMergeVertex* vertices) {
   if (!st.vertex_valid || !p.merges()) return;
   RGB sum(0.f);
   grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
-    const VcmLightVertex& v = vertices[id];
+    const VcmMergeVertex& v = vertices[id];
     if (v.length + st.length > p.max_depth) return;
     Vec3f wl = st.frame.to_local(v.wi);
     RGB f = bsdf_eval(st.m, st.wo, wl);
     if (is_black(f)) return;
-    float w = vcm_weight_merge(p, v.mis, st.mis, bsdf_pdf(st.m, st.wo, wl), bsdf_pdf(st.m, wl, st.wo));
+    VcmMis lm;
+    lm.dVCM = v.dVCM;
+    lm.dVM = v.dVM;
+    float w = vcm_weight_merge(p, lm, st.mis, bsdf_pdf(st.m, st.wo, wl), bsdf_pdf(st.m, wl, st.wo));
     sum += f * v.beta * w;
-  });
+  }, vertices, uint32_t(sizeof(VcmMergeVertex)));
   (void)s;
   st.L += st.beta * sum * p.vm_norm;
 }

@@ -95,8 +95,10 @@ struct PhotonGridView {
   // The same, calling f(uint32_t id, const Photon& decoded) with the photon's index in the array given to
   // build() when the grid keeps ids (else its position in the grid's own order). Integrators that keep
   // more per photon than the compact record (VCM's light vertices) look it up by this index.
+  // `records`/`stride` (optional): an array indexed like the ids f receives, whose entry for each cell
+  // run's first photon is prefetched with the photons (for callers that read a record per photon found).
   template <class F>
-  CHD void query_indexed(Vec3f p, float radius, F&& f) const {
+  CHD void query_indexed(Vec3f p, float radius, F&& f, const void* records = nullptr, uint32_t stride = 0) const {
     if (num_photons == 0) return;
     const float r2 = radius * radius;
     const float ru = radius * inv_cell_size;
@@ -135,6 +137,9 @@ struct PhotonGridView {
       run_end[k] = cell_start[s + 1];
 #if !defined(__CUDA_ARCH__) && (defined(__GNUC__) || defined(__clang__))
       __builtin_prefetch(photons + run_begin[k]);
+      if (records && run_begin[k] < run_end[k])
+        __builtin_prefetch(static_cast<const char*>(records) +
+                           size_t(ids ? ids[run_begin[k]] : run_begin[k]) * stride);
 #endif
     }
     for (int k = 0; k < num_runs; ++k) {
@@ -178,6 +183,7 @@ class PhotonHashGrid {
   size_t table_size() const { return cell_start_.empty() ? 0 : cell_start_.size() - 1; }
   const std::vector<CompactPhoton>& photons() const { return photons_; }
   const std::vector<uint32_t>& cell_start() const { return cell_start_; }
+  const std::vector<uint32_t>& ids() const { return ids_; }          // with keep_ids: input index per record
   const PhotonQuantizer& quantizer() const { return quant_; }
   float cell_size() const { return cell_size_; }
 

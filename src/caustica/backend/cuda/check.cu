@@ -127,7 +127,7 @@ __global__ void k_vcm_light(SceneView s, VcmParams p, uint32_t n, VcmLightVertex
 }
 
 __global__ void k_vcm_camera(SceneView s, VcmParams p, const VcmLightVertex* vertices, const uint32_t* path_start,
-                             PhotonGridView grid, float3* out) {
+                             PhotonGridView grid, const VcmMergeVertex* merge_vertices, float3* out) {
   uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   uint32_t n = uint32_t(s.camera.width) * uint32_t(s.camera.height);
   if (i >= n) return;
@@ -145,7 +145,7 @@ __global__ void k_vcm_camera(SceneView s, VcmParams p, const VcmLightVertex* ver
       vcm_camera_connect(s, p, st, vertices[k], sr);
       if (sr.active) vcm_shadow(st, sr, scene_occluded(s, sr.ray));
     }
-    vcm_camera_merge(s, p, st, grid, vertices);
+    vcm_camera_merge(s, p, st, grid, merge_vertices);
     vcm_camera_continue(p, st);
   }
   out[i] = make_float3(st.L.x, st.L.y, st.L.z);
