@@ -186,6 +186,7 @@ class RenderResult:
     image: np.ndarray
     stats: dict = field(default_factory=dict)
     interrupted: bool = False
+    strategies: dict = field(default_factory=dict)  # name -> (H, W, 3), with strategy_images=True
 
 
 def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, spp: Optional[int] = None,
@@ -216,7 +217,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                checkpoint: Optional[Callable[[np.ndarray], Any]] = None,
                checkpoint_interval: Optional[float] = None,
                target_error: Optional[float] = None, reference=None,
-               target_noise: Optional[float] = None) -> RenderResult:
+               target_noise: Optional[float] = None, strategy_images: bool = False) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -232,6 +233,9 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     relMSE estimated from the two half images (even and odd passes) <= target_noise. relMSE is
     the mean of (x - r)^2 / (r^2 + 0.01). stats["error"], stats["noise"] hold the last values
     checked and stats["target_reached"] says whether a target ended the render.
+    `strategy_images` (light, bdpt, bpm, vcm): RenderResult.strategies maps "k{k}_s{s}_t{t}" (the
+    connection strategy with s light and t camera vertices of paths of k <= 7 segments) and "merge_t{t}"
+    (merges at camera vertex t) to MIS-weighted (H, W, 3) images that sum to the image over those paths.
     Options left as None come from the scene's integrator defaults (see resolve_options);
     stats["integrator"] names the integrator used."""
     scene = load_scene(scene)
@@ -270,7 +274,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
                             sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),
                             alpha=float(alpha), pass_offset=int(pass_offset), stochastic_hash=bool(stochastic_hash),
-                            k=_positive_int("k", k), **targets)
+                            k=_positive_int("k", k), strategy_images=bool(strategy_images), **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -291,7 +295,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     stats["integrator"] = integrator
     if progress is not None and not interrupted:
         progress(stats)
-    return RenderResult(image=job.image(), stats=stats, interrupted=interrupted)
+    return RenderResult(image=job.image(), stats=stats, interrupted=interrupted,
+                        strategies=job.strategy_images() if strategy_images else {})
 
 
 def _targets(scene, target_error, reference, target_noise) -> dict:

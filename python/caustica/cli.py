@@ -128,6 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pppm: first pass index (independent passes can be rendered apart and averaged)")
     r.add_argument("--k", type=_positive_int("--k"), default=None,
                    help="pm: photons per k-nearest-neighbour density estimate (default: the scene's, else 50)")
+    r.add_argument("--strategy-images", metavar="DIR", default=None,
+                   help="light, bdpt, bpm, vcm: also write one EXR per strategy to DIR (k{k}_s{s}_t{t}.exr: s light "
+                        "and t camera vertices of paths of k <= 7 segments; merge_t{t}.exr), MIS-weighted")
     r.add_argument("--stochastic-hash", action="store_true",
                    help="photon maps keep one photon per hash cell (Hachisuka & Jensen 2010)")
     r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
@@ -249,6 +252,8 @@ def cmd_render(a) -> int:
         raise _api.InputError(f"--radius expects a positive number, got '{a.radius}'")
     if a.alpha is not None and not 0 < a.alpha < 1:
         raise _api.InputError(f"--alpha expects a number in (0, 1), got '{a.alpha}'")
+    if a.strategy_images is not None and not os.path.isdir(a.strategy_images):
+        raise _api.InputError(f"--strategy-images: '{a.strategy_images}' is not a directory")
     scene = _load(a, width=a.width, height=a.height, filter=a.filter)
     o = _api.resolve_options(scene, a.integrator, a.spp, a.time, a.rr_depth, a.sampler, a.photons, a.radius,
                              a.alpha, a.k)
@@ -275,11 +280,14 @@ def cmd_render(a) -> int:
                               radius=o["radius"], alpha=o["alpha"], pass_offset=a.pass_offset,
                               stochastic_hash=a.stochastic_hash, k=o["k"], checkpoint=write_all if a.checkpoint else None,
                               checkpoint_interval=a.checkpoint, target_error=a.target_error,
-                              reference=a.reference, target_noise=a.target_noise)
+                              reference=a.reference, target_noise=a.target_noise,
+                              strategy_images=a.strategy_images is not None)
     finally:
         prog.close()
     st = res.stats
     write_all(res.image)
+    for name, img in res.strategies.items():
+        _api.write_image(os.path.join(a.strategy_images, name + ".exr"), img)
     secs = max(st["seconds"], 1e-9)
     if integrator in ("light", "bdpt", "bpm", "vcm", "upg"):
         # Bidirectional: one light path (and, except for light, one eye path) per pixel per pass.

@@ -2,6 +2,8 @@
 
 Statistical checks with fixed seeds; every tolerance is a number of standard errors measured from
 independent seeds (stated beside each assertion), or an error bound with its measured value."""
+import os
+
 import numpy as np
 import pytest
 
@@ -227,3 +229,68 @@ def test_thin_lens_light_tracing_matches_path_tracing():
     mr, ser = seeded_regions(s, "path", 64, range(16), max_depth=2)
     z = np.abs(m - mr) / np.sqrt(se ** 2 + ser ** 2)
     assert z.max() < 4.0, (np.round(z, 1), m / mr)
+
+
+# Per-strategy images (Veach 1997, Fig. 10.3): every weighted contribution lands in exactly one of them.
+K_MAX = 7
+N_STRATEGIES = sum(k + 1 for k in range(1, K_MAX + 1)) + (K_MAX - 1)
+
+
+@pytest.mark.parametrize("integrator", ["bdpt", "vcm"])
+def test_strategy_images_sum_to_the_image(integrator):
+    # With max_depth <= 7 every path is in some strategy image: their sum is the image (float sums of the
+    # same terms in another order: 1e-5 relative to the brightest pixel).
+    s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
+    r = caustica.render_job(s, integrator=integrator, spp=4, max_depth=7, radius=0.05, strategy_images=True)
+    assert len(r.strategies) == N_STRATEGIES
+    assert set(r.strategies) >= {"k1_s0_t2", "k2_s1_t2", "k2_s2_t1", "k7_s7_t1", "merge_t2", "merge_t7"}
+    total = sum(r.strategies.values())
+    assert np.abs(total - r.image).max() <= 1e-5 * float(r.image.max())
+    # Each kind of strategy contributes on this scene (emission, NEE, connections, light tracing; merges for vcm).
+    means = {k: float(v.mean()) for k, v in r.strategies.items()}
+    for k in ("k1_s0_t2", "k2_s1_t2", "k2_s2_t1", "k3_s2_t2"):
+        assert means[k] > 0, (k, means[k])
+    merged = sum(v for k, v in means.items() if k.startswith("merge"))
+    assert (merged > 0) == (integrator == "vcm"), merged
+
+
+def test_strategy_images_follow_the_integrators_strategy_set():
+    # light: only light tracing (t = 1) and the camera rays through delta chains that hit a light (s = 0);
+    # bpm: merges and s = 0 only. Images of other strategies are exactly zero.
+    s = caustica.load_scene("smallvcm-spheres", width=24, height=24)
+    light = caustica.render_job(s, integrator="light", spp=2, max_depth=6, strategy_images=True).strategies
+    for k, v in light.items():
+        if not (k.endswith("_t1") or "_s0_" in k):
+            assert float(np.abs(v).max()) == 0.0, k
+    assert float(light["k3_s3_t1"].mean()) > 0
+    bpm = caustica.render_job(s, integrator="bpm", spp=2, max_depth=6, radius=0.05, strategy_images=True).strategies
+    for k, v in bpm.items():
+        if not (k.startswith("merge") or "_s0_" in k):
+            assert float(np.abs(v).max()) == 0.0, k
+    assert float(bpm["merge_t2"].mean()) > 0
+
+
+def test_strategy_images_are_refused_for_other_integrators():
+    with pytest.raises(caustica.InputError, match="strategy-images needs a bidirectional integrator"):
+        caustica.render_job("cornell", integrator="path", spp=1, strategy_images=True)
+
+
+def test_cli_writes_strategy_images(caustica_bin, tmp_path):
+    import subprocess
+    d = tmp_path / "strategies"
+    d.mkdir()
+    out = str(tmp_path / "img.exr")
+    r = subprocess.run([caustica_bin, "render", "cornell", "--integrator", "bdpt", "--spp", "1", "--width", "16",
+                        "--height", "16", "--max-depth", "3", "--quiet", "-o", out, "--strategy-images", str(d)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    names = sorted(os.listdir(d))
+    assert len(names) == N_STRATEGIES and "k2_s1_t2.exr" in names
+    total = sum(caustica.read_image(str(d / n)) for n in names)
+    img = caustica.read_image(out)
+    assert np.abs(total - img).max() <= 1e-5 * float(img.max())
+    for bad in (["--strategy-images", str(tmp_path / "missing")], ["--strategy-images", str(d), "--integrator", "path"]):
+        r = subprocess.run([caustica_bin, "render", "cornell", "--spp", "1", "--width", "8", "--height", "8", "--quiet",
+                            "-o", str(tmp_path / "x.exr"), *bad], capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2 and "strategy-images" in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert not os.path.exists(tmp_path / "x.exr")

@@ -253,7 +253,7 @@ NB_MODULE(_native, m) {
               const std::string& accel, int64_t photons, float radius, float alpha, int64_t pass_offset,
               bool stochastic_hash, int k, double target_error,
               std::optional<nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>> reference,
-              double target_noise) {
+              double target_noise, bool strategy_images) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -274,6 +274,7 @@ NB_MODULE(_native, m) {
              o.k = k;
              o.target_error = target_error;
              o.target_noise = target_noise;
+             o.strategy_images = strategy_images;
              if (reference) {
                if (reference->shape(2) != 3) throw InputError("the reference image must have 3 channels (H, W, 3)");
                const float* p = reference->data();
@@ -287,7 +288,7 @@ NB_MODULE(_native, m) {
            nb::arg("sampler") = "sobol", nb::arg("accel") = "embree", nb::arg("photons") = 0,
            nb::arg("radius") = 0.f, nb::arg("alpha") = 0.7f, nb::arg("pass_offset") = 0,
            nb::arg("stochastic_hash") = false, nb::arg("k") = 50, nb::arg("target_error") = 0.0,
-           nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0)
+           nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0, nb::arg("strategy_images") = false)
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
@@ -318,6 +319,16 @@ NB_MODULE(_native, m) {
           img = j.image();
         }
         return to_numpy(std::move(img), j.height(), j.width());
+      })
+      .def("strategy_images", [](const RenderJob& j) {
+        std::vector<std::pair<std::string, std::vector<float>>> v;
+        {
+          nb::gil_scoped_release release;
+          v = j.strategy_images();
+        }
+        nb::dict d;
+        for (auto& e : v) d[e.first.c_str()] = to_numpy(std::move(e.second), j.height(), j.width());
+        return d;
       });
 
   m.def("write_image",

@@ -80,6 +80,9 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.pass_offset < 0) throw InputError("--pass-offset must be a non-negative integer");
   if (o.accel != "embree" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: embree, bvh)");
+  if (o.strategy_images && !is_vcm_integrator(o.integrator))
+    throw InputError("--strategy-images needs a bidirectional integrator (allowed: light, bdpt, bpm, vcm), got '" +
+                     o.integrator + "'");
   if (o.target_error < 0 || !std::isfinite(o.target_error)) throw InputError("--target-error must be a positive number");
   if (o.target_error > 0 && o.reference.empty())
     throw InputError("--target-error needs --reference (an image to measure the error against)");
@@ -276,6 +279,14 @@ std::vector<float> RenderJob::image() const {
   if (vcm_) return vcm_->image(passes_.load());
   if (upg_) return upg_->image(passes_.load());
   return film_.image();
+}
+
+std::vector<std::pair<std::string, std::vector<float>>> RenderJob::strategy_images() const {
+  snapshot_waiting_.fetch_add(1);
+  std::unique_lock<std::mutex> lock(mutex_);
+  snapshot_waiting_.fetch_sub(1);
+  if (vcm_) return vcm_->strategy_images(passes_.load());
+  return {};
 }
 
 }  // namespace caustica

@@ -32,6 +32,9 @@ struct RenderOptions {
   int64_t pass_offset = 0;   // pppm: render passes [pass_offset, pass_offset + spp)
   bool stochastic_hash = false;  // keep one photon per hash cell (Hachisuka & Jensen 2010)
   int k = 50;                // pm: photons per k-nearest density estimate
+  // light, bdpt, bpm, vcm: keep one image per strategy (Veach 1997 Fig. 10.3): connections (s, t) of paths
+  // up to kStrategyMaxLength segments, merges per camera vertex (VcmIntegrator::strategy_images).
+  bool strategy_images = false;
   // Stop on quality (checked at the end of passes; whichever of spp, time and a
   // target comes first ends the render). The error is relMSE with epsilon 0.01:
   // mean over pixels and channels of (x - r)^2 / (r^2 + 0.01).
@@ -111,6 +114,9 @@ class RenderJob {
   void cancel() { cancel_.store(true); }
   RenderStats stats() const;
   std::vector<float> image() const;
+  // With RenderOptions::strategy_images: (name, H*W*3 image) per strategy, means over the passes done,
+  // each already MIS-weighted (they sum to image() over paths up to the length limit).
+  std::vector<std::pair<std::string, std::vector<float>>> strategy_images() const;
   int width() const { return film_.width; }
   int height() const { return film_.height; }
 

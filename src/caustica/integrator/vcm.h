@@ -546,6 +546,7 @@ struct VcmSplat {
   RGB C{0.f};    // beta f K / N_light, K = |cos_y| / (d^2 A_pix cos^3 theta)
   float K = 0.f; // camera area density per unit raster density
   float Q = 0.f; // vm_factor + dVCM + dVC mis(p_rev)
+  uint32_t length = 0;  // segments of the light subpath (the strategy s = length + 1, t = 1)
   bool active = false;
 };
 
@@ -572,6 +573,7 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   VcmMis lm = vcm_mis_commit(p, st.mis);
   sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p) + lm.dVCM + lm.dVC * vcm_mis(p, bsdf_pdf(st.m, wl, st.wo));
   sp.raster = raster;
+  sp.length = st.length;
   Vec3f o = dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
   sp.ray = spawn_ray_to(o, pl, Vec3f(0.f));
   sp.active = isfinite3(sp.C) && !is_black(sp.C);

@@ -36,6 +36,37 @@ VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   // smallvcm-point, at one footprint it won (bench/RESULTS.md, bidirectional).
   r0_ = opt.radius;
   if (!(r0_ > 0.f)) r0_ = 0.5f * automatic_radius(*scene_);
+  if (opt.strategy_images) {
+    for (uint32_t k = 1; k <= kStrategyMaxLength; ++k)
+      for (uint32_t s = 0; s <= k; ++s)
+        strat_names_.push_back("k" + std::to_string(k) + "_s" + std::to_string(s) + "_t" + std::to_string(k + 1 - s));
+    for (uint32_t t = 2; t <= kStrategyMaxLength; ++t) strat_names_.push_back("merge_t" + std::to_string(t));
+    strat_sum_.assign(strat_names_.size(), std::vector<float>(sum_.size(), 0.f));
+    strat_pass_ = strat_sum_;
+  }
+}
+
+// Connections of paths of k = s + t - 1 segments, k = 1 .. kStrategyMaxLength, in order of k then s.
+int VcmIntegrator::connection_slot(uint32_t s, uint32_t t) const {
+  uint32_t k = s + t - 1;
+  if (strat_sum_.empty() || t < 1 || k < 1 || k > kStrategyMaxLength) return -1;
+  return int((k - 1) * (k + 2) / 2 + s);  // sum_{j < k} (j + 1) = (k - 1)(k + 2)/2
+}
+// Merges at the camera vertex t (after t - 1 segments; t >= 2), after the connections.
+int VcmIntegrator::merge_slot(uint32_t t) const {
+  if (strat_sum_.empty() || t < 2 || t > kStrategyMaxLength) return -1;
+  return int(kStrategyMaxLength * (kStrategyMaxLength + 3) / 2 + (t - 2));
+}
+
+std::vector<std::pair<std::string, std::vector<float>>> VcmIntegrator::strategy_images(int64_t passes) const {
+  std::vector<std::pair<std::string, std::vector<float>>> out;
+  for (size_t i = 0; i < strat_names_.size(); ++i) {
+    std::vector<float> img(strat_sum_[i].size(), 0.f);
+    if (passes > 0)
+      for (size_t j = 0; j < img.size(); ++j) img[j] = strat_sum_[i][j] / float(passes);
+    out.emplace_back(strat_names_[i], std::move(img));
+  }
+  return out;
 }
 
 float VcmIntegrator::radius(int64_t pass) const {
@@ -162,6 +193,13 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
 
   // 3. Camera subpaths, one per pixel, in parallel over rows (each pixel owned by one task).
   std::vector<RGB> pass_L(n, RGB(0.f));
+  const bool rec = !strat_pass_.empty();
+  for (auto& b : strat_pass_) std::fill(b.begin(), b.end(), 0.f);
+  auto record = [&](int slot, uint32_t pix, RGB c) {  // a strategy's weighted contribution to a pixel
+    if (slot < 0 || !isfinite3(c)) return;
+    float* q = &strat_pass_[size_t(slot)][3 * size_t(pix)];
+    q[0] += c.x, q[1] += c.y, q[2] += c.z;
+  };
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
     uint64_t nrays = 0;
     for (int y = r.begin(); y < r.end(); ++y) {
@@ -174,23 +212,33 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
           Hit hit;
           accel.intersect(st.ray, hit);
           ++nrays;
+          RGB before = st.L;
           vcm_camera_hit(s, p, st, hit);
+          if (rec) record(connection_slot(0, st.length + 1), pix, st.L - before);
           if (!st.active) break;
           VcmShadow sr;
           vcm_camera_nee(s, p, st, sr);
           if (sr.active) {
             ++nrays;
-            vcm_shadow(st, sr, accel.occluded(sr.ray));
+            bool occ = accel.occluded(sr.ray);
+            vcm_shadow(st, sr, occ);
+            if (rec && !occ) record(connection_slot(1, st.length + 1), pix, sr.contrib);
           }
           if (st.vertex_valid && p.use_vc())
             for (uint32_t k = start[pix]; k < start[pix + 1]; ++k) {
               vcm_camera_connect(s, p, st, verts[k], sr);
               if (sr.active) {
                 ++nrays;
-                vcm_shadow(st, sr, accel.occluded(sr.ray));
+                bool occ = accel.occluded(sr.ray);
+                vcm_shadow(st, sr, occ);
+                if (rec && !occ) record(connection_slot(verts[k].length + 1, st.length + 1), pix, sr.contrib);
               }
             }
-          if (st.vertex_valid && p.merges()) vcm_camera_merge(s, p, st, gv, merge_verts.data());
+          if (st.vertex_valid && p.merges()) {
+            before = st.L;
+            vcm_camera_merge(s, p, st, gv, merge_verts.data());
+            if (rec) record(merge_slot(st.length + 1), pix, st.L - before);
+          }
           vcm_camera_continue(p, st);
         }
         if (isfinite3(st.L)) pass_L[pix] = st.L;
@@ -204,11 +252,16 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   for (uint32_t i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c) sum_[3 * size_t(i) + c] += double(pass_L[i][c]);
   for (uint32_t c = 0; c < nchunks; ++c)
-    for (const VcmSplat& sp : csplats[c])
+    for (const VcmSplat& sp : csplats[c]) {
+      const int slot = rec ? connection_slot(sp.length + 1, 1) : -1;
       vcm_splat_pixels(s, p, sp, [&](uint32_t pix, RGB v) {
         if (!isfinite3(v)) return;
         for (int k = 0; k < 3; ++k) sum_[3 * size_t(pix) + k] += double(v[k]);
+        record(slot, pix, v);
       });
+    }
+  for (size_t i = 0; i < strat_pass_.size(); ++i)
+    for (size_t j = 0; j < strat_pass_[i].size(); ++j) strat_sum_[i][j] += strat_pass_[i][j];
   traced_ += n;
   rays_ += rays.load();
   return true;

@@ -41,6 +41,13 @@ class VcmIntegrator {
   uint64_t rays() const { return rays_; }
   // Merge radius of pass i (0-based): r_1 (i + 1)^((alpha - 1) / 2) (Georgiev et al. 2012, Sec. 5).
   float radius(int64_t pass) const;
+  // Per-strategy images (RenderOptions::strategy_images), means over passes_done: "k{k}_s{s}_t{t}" for the
+  // connection strategies of paths of k <= kStrategyMaxLength segments (s light vertices, t camera vertices,
+  // s + t = k + 1: s = 0 is a camera path reaching a light, s = 1 next-event estimation, t = 1 light tracing),
+  // "merge_t{t}" for merges at the camera vertex after t - 1 segments (all path lengths). Weighted
+  // contributions: they add up to the image over paths of at most kStrategyMaxLength segments.
+  static constexpr uint32_t kStrategyMaxLength = 7;
+  std::vector<std::pair<std::string, std::vector<float>>> strategy_images(int64_t passes_done) const;
 
  private:
   std::shared_ptr<Scene> scene_;
@@ -51,6 +58,11 @@ class VcmIntegrator {
   int W_, H_;
   uint64_t traced_ = 0, rays_ = 0;
   std::vector<double> sum_;  // 3 per pixel: camera-path estimates (weighted by h/p) plus splats, summed over passes
+  // Strategy images: slot -1 when not kept; sums over completed passes and the pass in flight.
+  int connection_slot(uint32_t s, uint32_t t) const;
+  int merge_slot(uint32_t t) const;
+  std::vector<std::string> strat_names_;
+  std::vector<std::vector<float>> strat_sum_, strat_pass_;
 };
 
 }  // namespace caustica
