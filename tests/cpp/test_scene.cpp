@@ -86,13 +86,17 @@ TEST(Accelerators, EmbreeAndPortableBVHAgree) {
         ASSERT_TRUE((PrimIntersector{&v, &single}(he.prim, rr))) << entry.first;
         EXPECT_NEAR(single.t, hb.t, 1e-4f * std::max(1.f, hb.t)) << entry.first;
       }
-      // Occlusion up to just before and just after the hit.
+      // Occlusion up to just before and just after the hit. Float hit distances carry an absolute error of
+      // a few ulps of the coordinates (the scene is of size ~1-5), so the margins are 0.1% plus 1e-5.
+      const float slack = 1e-5f * std::max(1.f, length(ext));
       Ray s = r;
-      s.tmax = he.t * 0.999f;
-      EXPECT_EQ(sc->embree().occluded(s), bvh.occluded(s));
-      s.tmax = he.t * 1.001f;
+      if (he.t > 2.f * slack) {
+        s.tmax = he.t * 0.999f - slack;
+        EXPECT_EQ(sc->embree().occluded(s), bvh.occluded(s));
+      }
+      s.tmax = he.t * 1.001f + slack;
       EXPECT_TRUE(sc->embree().occluded(s));
-      EXPECT_TRUE(bvh.occluded(s));
+      EXPECT_TRUE(bvh.occluded(s)) << entry.first << " t " << he.t << " bvh t " << hb.t;
     }
     EXPECT_GT(hits, n / 2) << entry.first;
     EXPECT_LT(mismatches, n / 100) << entry.first;  // ties are rare

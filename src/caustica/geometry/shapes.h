@@ -1,6 +1,6 @@
 // Ray-primitive intersection and uniform area sampling for triangles and
-// spheres. Triangles: Moller & Trumbore 1997, "Fast, Minimum Storage
-// Ray/Triangle Intersection". Spheres: the numerically careful quadratic of
+// spheres. Triangles: Woop, Benthin, Wald 2013, "Watertight Ray/Triangle
+// Intersection" (the portable BVH's test; Embree's is watertight too). Spheres: the numerically careful quadratic of
 // Haines et al. 2019, "Precision Improvements for Ray/Sphere Intersection"
 // (Ray Tracing Gems, chapter 7, Eqs. 7.5-7.9).
 #pragma once
@@ -14,22 +14,46 @@ struct Sphere {
   float radius;
 };
 
-// Returns true and fills t, b1, b2 when the ray hits triangle (p0, p1, p2) in (tmin, tmax).
+// Returns true and fills t, b1, b2 (the weights of p1 and p2) when the ray hits
+// triangle (p0, p1, p2) at 0 < t < tmax. Watertight (Woop, Benthin, Wald 2013,
+// "Watertight Ray/Triangle Intersection", JCGT 2(1)): the vertices are moved into a
+// frame where the ray starts at the origin and runs along +z (a permutation of the
+// axes, largest direction component last, then a shear), so that the three edge
+// functions U, V, W are evaluated on the same projected vertices for both
+// triangles sharing an edge; an edge function that comes out exactly 0 is
+// recomputed in double precision, so rays through shared edges and vertices hit at
+// least one of the triangles (tests/cpp/test_triangle.cpp).
 CHD bool intersect_triangle(const Ray& r, Vec3f p0, Vec3f p1, Vec3f p2, float& t, float& b1, float& b2) {
-  Vec3f e1 = p1 - p0, e2 = p2 - p0;
-  Vec3f pv = cross(r.d, e2);
-  float det = dot(e1, pv);
+  float adx = std::fabs(r.d.x), ady = std::fabs(r.d.y), adz = std::fabs(r.d.z);
+  int kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2);
+  int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+  if (r.d[kz] < 0.f) { int tmp = kx; kx = ky; ky = tmp; }  // keeps the winding (the sign of det)
+  if (r.d[kz] == 0.f) return false;                          // a zero or NaN direction
+  float sz = 1.f / r.d[kz], sx = r.d[kx] * sz, sy = r.d[ky] * sz;
+  Vec3f a = p0 - r.o, b = p1 - r.o, c = p2 - r.o;
+  float ax = a[kx] - sx * a[kz], ay = a[ky] - sy * a[kz];
+  float bx = b[kx] - sx * b[kz], by = b[ky] - sy * b[kz];
+  float cx = c[kx] - sx * c[kz], cy = c[ky] - sy * c[kz];
+  float u = cx * by - cy * bx;  // edge p1-p2: the weight of p0
+  float v = ax * cy - ay * cx;  // edge p2-p0: the weight of p1
+  float w = bx * ay - by * ax;  // edge p0-p1: the weight of p2
+  if (u == 0.f || v == 0.f || w == 0.f) {
+    u = float(double(cx) * double(by) - double(cy) * double(bx));
+    v = float(double(ax) * double(cy) - double(ay) * double(cx));
+    w = float(double(bx) * double(ay) - double(by) * double(ax));
+  }
+  if ((u < 0.f || v < 0.f || w < 0.f) && (u > 0.f || v > 0.f || w > 0.f)) return false;
+  float det = u + v + w;
   if (det == 0.f || !std::isfinite(det)) return false;
+  float az = sz * a[kz], bz = sz * b[kz], cz = sz * c[kz];
+  float tt = u * az + v * bz + w * cz;  // t * det
+  if (det < 0.f ? (tt >= 0.f || !(tt > r.tmax * det)) : (tt <= 0.f || !(tt < r.tmax * det))) return false;
   float inv = 1.f / det;
-  Vec3f tv = r.o - p0;
-  float u = dot(tv, pv) * inv;
-  if (u < 0.f || u > 1.f) return false;
-  Vec3f qv = cross(tv, e1);
-  float v = dot(r.d, qv) * inv;
-  if (v < 0.f || u + v > 1.f) return false;
-  float tt = dot(e2, qv) * inv;
-  if (!(tt > 0.f) || !(tt < r.tmax)) return false;
-  t = tt; b1 = u; b2 = v;
+  float th = tt * inv;
+  if (!(th > 0.f) || !(th < r.tmax)) return false;
+  t = th;
+  b1 = v * inv;
+  b2 = w * inv;
   return true;
 }
 
