@@ -118,7 +118,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--exposure", type=_float("--exposure"), default=0.0,
                    help="PNG only: scale by 2^exposure before sRGB encoding")
     r.add_argument("--photons", type=_positive_int("--photons"), default=None,
-                   help="photon integrators: photon paths per pass (default: one per pixel)")
+                   help="photon integrators: photon paths per pass; light, bdpt, bpm, vcm, upg: light subpaths per "
+                        "pass (default: one per pixel)")
     r.add_argument("--radius", type=_float("--radius"), default=None,
                    help="photon integrators, bpm, vcm: initial gather/merge radius (default: automatic, printed)")
     r.add_argument("--alpha", type=_float("--alpha"), default=None,

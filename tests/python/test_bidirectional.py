@@ -74,6 +74,19 @@ def test_unbiased_ones_match_path_tracing_per_region(cornell, cornell_path_regio
     assert z.max() < 4.0, np.round(z, 1)
 
 
+@pytest.mark.parametrize("integrator,photons", [("light", 256), ("light", 4096), ("bdpt", 256), ("bdpt", 4096)])
+def test_light_subpaths_per_pass_keep_them_unbiased(cornell, cornell_path_regions, integrator, photons):
+    # --photons N light subpaths per pass (32 x 32 = 1024 pixels: a quarter and four times the default):
+    # camera path i connects to subpath i mod N, light tracing splats all N with weight 1/N. Same criterion as
+    # above: every region mean within 4 combined standard errors of the path tracer's.
+    m, se = seeded_regions(cornell, integrator, 16, range(400, 416), photons=photons)
+    mr, ser = cornell_path_regions
+    z = np.abs(m - mr) / np.sqrt(se ** 2 + ser ** 2)
+    assert z.max() < 4.0, np.round(z, 1)
+    st = caustica.render_job(cornell, integrator=integrator, spp=3, photons=photons).stats
+    assert st["photons"] == 3 * photons
+
+
 def test_bdpt_matches_path_tracing_with_mirror_and_glass(smallvcm, smallvcm_path_regions):
     # The SmallVCM box with the ceiling area light, glossy floor, mirror and glass spheres: bdpt sees every
     # path the path tracer sees; 16 region means within 4 combined standard errors.

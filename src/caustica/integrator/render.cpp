@@ -75,6 +75,8 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.rr_depth < 1) throw InputError("--rr-depth must be a positive integer");
   if (o.threads < 0) throw InputError("--threads must be a positive integer");
   if (o.photons < 0) throw InputError("--photons must be a positive integer");
+  if (o.photons > 0x7fffffff && (is_vcm_integrator(o.integrator) || o.integrator == "upg"))
+    throw InputError("--photons: at most 2147483647 light subpaths per pass, got " + std::to_string(o.photons));
   if (o.radius < 0 || !std::isfinite(o.radius)) throw InputError("--radius must be a positive number");
   if (!(o.alpha > 0.f && o.alpha < 1.f)) throw InputError("--alpha must be in (0, 1)");
   if (o.pass_offset < 0) throw InputError("--pass-offset must be a non-negative integer");

@@ -40,12 +40,16 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   p.pass = uint32_t(pass);
   p.sampler = opt_.sampler;
   const uint32_t n = uint32_t(W_) * uint32_t(H_);
-  p.n_light = float(n);
+  // Light subpaths per pass (--photons; default one per pixel, SmallVCM's pairing). Camera path i
+  // connects to light subpath i mod nl (n_VC = 1 connection subpath per camera path); merges,
+  // gathers and light tracing use all nl (N_VM = nl in the MIS).
+  const uint32_t nl = opt_.photons > 0 ? uint32_t(opt_.photons) : n;
+  p.n_light = float(nl);
   vcm_set_radius(p, r_);
 
   // 1. Light subpaths in fixed chunks (trace_light_subpaths in vcm_render.cpp).
   LightSubpaths lp;
-  if (!trace_light_subpaths(s, p, accel, n, /*keep_vertices=*/true, cancel, lp)) return false;
+  if (!trace_light_subpaths(s, p, accel, nl, /*keep_vertices=*/true, cancel, lp)) return false;
   const std::vector<VcmLightVertex>& verts = lp.verts;
   const std::vector<uint32_t>& start = lp.start;
   const std::vector<std::vector<VcmSplat>>& csplats = lp.splats;
@@ -127,7 +131,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
             vcm_shadow(st, sr, accel.occluded(sr.ray));
           }
           if (st.vertex_valid)
-            for (uint32_t k = start[pix]; k < start[pix + 1]; ++k) {
+            for (uint32_t k = start[pix % nl]; k < start[pix % nl + 1]; ++k) {
               vcm_camera_connect(s, p, st, verts[k], sr);
               if (sr.active) {
                 ++nrays;
@@ -156,7 +160,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
         if (!isfinite3(v)) return;
         for (int k = 0; k < 3; ++k) sum_[3 * size_t(pix) + k] += double(v[k]);
       });
-  traced_ += n;
+  traced_ += nl;
   rays_ += rays.load();
   trials_ += trials.load();
   capped_ += capped.load();

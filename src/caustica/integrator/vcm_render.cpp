@@ -153,13 +153,17 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   p.pass = uint32_t(pass);
   p.sampler = opt_.sampler;
   const uint32_t n = uint32_t(W_) * uint32_t(H_);
-  p.n_light = float(n);
+  // Light subpaths per pass (--photons; default one per pixel, SmallVCM's pairing). Camera path i
+  // connects to light subpath i mod nl (n_VC = 1 connection subpath per camera path); merges,
+  // gathers and light tracing use all nl (N_VM = nl in the MIS).
+  const uint32_t nl = opt_.photons > 0 ? uint32_t(opt_.photons) : n;
+  p.n_light = float(nl);
   vcm_set_radius(p, radius(pass));
 
   // 1. Light subpaths in fixed chunks (trace_light_subpaths, shared with upg).
   const bool keep_vertices = p.use_vc() || p.use_vm();
   LightSubpaths lp;
-  if (!trace_light_subpaths(s, p, accel, n, keep_vertices, cancel, lp)) return false;
+  if (!trace_light_subpaths(s, p, accel, nl, keep_vertices, cancel, lp)) return false;
   const std::vector<VcmLightVertex>& verts = lp.verts;
   const std::vector<uint32_t>& start = lp.start;
   const std::vector<std::vector<VcmSplat>>& csplats = lp.splats;
@@ -225,7 +229,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
             if (rec && !occ) record(connection_slot(1, st.length + 1), pix, sr.contrib);
           }
           if (st.vertex_valid && p.use_vc())
-            for (uint32_t k = start[pix]; k < start[pix + 1]; ++k) {
+            for (uint32_t k = start[pix % nl]; k < start[pix % nl + 1]; ++k) {
               vcm_camera_connect(s, p, st, verts[k], sr);
               if (sr.active) {
                 ++nrays;
@@ -262,7 +266,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
     }
   for (size_t i = 0; i < strat_pass_.size(); ++i)
     for (size_t j = 0; j < strat_pass_[i].size(); ++j) strat_sum_[i][j] += strat_pass_[i][j];
-  traced_ += n;
+  traced_ += nl;
   rays_ += rays.load();
   return true;
 }
