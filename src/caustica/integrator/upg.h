@@ -99,7 +99,8 @@ CHD bool upg_trial_ray(const VcmParams& p, const VcmPathState& prev, PCG32& rng,
   RGB beta = prev.beta * bs.weight;
   if (is_black(beta) || !isfinite3(beta)) return false;
   if (prev.length >= p.rr_depth) {
-    float q = minf(1.f, max_component(beta) / maxf(max_component(prev.beta), 1e-30f));
+    float q = minf(1.f, max_component(beta) * vcm_rr_eta2(bs, TransportMode::kRadiance) /
+                            maxf(max_component(prev.beta), 1e-30f));
     if (!(u_rr < q)) return false;
   }
   ray.o = vcm_origin_towards(prev, wi_world);

@@ -605,6 +605,14 @@ CHD void vcm_splat_pixels(const SceneView& s, const VcmParams& p, const VcmSplat
     }
 }
 
+// Russian roulette continues with the scattering's albedo, the throughput ratio
+// without the 1/eta^2 that refraction gives radiance (else a camera path entering
+// glass would be killed with probability 1 - 1/eta^2 and its survivors doubled on
+// the way out; pbrt-v4 and Mitsuba 3 keep the same factor, "eta scale").
+CHD float vcm_rr_eta2(const BSDFSample& bs, TransportMode mode) {
+  return mode == TransportMode::kRadiance ? bs.eta * bs.eta : 1.f;
+}
+
 // Samples the next direction (both subpaths); false ends the path.
 CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
   float uc = st.sampler.next_1d();
@@ -624,7 +632,7 @@ CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
   st.beta *= bs.weight;
   if (is_black(st.beta) || !isfinite3(st.beta)) return st.active = false;
   if (st.length >= p.rr_depth) {
-    float q = minf(1.f, max_component(st.beta) / maxf(max_component(prev), 1e-30f));
+    float q = minf(1.f, max_component(st.beta) * vcm_rr_eta2(bs, mode) / maxf(max_component(prev), 1e-30f));
     if (!(u_rr < q)) return st.active = false;
     st.beta /= q;
   }
