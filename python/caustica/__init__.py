@@ -19,6 +19,7 @@ from ._api import (
     builtin_scenes,
     default_scene_name,
     describe,
+    devices,
     export_scene,
     integrators,
     load_dict,
@@ -35,6 +36,7 @@ from .converge import converge
 
 __all__ = [
     "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
-    "default_scene_name", "describe", "export_scene", "integrators", "load_dict", "load_scene", "load_scene_desc", "read_image",
+    "default_scene_name", "describe",
+    "devices", "export_scene", "integrators", "load_dict", "load_scene", "load_scene_desc", "read_image",
     "render", "render_job", "write_image", "metrics", "converge",
 ]

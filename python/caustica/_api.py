@@ -40,6 +40,35 @@ def integrators() -> list[str]:
     return list(_native.integrator_names())
 
 
+DEVICES = ("cpu", "cuda")
+
+
+def _cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "CPU"
+
+
+def devices() -> list[dict]:
+    """The devices this build can render on: [{"name": "cpu", "description": ...}]. The CUDA backend
+    (issue 7) is not part of this build yet, so "cuda" is never listed; render(..., device="cuda") says so."""
+    return [{"name": "cpu", "description": f"{_cpu_name()}, {os.cpu_count()} threads (Embree, oneTBB)"}]
+
+
+def _check_device(device: str) -> None:
+    if device not in DEVICES:
+        raise InputError(f"unknown device '{device}' (allowed: {', '.join(DEVICES)})")
+    available = [d["name"] for d in devices()]
+    if device not in available:
+        raise InputError(f"device '{device}' is not available: this build of caustica has no CUDA backend "
+                         f"(available: {', '.join(available)}; `caustica devices` lists them)")
+
+
 def _params(params: Optional[dict]) -> dict:
     """Mitsuba XML $name substitutions as strings (booleans as true/false)."""
     if params is None:
@@ -217,7 +246,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                checkpoint: Optional[Callable[[np.ndarray], Any]] = None,
                checkpoint_interval: Optional[float] = None,
                target_error: Optional[float] = None, reference=None,
-               target_noise: Optional[float] = None, strategy_images: bool = False) -> RenderResult:
+               target_noise: Optional[float] = None, strategy_images: bool = False,
+               device: str = "cpu") -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -236,8 +266,11 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     `strategy_images` (light, bdpt, bpm, vcm): RenderResult.strategies maps "k{k}_s{s}_t{t}" (the
     connection strategy with s light and t camera vertices of paths of k <= 7 segments) and "merge_t{t}"
     (merges at camera vertex t) to MIS-weighted (H, W, 3) images that sum to the image over those paths.
+    `device`: "cpu" (default) or "cuda"; a device that devices() does not list is an InputError (this build
+    has no CUDA backend).
     Options left as None come from the scene's integrator defaults (see resolve_options);
     stats["integrator"] names the integrator used."""
+    _check_device(device)
     scene = load_scene(scene)
     until_target = spp is None and time is None and (target_error is not None or target_noise is not None)
     o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k)

@@ -115,6 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--filter", default=None, help="pixel filter: box, tent or gaussian (default: the scene's)")
     r.add_argument("--sampler", default=None, help="sobol (Owen-scrambled) or independent (default: the scene's, else sobol)")
     r.add_argument("--accel", default="embree", help="embree, or bvh (the portable BVH the GPU uses)")
+    r.add_argument("--device", default="cpu",
+                   help="cpu (default) or cuda; `caustica devices` lists what this build and machine offer")
     r.add_argument("--exposure", type=_float("--exposure"), default=0.0,
                    help="PNG only: scale by 2^exposure before sRGB encoding")
     r.add_argument("--photons", type=_positive_int("--photons"), default=None,
@@ -150,6 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     _scene_options(e, nargs=None)
     e.add_argument("-o", "--output", required=True, help="the .json file to write (textures go beside it as .exr)")
     sub.add_parser("scenes", help="list the built-in scenes")
+    sub.add_parser("devices", help="list the devices this build can render on")
     # Commands in their own modules (caustica/commands/<name>.py): each defines
     # add_parser(sub) -> the subparser and run(args) -> exit status.
     for name in COMMAND_MODULES:
@@ -247,6 +250,7 @@ def cmd_render(a) -> int:
     if a.sampler is not None:
         _check_choice("sampler", a.sampler, _api.SAMPLERS)
     _check_choice("accelerator", a.accel, _api.ACCELS)
+    _api._check_device(a.device)
     if a.filter is not None:
         _check_choice("filter", a.filter, _api.FILTERS)
     if a.radius is not None and not a.radius > 0:
@@ -355,6 +359,12 @@ def cmd_export(a) -> int:
     return 0
 
 
+def cmd_devices(a) -> int:
+    for d in _api.devices():
+        print(f"{d['name']:6s} {d['description']}")
+    return 0
+
+
 def cmd_scenes(a) -> int:
     for name, desc in _api.builtin_scenes():
         print(f"{name:22s} {desc}")
@@ -374,6 +384,8 @@ def main(argv=None) -> int:
             return cmd_info(a)
         if a.command == "export":
             return cmd_export(a)
+        if a.command == "devices":
+            return cmd_devices(a)
         if getattr(a, "_module", None) is not None:
             return a._module.run(a)
         return cmd_scenes(a)

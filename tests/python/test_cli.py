@@ -125,3 +125,23 @@ def test_ctrl_c_writes_what_it_has(caustica_bin, tmp_path):
     img = caustica.read_image(out)
     assert img.shape == (256, 256, 3) and np.isfinite(img).all() and img.mean() > 0.1
     assert sorted(os.listdir(tmp_path)) == ["partial.exr"]
+
+
+def test_devices_and_the_device_option(caustica_bin, tmp_path):
+    # This build renders on the CPU only (the CUDA backend is issue 7): `caustica devices` lists the CPU, and
+    # --device cuda is one clear line with exit status 2 and no output file, as is an unknown device.
+    r = run(caustica_bin, "devices")
+    assert r.returncode == 0 and r.stdout.startswith("cpu "), r.stdout
+    assert [d["name"] for d in caustica.devices()] == ["cpu"]
+    out = tmp_path / "img.exr"
+    for dev, msg in (("cuda", "device 'cuda' is not available"), ("tpu", "unknown device 'tpu' (allowed: cpu, cuda)")):
+        r = run(caustica_bin, "render", "cornell", "--spp", "1", "--width", "8", "--height", "8", "--quiet",
+                "--device", dev, "-o", str(out))
+        assert r.returncode == 2 and msg in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+        assert not out.exists()
+        with pytest.raises(caustica.InputError, match=msg.split(" (")[0]):
+            caustica.render("cornell", spp=1, device=dev)
+    r = run(caustica_bin, "render", "cornell", "--spp", "1", "--width", "8", "--height", "8", "--quiet",
+            "--device", "cpu", "-o", str(out))
+    assert r.returncode == 0 and out.exists(), r.stderr
