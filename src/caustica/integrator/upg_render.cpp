@@ -54,7 +54,6 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const std::vector<VcmLightVertex>& verts = lp.verts;
   const std::vector<uint32_t>& start = lp.start;
   const std::vector<std::vector<VcmSplat>>& csplats = lp.splats;
-  const uint32_t nchunks = uint32_t(csplats.size());
   std::atomic<uint64_t> rays{lp.rays}, trials{0}, capped{0};
 
   // 2. Hash grid of light vertices. The grid stores quantized positions: queries use the
@@ -153,14 +152,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   if (cancel.load()) return false;
 
   // 4. Accumulate: camera estimates, then the splats in chunk order.
-  for (uint32_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) sum_[3 * size_t(i) + c] += double(pass_L[i][c]);
-  for (uint32_t c = 0; c < nchunks; ++c)
-    for (const VcmSplat& sp : csplats[c])
-      vcm_splat_pixels(s, p, sp, [&](uint32_t pix, RGB v) {
-        if (!isfinite3(v)) return;
-        for (int k = 0; k < 3; ++k) sum_[3 * size_t(pix) + k] += double(v[k]);
-      });
+  accumulate_pass(s, p, pass_L, csplats, sum_);
   traced_ += nl;
   rays_ += rays.load();
   trials_ += trials.load();
@@ -168,11 +160,6 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   return true;
 }
 
-std::vector<float> UpgIntegrator::image(int64_t passes) const {
-  std::vector<float> img(sum_.size(), 0.f);
-  if (passes <= 0) return img;
-  for (size_t i = 0; i < sum_.size(); ++i) img[i] = float(sum_[i] / double(passes));
-  return img;
-}
+std::vector<float> UpgIntegrator::image(int64_t passes) const { return mean_image(sum_, passes); }
 
 }  // namespace caustica

@@ -167,7 +167,6 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const std::vector<VcmLightVertex>& verts = lp.verts;
   const std::vector<uint32_t>& start = lp.start;
   const std::vector<std::vector<VcmSplat>>& csplats = lp.splats;
-  const uint32_t nchunks = uint32_t(csplats.size());
   std::atomic<uint64_t> rays{lp.rays};
 
   // 2. The hash grid of light vertices for merging (cells of 2r).
@@ -253,17 +252,12 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   if (cancel.load()) return false;
 
   // 4. Accumulate: camera estimates, then the splats in chunk order.
-  for (uint32_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) sum_[3 * size_t(i) + c] += double(pass_L[i][c]);
-  for (uint32_t c = 0; c < nchunks; ++c)
-    for (const VcmSplat& sp : csplats[c]) {
-      const int slot = rec ? connection_slot(sp.length + 1, 1) : -1;
-      vcm_splat_pixels(s, p, sp, [&](uint32_t pix, RGB v) {
-        if (!isfinite3(v)) return;
-        for (int k = 0; k < 3; ++k) sum_[3 * size_t(pix) + k] += double(v[k]);
-        record(slot, pix, v);
-      });
-    }
+  if (rec)
+    accumulate_pass(s, p, pass_L, csplats, sum_, [&](uint32_t pix, RGB v, const VcmSplat& sp) {
+      record(connection_slot(sp.length + 1, 1), pix, v);
+    });
+  else
+    accumulate_pass(s, p, pass_L, csplats, sum_);
   for (size_t i = 0; i < strat_pass_.size(); ++i)
     for (size_t j = 0; j < strat_pass_[i].size(); ++j) strat_sum_[i][j] += strat_pass_[i][j];
   traced_ += nl;
@@ -271,11 +265,27 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   return true;
 }
 
-std::vector<float> VcmIntegrator::image(int64_t passes) const {
-  std::vector<float> img(sum_.size(), 0.f);
+void accumulate_pass(const SceneView& s, const VcmParams& p, const std::vector<RGB>& pass_L,
+                     const std::vector<std::vector<VcmSplat>>& splats, std::vector<double>& sum,
+                     const std::function<void(uint32_t, RGB, const VcmSplat&)>& on_splat) {
+  for (size_t i = 0; i < pass_L.size(); ++i)
+    for (int c = 0; c < 3; ++c) sum[3 * i + c] += double(pass_L[i][c]);
+  for (const std::vector<VcmSplat>& chunk : splats)
+    for (const VcmSplat& sp : chunk)
+      vcm_splat_pixels(s, p, sp, [&](uint32_t pix, RGB v) {
+        if (!isfinite3(v)) return;
+        for (int k = 0; k < 3; ++k) sum[3 * size_t(pix) + k] += double(v[k]);
+        if (on_splat) on_splat(pix, v, sp);
+      });
+}
+
+std::vector<float> mean_image(const std::vector<double>& sum, int64_t passes) {
+  std::vector<float> img(sum.size(), 0.f);
   if (passes <= 0) return img;
-  for (size_t i = 0; i < sum_.size(); ++i) img[i] = float(sum_[i] / double(passes));
+  for (size_t i = 0; i < sum.size(); ++i) img[i] = float(sum[i] / double(passes));
   return img;
 }
+
+std::vector<float> VcmIntegrator::image(int64_t passes) const { return mean_image(sum_, passes); }
 
 }  // namespace caustica

@@ -7,6 +7,7 @@
 // the image in chunk order, so images do not depend on the thread count.
 #pragma once
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -29,6 +30,14 @@ struct LightSubpaths {
 // False if cancelled midway.
 bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAccel& accel, uint32_t n,
                           bool keep_vertices, const std::atomic<bool>& cancel, LightSubpaths& out);
+// Last stage of vcm and upg: adds a finished pass to `sum` (3 per pixel): the camera estimates, then the
+// light-tracing splats in chunk order (so images do not depend on the thread count); on_splat, if given,
+// sees each splat's finite value at each pixel it reaches.
+void accumulate_pass(const SceneView& s, const VcmParams& p, const std::vector<RGB>& pass_L,
+                     const std::vector<std::vector<VcmSplat>>& splats, std::vector<double>& sum,
+                     const std::function<void(uint32_t pixel, RGB value, const VcmSplat& splat)>& on_splat = {});
+// The image of `passes` accumulated passes: sum / passes as floats (zeros before the first pass).
+std::vector<float> mean_image(const std::vector<double>& sum, int64_t passes);
 
 class VcmIntegrator {
  public:
