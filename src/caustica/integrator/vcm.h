@@ -48,6 +48,7 @@
 // chains); kVcm both.
 #pragma once
 #include "../base/sampler.h"
+#include "../light/light_emit.h"
 #include "../light/light_sample.h"
 #include "../material/bsdf.h"
 #include "../photon/hash_grid.h"
@@ -385,21 +386,9 @@ CHD bool vcm_sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Ve
     }
     case LightType::kDirectional:
     case LightType::kEnvironment: {
-      Vec3f dir = l.dir;
-      float dir_pdf = 1.f;
-      if (l.type == LightType::kEnvironment) {
-        Vec3f w;
-        if (l.texture >= 0) {
-          if (!envmap_sample(s.envmap, u_dir, w, dir_pdf)) return false;
-        } else {
-          w = square_to_uniform_sphere(u_dir);
-          dir_pdf = uniform_sphere_pdf();
-        }
-        dir = -w;
-      }
-      Frame f(dir);
-      Vec2f dd = square_to_concentric_disk(u_pos) * R;
-      e.ray = Ray{s.bsphere_center + f.to_world(Vec3f(dd.x, dd.y, -R)), dir, kInf};
+      float dir_pdf;
+      if (!sample_infinite_emission(s, l, u_pos, u_dir, e.ray, dir_pdf)) return false;
+      Vec3f dir = e.ray.d;
       e.emission_pdf_w = dir_pdf / (kPi * R * R);
       e.direct_pdf_a = dir_pdf;
       e.infinite = true;

@@ -17,6 +17,31 @@ struct EmitSample {
   Vec3f n{0.f};     // surface normal of area lights (offset direction), zero otherwise
 };
 
+
+// Emission from a directional or environment light: a direction (the light's, or for an environment one
+// sampled from the map or uniformly; dir_pdf per solid angle, 1 for directional), and an origin uniform on
+// the disk of the scene's bounding sphere facing it, one radius behind the sphere's centre.
+CHD bool sample_infinite_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f u_dir, Ray& ray,
+                                  float& dir_pdf) {
+  const float R = s.bsphere_radius;
+  Vec3f dir = l.dir;
+  dir_pdf = 1.f;
+  if (l.type == LightType::kEnvironment) {
+    Vec3f w;  // towards the sky; the light travels along -w
+    if (l.texture >= 0) {
+      if (!envmap_sample(s.envmap, u_dir, w, dir_pdf)) return false;
+    } else {
+      w = square_to_uniform_sphere(u_dir);
+      dir_pdf = uniform_sphere_pdf();
+    }
+    dir = -w;
+  }
+  Frame f(dir);
+  Vec2f d = square_to_concentric_disk(u_pos) * R;
+  ray = Ray{s.bsphere_center + f.to_world(Vec3f(d.x, d.y, -R)), dir, kInf};
+  return true;
+}
+
 CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f u_dir, float u_side, EmitSample& e) {
   const float R = s.bsphere_radius;
   switch (l.type) {
@@ -71,23 +96,9 @@ CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f 
     }
     case LightType::kDirectional:
     case LightType::kEnvironment: {
-      Vec3f dir = l.dir;
-      float dir_pdf = 1.f;
-      if (l.type == LightType::kEnvironment) {
-        Vec3f w;  // towards the sky; the photon travels along -w
-        if (l.texture >= 0) {
-          if (!envmap_sample(s.envmap, u_dir, w, dir_pdf)) return false;
-        } else {
-          w = square_to_uniform_sphere(u_dir);
-          dir_pdf = uniform_sphere_pdf();
-        }
-        dir = -w;
-      }
-      Frame f(dir);
-      Vec2f d = square_to_concentric_disk(u_pos) * R;
-      e.ray.o = s.bsphere_center + f.to_world(Vec3f(d.x, d.y, -R));
-      e.ray.d = dir;
-      e.ray.tmax = kInf;
+      float dir_pdf;
+      if (!sample_infinite_emission(s, l, u_pos, u_dir, e.ray, dir_pdf)) return false;
+      Vec3f dir = e.ray.d;
       float disk = kPi * R * R;
       e.weight = l.type == LightType::kDirectional ? l.L * disk
                                                    : environment_radiance(s, l, -dir) * (disk / dir_pdf);
