@@ -106,6 +106,7 @@ def find_libllvm() -> str | None:
 
 
 from caustica._provenance import commit as _provenance_commit, machine  # noqa: E402
+from caustica._provenance import cpu_busy_seconds, own_cpu_seconds  # noqa: E402,F401
 
 
 def commit() -> str:
@@ -359,25 +360,6 @@ def throughput(rows: list[dict]) -> float:
     amortised); the best rather than a mean because load from other work only ever slows a render down."""
     big = [r for r in rows if r["spp"] >= 16] or rows
     return max(r["samples_per_s"] for r in big)
-
-
-def cpu_busy_seconds() -> float:
-    """CPU seconds spent busy by the whole machine so far (user, nice, system, irq, softirq, steal)."""
-    try:
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:9]]
-        return (v[0] + v[1] + v[2] + v[5] + v[6] + v[7]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError):
-        return float("nan")
-
-
-def own_cpu_seconds() -> float:
-    """CPU seconds of this process and its finished children (the workers)."""
-    t = 0.0
-    for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN):
-        r = resource.getrusage(who)
-        t += r.ru_utime + r.ru_stime
-    return t
 
 
 def at_spp(rows: list[dict], spp: int) -> dict:

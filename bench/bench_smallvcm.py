@@ -45,7 +45,6 @@ import glob
 import hashlib
 import json
 import os
-import resource
 import subprocess
 import sys
 import time
@@ -111,6 +110,7 @@ def read_hdr(path: str) -> np.ndarray:
 
 
 from caustica._provenance import commit as _provenance_commit, machine  # noqa: E402
+from caustica._provenance import cpu_busy_seconds, own_cpu_seconds  # noqa: E402,F401
 
 
 def commit() -> str:
@@ -122,25 +122,6 @@ def loadavg() -> tuple[float, float, float]:
         return os.getloadavg()
     except OSError:
         return (float("nan"),) * 3
-
-
-def cpu_busy_seconds() -> float:
-    """CPU seconds spent busy by the whole machine so far (user, nice, system, irq, softirq, steal)."""
-    try:
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:9]]
-        return (v[0] + v[1] + v[2] + v[5] + v[6] + v[7]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError):
-        return float("nan")
-
-
-def own_cpu_seconds() -> float:
-    """CPU seconds of this process and its finished children (the SmallVCM runs)."""
-    t = 0.0
-    for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN):
-        r = resource.getrusage(who)
-        t += r.ru_utime + r.ru_stime
-    return t
 
 
 def log(msg: str) -> None:

@@ -31,3 +31,25 @@ def commit(cwd: str = None) -> str:
         return h + ("-dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
         return "unknown"
+
+
+def cpu_busy_seconds() -> float:
+    """CPU seconds the whole machine has spent busy so far (user, nice, system, irq, softirq, steal; from
+    /proc/stat); NaN where there is no /proc/stat. With own_cpu_seconds() it gives the CPU other work took
+    during a measurement."""
+    try:
+        with open("/proc/stat") as f:
+            v = [int(x) for x in f.readline().split()[1:9]]
+        return (v[0] + v[1] + v[2] + v[5] + v[6] + v[7]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError):
+        return float("nan")
+
+
+def own_cpu_seconds() -> float:
+    """CPU seconds of this process and its finished children (worker processes, peer renderers)."""
+    import resource
+    t = 0.0
+    for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN):
+        r = resource.getrusage(who)
+        t += r.ru_utime + r.ru_stime
+    return t

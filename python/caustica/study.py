@@ -85,21 +85,8 @@ from ._provenance import machine as _machine  # noqa: E402
 
 
 from ._provenance import commit as _commit  # noqa: E402
-
-
-def _cpu_busy_seconds() -> float:
-    try:
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:9]]
-        return (v[0] + v[1] + v[2] + v[5] + v[6] + v[7]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError):
-        return float("nan")
-
-
-def _own_cpu_seconds() -> float:
-    import resource
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
+from ._provenance import cpu_busy_seconds as _cpu_busy_seconds  # noqa: E402
+from ._provenance import own_cpu_seconds as _own_cpu_seconds  # noqa: E402
 
 
 def spp_levels(max_spp: int) -> list[int]:
