@@ -33,19 +33,9 @@ UpgIntegrator::UpgIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
 bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const SceneView& s = scene_->view();
   const EmbreeAccel& accel = scene_->embree();
-  VcmParams p;
-  p.mode = VcmMode::kUpg;
-  p.max_depth = max_depth_;
-  p.rr_depth = uint32_t(opt_.rr_depth);
-  p.seed = opt_.seed;
-  p.pass = uint32_t(pass);
-  p.sampler = opt_.sampler;
   const uint32_t n = uint32_t(W_) * uint32_t(H_);
-  // Light subpaths per pass (--photons; default one per pixel, SmallVCM's pairing). Camera path i
-  // connects to light subpath i mod nl (n_VC = 1 connection subpath per camera path); merges,
-  // gathers and light tracing use all nl (N_VM = nl in the MIS).
-  const uint32_t nl = opt_.photons > 0 ? uint32_t(opt_.photons) : n;
-  p.n_light = float(nl);
+  VcmParams p = vcm_pass_params(opt_, VcmMode::kUpg, max_depth_, pass, n);
+  const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)
   vcm_set_radius(p, r_);
 
   // 1. Light subpaths in fixed chunks (trace_light_subpaths in vcm_render.cpp).

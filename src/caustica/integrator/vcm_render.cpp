@@ -145,19 +145,9 @@ bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAc
 bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const SceneView& s = scene_->view();
   const EmbreeAccel& accel = scene_->embree();
-  VcmParams p;
-  p.mode = VcmMode(mode_);
-  p.max_depth = max_depth_;
-  p.rr_depth = uint32_t(opt_.rr_depth);
-  p.seed = opt_.seed;
-  p.pass = uint32_t(pass);
-  p.sampler = opt_.sampler;
   const uint32_t n = uint32_t(W_) * uint32_t(H_);
-  // Light subpaths per pass (--photons; default one per pixel, SmallVCM's pairing). Camera path i
-  // connects to light subpath i mod nl (n_VC = 1 connection subpath per camera path); merges,
-  // gathers and light tracing use all nl (N_VM = nl in the MIS).
-  const uint32_t nl = opt_.photons > 0 ? uint32_t(opt_.photons) : n;
-  p.n_light = float(nl);
+  VcmParams p = vcm_pass_params(opt_, VcmMode(mode_), max_depth_, pass, n);
+  const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)
   vcm_set_radius(p, radius(pass));
 
   // 1. Light subpaths in fixed chunks (trace_light_subpaths, shared with upg).
@@ -263,6 +253,22 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   traced_ += nl;
   rays_ += rays.load();
   return true;
+}
+
+VcmParams vcm_pass_params(const RenderOptions& opt, VcmMode mode, uint32_t max_depth, int64_t pass, uint32_t pixels) {
+  VcmParams p;
+  p.mode = mode;
+  p.max_depth = max_depth;
+  p.rr_depth = uint32_t(opt.rr_depth);
+  p.seed = opt.seed;
+  p.pass = uint32_t(pass);
+  p.sampler = opt.sampler;
+  p.n_light = float(vcm_light_paths(opt, pixels));
+  return p;
+}
+
+uint32_t vcm_light_paths(const RenderOptions& opt, uint32_t pixels) {
+  return opt.photons > 0 ? uint32_t(opt.photons) : pixels;
 }
 
 void accumulate_pass(const SceneView& s, const VcmParams& p, const std::vector<RGB>& pass_L,

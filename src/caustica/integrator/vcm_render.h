@@ -30,6 +30,11 @@ struct LightSubpaths {
 // False if cancelled midway.
 bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAccel& accel, uint32_t n,
                           bool keep_vertices, const std::atomic<bool>& cancel, LightSubpaths& out);
+// The parameters of pass `pass` (0-based) of vcm and upg, radius not yet set. Light subpaths per pass:
+// RenderOptions::photons, default one per pixel (SmallVCM's pairing); camera path i connects to light
+// subpath i mod n_light (n_VC = 1), merges, gathers and light tracing use all of them (N_VM = n_light).
+VcmParams vcm_pass_params(const RenderOptions& opt, VcmMode mode, uint32_t max_depth, int64_t pass, uint32_t pixels);
+uint32_t vcm_light_paths(const RenderOptions& opt, uint32_t pixels);  // light subpaths per pass
 // Last stage of vcm and upg: adds a finished pass to `sum` (3 per pixel): the camera estimates, then the
 // light-tracing splats in chunk order (so images do not depend on the thread count); on_splat, if given,
 // sees each splat's finite value at each pixel it reaches.
