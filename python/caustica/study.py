@@ -345,6 +345,19 @@ def format_table(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
+
+def _save_plot(plt, fig, ax, out: str, name: str) -> list[str]:
+    """Grid, legend, layout; writes out/name.png and .svg and closes the figure; returns the paths."""
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    paths = []
+    for ext in ("png", "svg"):
+        paths.append(os.path.join(out, f"{name}.{ext}"))
+        fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+    return paths
+
 def _plots(res: dict, out: str) -> list[str]:
     import matplotlib
     matplotlib.use("Agg")
@@ -362,14 +375,7 @@ def _plots(res: dict, out: str) -> list[str]:
     ax.set_ylabel(f"mean FLIP ({st['flip_mode'].upper()}, {st['flip_ppd']:.0f} ppd)")
     ax.set_title(f"{os.path.basename(res['scene'])}: mean FLIP vs spp at {st['size'][0]}x{st['size'][1]} "
                  f"({st['seeds']} seeds)", fontsize=10)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    for ext in ("png", "svg"):
-        p = os.path.join(out, f"flip_vs_spp.{ext}")
-        fig.savefig(p, dpi=120)
-        written.append(p)
-    plt.close(fig)
+    written += _save_plot(plt, fig, ax, out, "flip_vs_spp")
     # FLIP vs frame time at 1080p
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     for it, rows in res["curves"].items():
@@ -383,14 +389,7 @@ def _plots(res: dict, out: str) -> list[str]:
     ax.set_xlabel("estimated frame time at 1920x1080 on this machine's CPU (ms)")
     ax.set_ylabel("mean FLIP")
     ax.set_title(f"{os.path.basename(res['scene'])}: mean FLIP vs frame time (CPU)", fontsize=10)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    for ext in ("png", "svg"):
-        p = os.path.join(out, f"flip_vs_frame_time.{ext}")
-        fig.savefig(p, dpi=120)
-        written.append(p)
-    plt.close(fig)
+    written += _save_plot(plt, fig, ax, out, "flip_vs_frame_time")
     return written
 
 
