@@ -345,7 +345,6 @@ def format_table(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
-
 def _save_plot(plt, fig, ax, out: str, name: str) -> list[str]:
     """Grid, legend, layout; writes out/name.png and .svg and closes the figure; returns the paths."""
     ax.grid(True, which="both", alpha=0.3)
