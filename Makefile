@@ -16,8 +16,15 @@ all: build
 deps:
 	@bash scripts/install-deps.sh
 
+# The CUDA backend is built when nvcc from PyPI is there (scripts/install-deps.sh installs it); CUDA=0
+# builds the CPU-only module. CUDA_ARCHS: the GPUs to compile for (Ampere and Hopper).
+CUDA       ?= 1
+CUDA_ARCHS ?= 80;90
+CUDA_ARGS   = $(if $(and $(filter 1,$(CUDA)),$(NVCC)),-DCAUSTICA_CUDA=ON -DCMAKE_CUDA_COMPILER=$(NVCC) \
+              -DCUDAToolkit_ROOT=$(abspath $(dir $(NVCC))..) "-DCMAKE_CUDA_ARCHITECTURES=$(CUDA_ARCHS)",-DCAUSTICA_CUDA=OFF)
+
 build: deps
-	CMAKE_BUILD_PARALLEL_LEVEL=$(JOBS) $(PY) -m pip install -q --no-build-isolation --no-deps -e .
+	CMAKE_ARGS='$(CUDA_ARGS)' CMAKE_BUILD_PARALLEL_LEVEL=$(JOBS) $(PY) -m pip install -q --no-build-isolation --no-deps -e .
 
 render: build
 	@mkdir -p out

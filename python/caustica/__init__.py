@@ -17,6 +17,7 @@ from ._api import (
     SceneWarning,
     __version__,
     builtin_scenes,
+    cuda_status,
     default_scene_name,
     describe,
     devices,
@@ -36,7 +37,7 @@ from .converge import converge
 
 __all__ = [
     "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
-    "default_scene_name", "describe",
+    "cuda_status", "default_scene_name", "describe",
     "devices", "export_scene", "integrators", "load_dict", "load_scene", "load_scene_desc", "read_image",
     "render", "render_job", "write_image", "metrics", "converge",
 ]

@@ -54,19 +54,39 @@ def _cpu_name() -> str:
     return "CPU"
 
 
+def cuda_status() -> tuple[list[dict], str]:
+    """(CUDA devices, why there are none): each device a dict with index, name, memory (bytes),
+    compute_capability and multiprocessors. Empty without the CUDA backend in this build, a driver or a GPU,
+    and then the string says which."""
+    devs, why = _native.cuda_devices()
+    return [dict(d) for d in devs], ("" if devs else why)
+
+
 def devices() -> list[dict]:
-    """The devices this build can render on: [{"name": "cpu", "description": ...}]. The CUDA backend
-    (issue 7) is not part of this build yet, so "cuda" is never listed; render(..., device="cuda") says so."""
-    return [{"name": "cpu", "description": f"{_cpu_name()}, {os.cpu_count()} threads (Embree, oneTBB)"}]
+    """The devices this build and machine can render on: [{"name": "cpu", "description": ...}, {"name":
+    "cuda:0", ...}]. "cuda" means "cuda:0". Without a usable GPU only "cpu" is listed (cuda_status() says
+    why)."""
+    out = [{"name": "cpu", "description": f"{_cpu_name()}, {os.cpu_count()} threads (Embree, oneTBB)"}]
+    for d in cuda_status()[0]:
+        out.append({"name": f"cuda:{d['index']}",
+                    "description": f"{d['name']}, {d['memory'] / 2**30:.0f} GiB, compute capability "
+                                   f"{d['compute_capability']}, {d['multiprocessors']} SMs (wavefront path tracer)"})
+    return out
 
 
 def _check_device(device: str) -> None:
-    if device not in DEVICES:
-        raise InputError(f"unknown device '{device}' (allowed: {', '.join(DEVICES)})")
-    available = [d["name"] for d in devices()]
-    if device not in available:
-        raise InputError(f"device '{device}' is not available: this build of caustica has no CUDA backend "
-                         f"(available: {', '.join(available)}; `caustica devices` lists them)")
+    if not isinstance(device, str) or not (device in DEVICES or
+                                           (device.startswith("cuda:") and device[5:].isdigit())):
+        raise InputError(f"unknown device '{device}' (allowed: cpu, cuda, cuda:N)")
+    if device == "cpu":
+        return
+    devs, why = cuda_status()
+    index = 0 if device == "cuda" else int(device[5:])
+    if not devs:
+        raise InputError(f"device '{device}' is not available: {why} (`caustica devices` lists what is)")
+    if index >= len(devs):
+        raise InputError(f"device '{device}' does not exist (this machine has {len(devs)} CUDA device(s); "
+                         f"`caustica devices` lists them)")
 
 
 def _params(params: Optional[dict]) -> dict:
@@ -247,7 +267,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                checkpoint_interval: Optional[float] = None,
                target_error: Optional[float] = None, reference=None,
                target_noise: Optional[float] = None, strategy_images: bool = False,
-               device: str = "cpu") -> RenderResult:
+               device: str = "cpu", wavefront: bool = False, compaction: bool = True,
+               sort_materials: bool = False, cache_first_bounce: bool = False, jitter: bool = True) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -266,8 +287,13 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     `strategy_images` (light, bdpt, bpm, vcm): RenderResult.strategies maps "k{k}_s{s}_t{t}" (the
     connection strategy with s light and t camera vertices of paths of k <= 7 segments) and "merge_t{t}"
     (merges at camera vertex t) to MIS-weighted (H, W, 3) images that sum to the image over those paths.
-    `device`: "cpu" (default) or "cuda"; a device that devices() does not list is an InputError (this build
-    has no CUDA backend).
+    `device`: "cpu" (default), "cuda" or "cuda:N" (integrator path: the wavefront path tracer on the GPU,
+    traversing the portable BVH); a device that devices() does not list is an InputError saying why.
+    `wavefront` (path): run the GPU's wavefront driver on the CPU. The wavefront driver's switches:
+    `compaction` (stream compaction of finished paths, default on), `sort_materials` (sort each queue by
+    material before shading), `cache_first_bounce` (reuse the first pass's camera-ray hits; needs
+    jitter=False and a pinhole camera). `jitter=False` (path) traces every sample through the pixel centre.
+    stats["device"] says where the passes ran.
     Options left as None come from the scene's integrator defaults (see resolve_options);
     stats["integrator"] names the integrator used."""
     _check_device(device)
@@ -307,7 +333,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
                             sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),
                             alpha=float(alpha), pass_offset=int(pass_offset), stochastic_hash=bool(stochastic_hash),
-                            k=_positive_int("k", k), strategy_images=bool(strategy_images), **targets)
+                            k=_positive_int("k", k), strategy_images=bool(strategy_images), device=device,
+                            wavefront=bool(wavefront), compaction=bool(compaction),
+                            sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
+                            jitter=bool(jitter), **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -326,6 +355,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
             pass
     stats = job.stats()
     stats["integrator"] = integrator
+    stats["device"] = job.device_name()
     if progress is not None and not interrupted:
         progress(stats)
     return RenderResult(image=job.image(), stats=stats, interrupted=interrupted,

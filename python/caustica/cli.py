@@ -116,7 +116,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--sampler", default=None, help="sobol (Owen-scrambled) or independent (default: the scene's, else sobol)")
     r.add_argument("--accel", default="embree", help="embree, or bvh (the portable BVH the GPU uses)")
     r.add_argument("--device", default="cpu",
-                   help="cpu (default) or cuda; `caustica devices` lists what this build and machine offer")
+                   help="cpu (default), cuda or cuda:N (path: the wavefront path tracer on the GPU); "
+                        "`caustica devices` lists what this build and machine offer")
+    r.add_argument("--wavefront", action="store_true",
+                   help="path: run the GPU's wavefront driver on the CPU (the same code as --device cuda)")
+    r.add_argument("--no-compaction", action="store_true",
+                   help="wavefront: keep finished paths in the queues (no stream compaction)")
+    r.add_argument("--sort-materials", action="store_true",
+                   help="wavefront: sort each queue by material before shading")
+    r.add_argument("--cache-first-bounce", action="store_true",
+                   help="wavefront: reuse the first pass's camera-ray hits (needs --no-jitter, a pinhole camera)")
+    r.add_argument("--no-jitter", action="store_true",
+                   help="path: every sample through the pixel centre (no anti-aliasing)")
     r.add_argument("--exposure", type=_float("--exposure"), default=0.0,
                    help="PNG only: scale by 2^exposure before sRGB encoding")
     r.add_argument("--photons", type=_positive_int("--photons"), default=None,
@@ -286,7 +297,10 @@ def cmd_render(a) -> int:
                               stochastic_hash=a.stochastic_hash, k=o["k"], checkpoint=write_all if a.checkpoint else None,
                               checkpoint_interval=a.checkpoint, target_error=a.target_error,
                               reference=a.reference, target_noise=a.target_noise,
-                              strategy_images=a.strategy_images is not None)
+                              strategy_images=a.strategy_images is not None, device=a.device,
+                              wavefront=a.wavefront, compaction=not a.no_compaction,
+                              sort_materials=a.sort_materials, cache_first_bounce=a.cache_first_bounce,
+                              jitter=not a.no_jitter)
     finally:
         prog.close()
     st = res.stats
@@ -308,7 +322,8 @@ def cmd_render(a) -> int:
                f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g} "
                f"-> {', '.join(outputs)}")
     else:
-        msg = (f"{scene.name}: {st['passes']} spp, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
+        where = "" if st.get("device", "cpu") == "cpu" else f" on {st['device']}"
+        msg = (f"{scene.name}: {st['passes']} spp{where}, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
                f"{st['samples'] / secs / 1e6:.2f} M samples/s, "
                f"{(st['rays'] + st['shadow_rays']) / secs / 1e6:.2f} M rays/s -> {', '.join(outputs)}")
     if st.get("error") is not None:
@@ -362,6 +377,9 @@ def cmd_export(a) -> int:
 def cmd_devices(a) -> int:
     for d in _api.devices():
         print(f"{d['name']:6s} {d['description']}")
+    devs, why = _api.cuda_status()
+    if not devs:
+        print(f"cuda   not available: {why}")
     return 0
 
 

@@ -10,6 +10,7 @@
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 
+#include "../backend/cuda/cuda_render.h"
 #include "../base/error.h"
 #include "../film/image_io.h"
 #include "../integrator/render.h"
@@ -146,6 +147,23 @@ NB_MODULE(_native, m) {
   m.def("builtin_scenes", &builtin_scenes);
   m.def("default_scene_name", &default_scene_name);
   m.def("integrator_names", &integrator_names);
+  m.def("cuda_built", &cuda_built);
+  // The CUDA devices this process can use, and when there are none, why (one line).
+  m.def("cuda_devices", [] {
+    std::string why;
+    std::vector<CudaDeviceInfo> list = cuda_devices(&why);
+    nb::list out;
+    for (const CudaDeviceInfo& d : list) {
+      nb::dict e;
+      e["index"] = d.index;
+      e["name"] = d.name;
+      e["memory"] = d.memory;
+      e["compute_capability"] = std::to_string(d.major) + "." + std::to_string(d.minor);
+      e["multiprocessors"] = d.multiprocessors;
+      out.append(e);
+    }
+    return nb::make_tuple(out, why);
+  });
 
   nb::class_<Scene>(m, "Scene")
       .def_prop_ro("name", [](const Scene& s) { return s.desc().name; })
@@ -253,7 +271,8 @@ NB_MODULE(_native, m) {
               const std::string& accel, int64_t photons, float radius, float alpha, int64_t pass_offset,
               bool stochastic_hash, int k, double target_error,
               std::optional<nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>> reference,
-              double target_noise, bool strategy_images) {
+              double target_noise, bool strategy_images, const std::string& device, bool wavefront,
+              bool compaction, bool sort_materials, bool cache_first_bounce, bool jitter) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -275,6 +294,12 @@ NB_MODULE(_native, m) {
              o.target_error = target_error;
              o.target_noise = target_noise;
              o.strategy_images = strategy_images;
+             o.device = device;
+             o.wavefront = wavefront;
+             o.compaction = compaction;
+             o.sort_materials = sort_materials;
+             o.cache_first_bounce = cache_first_bounce;
+             o.jitter = jitter;
              if (reference) {
                if (reference->shape(2) != 3) throw InputError("the reference image must have 3 channels (H, W, 3)");
                const float* p = reference->data();
@@ -288,11 +313,14 @@ NB_MODULE(_native, m) {
            nb::arg("sampler") = "sobol", nb::arg("accel") = "embree", nb::arg("photons") = 0,
            nb::arg("radius") = 0.f, nb::arg("alpha") = 0.7f, nb::arg("pass_offset") = 0,
            nb::arg("stochastic_hash") = false, nb::arg("k") = 50, nb::arg("target_error") = 0.0,
-           nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0, nb::arg("strategy_images") = false)
+           nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0, nb::arg("strategy_images") = false,
+           nb::arg("device") = "cpu", nb::arg("wavefront") = false, nb::arg("compaction") = true,
+           nb::arg("sort_materials") = false, nb::arg("cache_first_bounce") = false, nb::arg("jitter") = true)
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
       .def("cancel", &RenderJob::cancel)
+      .def("device_name", &RenderJob::device_name)
       .def("stats", [](const RenderJob& j) {
         RenderStats s = j.stats();
         nb::dict d;

@@ -29,6 +29,7 @@ struct PathParams {
   uint32_t rr_depth = 5;
   uint64_t seed = 0;
   SamplerType sampler = SamplerType::kSobol;
+  bool jitter = true;  // false: every sample through the pixel centre, weight 1 (camera rays repeat per pass)
 };
 
 struct PathState {
@@ -58,6 +59,7 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
   st.pixel = py * uint32_t(s.camera.width) + px;
   st.sampler.start(pp.sampler, pp.seed, st.pixel, sample_index);
   FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
+  if (!pp.jitter) fs = FilterSample{Vec2f(0.f, 0.f), 1.f};
   Vec2f lens = st.sampler.next_2d();
   Vec2f film(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y);
   st.ray = s.camera.generate_ray(film, lens);

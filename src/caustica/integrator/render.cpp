@@ -10,11 +10,13 @@
 #include <thread>
 
 #include "../backend/cpu/embree_accel.h"
+#include "../backend/cuda/cuda_render.h"
 #include "../base/error.h"
 #include "path.h"
 #include "photon_render.h"
 #include "upg_render.h"
 #include "vcm_render.h"
+#include "wavefront_render.h"
 
 namespace caustica {
 
@@ -59,6 +61,16 @@ double relmse(const std::vector<float>& img, const std::vector<float>& ref) {
   return img.empty() ? 0.0 : acc / double(img.size());
 }
 
+int cuda_device_index(const std::string& d) {
+  if (d == "cuda") return 0;
+  if (d.rfind("cuda:", 0) == 0 && d.size() > 5 && d.size() <= 8 &&
+      d.find_first_not_of("0123456789", 5) == std::string::npos)
+    return std::stoi(d.substr(5));
+  return -1;
+}
+
+bool uses_wavefront(const RenderOptions& o) { return o.wavefront || cuda_device_index(o.device) >= 0; }
+
 void RenderJob::validate(const RenderOptions& o) {
   const auto& names = integrator_names();
   bool known = false;
@@ -85,6 +97,25 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.strategy_images && !is_vcm_integrator(o.integrator))
     throw InputError("--strategy-images needs a bidirectional integrator (allowed: light, bdpt, bpm, vcm), got '" +
                      o.integrator + "'");
+  bool cuda = cuda_device_index(o.device) >= 0;
+  if (o.device != "cpu" && !cuda)
+    throw InputError("unknown device '" + o.device + "' (allowed: cpu, cuda, cuda:N)");
+  if (cuda && o.integrator != "path")
+    throw InputError("integrator '" + o.integrator + "' does not run on the CUDA backend yet (allowed with " +
+                     "--device cuda: path)");
+  if (o.wavefront && o.integrator != "path")
+    throw InputError("--wavefront runs the path tracer only (integrator 'path'), got '" + o.integrator + "'");
+  if (!uses_wavefront(o)) {
+    if (!o.compaction) throw InputError("--no-compaction applies to the wavefront path tracer (--wavefront or --device cuda)");
+    if (o.sort_materials) throw InputError("--sort-materials applies to the wavefront path tracer (--wavefront or --device cuda)");
+    if (o.cache_first_bounce)
+      throw InputError("--cache-first-bounce applies to the wavefront path tracer (--wavefront or --device cuda)");
+  }
+  if (!o.jitter && o.integrator != "path")
+    throw InputError("--no-jitter applies to integrator 'path', got '" + o.integrator + "'");
+  if (o.cache_first_bounce && o.jitter)
+    throw InputError("--cache-first-bounce needs --no-jitter: cached camera-ray hits are valid only when every "
+                     "pass traces the same camera rays");
   if (o.target_error < 0 || !std::isfinite(o.target_error)) throw InputError("--target-error must be a positive number");
   if (o.target_error > 0 && o.reference.empty())
     throw InputError("--target-error needs --reference (an image to measure the error against)");
@@ -108,6 +139,41 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (is_photon_integrator(opt_.integrator)) photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
   if (opt_.integrator == "upg") upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
+  if (uses_wavefront(opt_)) {
+    if (opt_.cache_first_bounce && scene_->view().camera.aperture_radius > 0.f)
+      throw InputError("--cache-first-bounce: the camera has a lens (aperture radius " +
+                       std::to_string(scene_->view().camera.aperture_radius) +
+                       "), so camera rays differ every pass; use a pinhole camera");
+    WavefrontOptions wo;
+    wo.compaction = opt_.compaction;
+    wo.sort_materials = opt_.sort_materials;
+    wo.cache_first_bounce = opt_.cache_first_bounce;
+    int dev = cuda_device_index(opt_.device);
+    wavefront_ = dev >= 0 ? make_cuda_wavefront(scene_, path_params(), wo, dev)
+                          : make_cpu_wavefront(scene_, path_params(), wo, opt_.accel == "embree");
+  }
+}
+
+PathParams RenderJob::path_params() const {
+  PathParams pp;
+  int md = opt_.max_depth == -2 ? scene_->desc().max_depth : opt_.max_depth;
+  pp.max_depth = md < 0 ? 0xffffffffu : uint32_t(md);
+  pp.rr_depth = uint32_t(opt_.rr_depth);
+  pp.seed = opt_.seed;
+  pp.sampler = opt_.sampler;
+  pp.jitter = opt_.jitter;
+  return pp;
+}
+
+Film RenderJob::wavefront_film() const {
+  Film f(film_.width, film_.height);
+  wavefront_->film(f.sum, f.odd);
+  return f;
+}
+
+std::string RenderJob::device_name() const {
+  if (wavefront_) return wavefront_->device_name();
+  return opt_.accel == "bvh" ? "cpu (portable BVH)" : "cpu";
 }
 
 RenderJob::~RenderJob() {
@@ -118,12 +184,7 @@ RenderJob::~RenderJob() {
 template <typename Accel>
 void RenderJob::render_pass(const Accel& accel, int64_t pass) {
   const SceneView& view = scene_->view();
-  PathParams pp;
-  int md = opt_.max_depth == -2 ? scene_->desc().max_depth : opt_.max_depth;
-  pp.max_depth = md < 0 ? 0xffffffffu : uint32_t(md);
-  pp.rr_depth = uint32_t(opt_.rr_depth);
-  pp.seed = opt_.seed;
-  pp.sampler = opt_.sampler;
+  const PathParams pp = path_params();
   const int W = film_.width, H = film_.height, T = 16;
   const int tiles_x = (W + T - 1) / T, tiles_y = (H + T - 1) / T;
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const tbb::blocked_range<int>& r) {
@@ -196,6 +257,13 @@ void RenderJob::run() {
             rays_ = upg_->rays();
             if (!complete) return;
             samples_ += uint64_t(film_.width) * film_.height;
+          } else if (wavefront_) {
+            WavefrontPassStats ps;
+            if (!wavefront_->render_pass(uint32_t(pass), &cancel_, ps)) return;
+            rays_ += ps.rays;
+            shadow_rays_ += ps.shadow_rays;
+            invalid_ += ps.invalid;
+            samples_ += uint64_t(film_.width) * film_.height;
           } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);
           else
@@ -241,7 +309,7 @@ bool RenderJob::target_met(int64_t passes_done) {
     double n;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      n = film_.noise_relmse();
+      n = wavefront_ ? wavefront_film().noise_relmse() : film_.noise_relmse();
     }
     noise_value_ = n;
     met |= n >= 0.0 && n <= opt_.target_noise;
@@ -280,6 +348,7 @@ std::vector<float> RenderJob::image() const {
   if (photon_) return photon_->image(passes_.load());
   if (vcm_) return vcm_->image(passes_.load());
   if (upg_) return upg_->image(passes_.load());
+  if (wavefront_) return wavefront_film().image();
   return film_.image();
 }
 

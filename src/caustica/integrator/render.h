@@ -25,6 +25,14 @@ struct RenderOptions {
   int rr_depth = 5;
   SamplerType sampler = SamplerType::kSobol;
   std::string accel = "embree";  // "embree" or "bvh" (the portable BVH)
+  // Where and how `path` runs: "cpu", or "cuda" / "cuda:N" (the CUDA backend: the wavefront path tracer,
+  // integrator/wavefront_path.h, on the portable BVH). `wavefront` runs the same driver on the CPU.
+  std::string device = "cpu";
+  bool wavefront = false;
+  bool compaction = true;           // wavefront: stream compaction of finished paths
+  bool sort_materials = false;      // wavefront: sort the queue by material before shading
+  bool cache_first_bounce = false;  // wavefront: reuse the first pass's camera-ray hits (needs jitter off)
+  bool jitter = true;               // path: false = samples through pixel centres (no anti-aliasing)
   // Photon mapping (ppm, sppm, pppm)
   int64_t photons = 0;       // photon paths per pass; 0 = one per pixel
   float radius = 0.f;        // initial gather radius; 0 = automatic (twice the median pixel footprint)
@@ -100,6 +108,13 @@ class Film {
 class PhotonIntegrator;
 class VcmIntegrator;
 class UpgIntegrator;
+class WavefrontRenderer;
+struct PathParams;
+
+// Whether the options run the wavefront path tracer (on the CPU with `wavefront`, or on CUDA).
+bool uses_wavefront(const RenderOptions& o);
+// The CUDA device index of "cuda" (0) or "cuda:N"; -1 for "cpu".
+int cuda_device_index(const std::string& device);
 
 class RenderJob {
  public:
@@ -117,12 +132,16 @@ class RenderJob {
   // With RenderOptions::strategy_images: (name, H*W*3 image) per strategy, means over the passes done,
   // each already MIS-weighted (they sum to image() over paths up to the length limit).
   std::vector<std::pair<std::string, std::vector<float>>> strategy_images() const;
+  // "cpu", "cpu (wavefront, embree)", "cuda:0 (NVIDIA H100 ...)": where the passes run.
+  std::string device_name() const;
   int width() const { return film_.width; }
   int height() const { return film_.height; }
 
  private:
   template <typename Accel>
   void render_pass(const Accel& accel, int64_t pass);
+  PathParams path_params() const;
+  Film wavefront_film() const;
   std::shared_ptr<Scene> scene_;
   RenderOptions opt_;
   Film film_;
@@ -140,6 +159,7 @@ class RenderJob {
   std::unique_ptr<PhotonIntegrator> photon_;
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::unique_ptr<UpgIntegrator> upg_;
+  std::unique_ptr<WavefrontRenderer> wavefront_;
   std::atomic<uint64_t> photons_{0};
   std::string error_;
 };

@@ -1,0 +1,192 @@
+// The CUDA backend: the backend primitives (CUB scan and sort), the scene in device memory, the device
+// list, and the wavefront path tracer (integrator/wavefront_path.h) instantiated on CudaBackend.
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_scan.cuh>
+
+#include <map>
+
+#include "../../base/error.h"
+#include "../../integrator/wavefront_path.h"
+#include "cuda_backend.cuh"
+#include "cuda_render.h"
+
+namespace caustica {
+
+__global__ void k_scan_total(const uint32_t* in, const uint32_t* out, uint32_t n, uint32_t* total) {
+  *total = out[n - 1] + in[n - 1];
+}
+
+void* CudaBackend::temp(size_t bytes) const {
+  if (temp_.size() < bytes) temp_.resize(bytes);
+  return temp_.data();
+}
+
+uint32_t CudaBackend::exclusive_scan(const uint32_t* in, uint32_t* out, uint32_t n) const {
+  if (n == 0) return 0;
+  size_t bytes = 0;
+  CAUSTICA_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, n, stream_));
+  CAUSTICA_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(temp(bytes), bytes, in, out, n, stream_));
+  k_scan_total<<<1, 1, 0, stream_>>>(in, out, n, total_.data());
+  CAUSTICA_CUDA_CHECK(cudaGetLastError());
+  uint32_t t = 0;
+  CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(&t, total_.data(), sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_));
+  CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_));
+  return t;
+}
+
+void CudaBackend::sort_pairs(uint32_t* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<uint32_t>& tmp_k,
+                             Buffer<uint32_t>& tmp_v) const {
+  if (n <= 1) return;
+  if (tmp_k.size() < n) tmp_k.resize(n);
+  if (tmp_v.size() < n) tmp_v.resize(n);
+  size_t bytes = 0;
+  CAUSTICA_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, tmp_k.data(), values, tmp_v.data(), n,
+                                                      0, key_bits, stream_));
+  CAUSTICA_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp(bytes), bytes, keys, tmp_k.data(), values, tmp_v.data(),
+                                                      n, 0, key_bits, stream_));
+  CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(keys, tmp_k.data(), sizeof(uint32_t) * n, cudaMemcpyDeviceToDevice, stream_));
+  CAUSTICA_CUDA_CHECK(
+      cudaMemcpyAsync(values, tmp_v.data(), sizeof(uint32_t) * n, cudaMemcpyDeviceToDevice, stream_));
+}
+
+namespace {
+
+// The scene's flat arrays copied to device memory, and a SceneView over them (the same struct the CPU
+// reads: only the pointers differ).
+class DeviceScene {
+ public:
+  explicit DeviceScene(const Scene& sc) {
+    SceneView v = sc.view();
+    v.positions = upload(sc.positions);
+    v.normals = upload(sc.normals);
+    v.uvs = upload(sc.uvs);
+    v.indices = upload(sc.indices);
+    v.spheres = upload(sc.spheres);
+    v.prim_material = upload(sc.prim_material);
+    v.prim_light = upload(sc.prim_light);
+    v.materials = upload(sc.materials);
+    v.lights = upload(sc.lights);
+    v.light_sampler.prob = upload(sc.alias_prob);
+    v.light_sampler.alias = upload(sc.alias_index);
+    v.light_sampler.pmf = upload(sc.light_pmf);
+    // Texels: one device copy per distinct host array (the environment map shares its texture's).
+    std::vector<TextureView> tex = sc.textures;
+    for (TextureView& t : tex) t.rgba = texels(t);
+    v.textures = upload(tex);
+    if (v.envmap.tex.rgba) {
+      v.envmap.tex.rgba = texels(v.envmap.tex);
+      v.envmap.func = upload(sc.env_func);
+      v.envmap.cond_cdf = upload(sc.env_cond_cdf);
+      v.envmap.marg_cdf = upload(sc.env_marg_cdf);
+      v.envmap.marg_func = upload(sc.env_marg_func);
+    }
+    v.bvh.nodes = upload(sc.bvh.nodes);
+    v.bvh.prim_index = upload(sc.bvh.prim_index);
+    view_ = v;
+  }
+  ~DeviceScene() {
+    for (void* p : allocations_) cudaFree(p);
+  }
+  DeviceScene(const DeviceScene&) = delete;
+  DeviceScene& operator=(const DeviceScene&) = delete;
+  const SceneView& view() const { return view_; }
+
+ private:
+  template <class T>
+  const T* upload(const T* src, size_t n) {
+    if (n == 0 || !src) return nullptr;
+    void* p = nullptr;
+    CAUSTICA_CUDA_CHECK(cudaMalloc(&p, sizeof(T) * n));
+    allocations_.push_back(p);
+    CAUSTICA_CUDA_CHECK(cudaMemcpy(p, src, sizeof(T) * n, cudaMemcpyHostToDevice));
+    return static_cast<const T*>(p);
+  }
+  template <class T>
+  const T* upload(const std::vector<T>& v) {
+    return upload(v.data(), v.size());
+  }
+  const float* texels(const TextureView& t) {
+    if (!t.rgba) return nullptr;
+    auto it = texels_.find(t.rgba);
+    if (it != texels_.end()) return it->second;
+    const float* d = upload(t.rgba, size_t(t.width) * size_t(t.height) * 4);
+    texels_[t.rgba] = d;
+    return d;
+  }
+  SceneView view_;
+  std::vector<void*> allocations_;
+  std::map<const float*, const float*> texels_;
+};
+
+class CudaWavefront final : public WavefrontRenderer {
+ public:
+  CudaWavefront(std::shared_ptr<Scene> scene, const PathParams& pp, const WavefrontOptions& opt, int device)
+      : scene_(std::move(scene)), device_(select(device)), dscene_(*scene_), backend_(dscene_.view()),
+        wf_(backend_, pp, opt, uint32_t(scene_->materials.size())) {}
+  bool render_pass(uint32_t sample_index, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
+    return wf_.render_pass(sample_index, cancel, stats);
+  }
+  void film(std::vector<double>& sum, std::vector<double>& odd) const override {
+    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
+    wf_.film(sum, odd);
+  }
+  std::string device_name() const override {
+    cudaDeviceProp p{};
+    cudaGetDeviceProperties(&p, device_);
+    return std::string("cuda:") + std::to_string(device_) + " (" + p.name + ")";
+  }
+
+ private:
+  static int select(int device) {
+    std::string why;
+    std::vector<CudaDeviceInfo> list = cuda_devices(&why);
+    if (list.empty()) throw InputError("device 'cuda' is not available: " + why);
+    if (device < 0 || device >= int(list.size()))
+      throw InputError("device 'cuda:" + std::to_string(device) + "' does not exist (this machine has " +
+                       std::to_string(list.size()) + " CUDA device(s))");
+    CAUSTICA_CUDA_CHECK(cudaSetDevice(device));
+    return device;
+  }
+  std::shared_ptr<Scene> scene_;
+  int device_;
+  DeviceScene dscene_;
+  CudaBackend backend_;
+  WavefrontPath<CudaBackend> wf_;
+};
+
+}  // namespace
+
+bool cuda_built() { return true; }
+
+std::vector<CudaDeviceInfo> cuda_devices(std::string* why) {
+  int n = 0;
+  cudaError_t e = cudaGetDeviceCount(&n);
+  if (e != cudaSuccess) {
+    if (why) *why = std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
+    cudaGetLastError();  // clear the sticky-free error so later calls start clean
+    return {};
+  }
+  std::vector<CudaDeviceInfo> out;
+  for (int i = 0; i < n; ++i) {
+    cudaDeviceProp p{};
+    if (cudaGetDeviceProperties(&p, i) != cudaSuccess) continue;
+    CudaDeviceInfo d;
+    d.index = i;
+    d.name = p.name;
+    d.memory = p.totalGlobalMem;
+    d.major = p.major;
+    d.minor = p.minor;
+    d.multiprocessors = p.multiProcessorCount;
+    out.push_back(d);
+  }
+  if (out.empty() && why) *why = "no CUDA device found";
+  return out;
+}
+
+std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
+                                                       const WavefrontOptions& opt, int device) {
+  return std::make_unique<CudaWavefront>(std::move(scene), pp, opt, device);
+}
+
+}  // namespace caustica

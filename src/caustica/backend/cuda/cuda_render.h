@@ -1,0 +1,32 @@
+// What the rest of caustica sees of the CUDA backend (no CUDA headers here). Built from cuda_render.cu
+// when CMake's CAUSTICA_CUDA is ON; otherwise cuda_stub.cpp answers that this build has no CUDA backend.
+#pragma once
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "../../integrator/wavefront_render.h"
+
+namespace caustica {
+
+struct CudaDeviceInfo {
+  int index = 0;
+  std::string name;
+  size_t memory = 0;       // bytes of device memory
+  int major = 0, minor = 0;  // compute capability
+  int multiprocessors = 0;
+};
+
+// Whether this build contains the CUDA backend.
+bool cuda_built();
+// The CUDA devices this process can use; empty without a GPU, a driver or the backend, and then `why`
+// (when given) says which, in one line.
+std::vector<CudaDeviceInfo> cuda_devices(std::string* why = nullptr);
+
+// The wavefront path tracer on CUDA device `device`: the scene is copied to device memory once. Throws
+// InputError when the device does not exist, std::runtime_error on CUDA errors.
+std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
+                                                       const WavefrontOptions& opt, int device);
+
+}  // namespace caustica

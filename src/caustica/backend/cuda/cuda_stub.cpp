@@ -1,0 +1,19 @@
+// The CUDA entry points of a build without the CUDA backend (CMake CAUSTICA_CUDA=OFF).
+#include "../../base/error.h"
+#include "cuda_render.h"
+
+namespace caustica {
+
+bool cuda_built() { return false; }
+
+std::vector<CudaDeviceInfo> cuda_devices(std::string* why) {
+  if (why) *why = "this build of caustica has no CUDA backend (configure with -DCAUSTICA_CUDA=ON)";
+  return {};
+}
+
+std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene>, const PathParams&,
+                                                       const WavefrontOptions&, int) {
+  throw InputError("device 'cuda' is not available: this build of caustica has no CUDA backend");
+}
+
+}  // namespace caustica

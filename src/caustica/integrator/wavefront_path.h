@@ -1,0 +1,189 @@
+// The path tracer (integrator/path.h) as a wavefront: each stage a parallel_for over a queue of paths
+// (Laine, Karras & Aila 2013, "Megakernels Considered Harmful: Wavefront Path Tracing on GPUs", Sec. 4),
+// written once over the backend interface (backend/backend.h) and run by the CPU backend (oneTBB +
+// Embree) and the CUDA backend (kernels + CUB + the portable BVH).
+//
+// One pass = one sample per pixel; path slot i belongs to pixel i. Per depth:
+//   intersect  closest hit of every queued path's ray (or, at depth 0 with first-bounce caching, the hits
+//              of the first pass: camera rays are then the same every pass)
+//   sort       optional: the queue sorted by the hit's material (misses last), so that neighbouring
+//              threads run the same BSDF code (Laine et al. 2013 Sec. 4.2 keep one queue per material;
+//              sorting by key does the same with one queue)
+//   shade      path_shade: emission with MIS, NEE (a shadow ray), BSDF sampling, Russian roulette
+//   shadow     any-hit query of each shadow ray; path_shadow adds the NEE contribution
+//   compact    optional stream compaction: the paths still active, in queue order, by a prefix sum of
+//              their flags and a scatter (Harris, Sengupta & Owens 2007, "Parallel Prefix Sum (Scan) with
+//              CUDA", GPU Gems 3 Ch. 39.3.1); without it every stage runs over all slots and idles on the
+//              finished ones
+// and after the last depth, accumulate adds each pixel's sample to the film (the same weighted sums and
+// odd-pass half buffer as the CPU Film, render.h). Every path owns its random stream and its slot, so the
+// order of the queue changes nothing: with Embree the image is bit-identical to the CPU path tracer's, with
+// and without compaction, sorting and caching (tests/cpp/test_wavefront.cpp).
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "../backend/backend.h"
+#include "path.h"
+#include "wavefront_render.h"
+
+namespace caustica {
+
+template <class B>
+class WavefrontPath {
+ public:
+  template <class T>
+  using Buffer = typename B::template Buffer<T>;
+
+  WavefrontPath(const B& backend, const PathParams& pp, const WavefrontOptions& opt, uint32_t num_materials)
+      : b_(backend), pp_(pp), opt_(opt), num_materials_(num_materials) {
+    const Camera& c = b_.scene().camera;
+    n_ = uint32_t(c.width) * uint32_t(c.height);
+    states_.resize(n_);
+    hits_.resize(n_);
+    shadow_.resize(n_);
+    queue_.resize(n_);
+    queue2_.resize(n_);
+    flags_.resize(n_);
+    scan_.resize(n_);
+    sum_.resize(size_t(n_) * 4);
+    odd_.resize(size_t(n_) * 4);
+    if (opt_.sort_materials) keys_.resize(n_);
+    if (opt_.cache_first_bounce) cache_.resize(n_);
+    clear_film();
+  }
+
+  uint32_t pixels() const { return n_; }
+
+  void clear_film() {
+    double* sum = sum_.data();
+    double* odd = odd_.data();
+    b_.parallel_for(4 * n_, CAUSTICA_KERNEL(uint32_t i) {
+      sum[i] = 0.0;
+      odd[i] = 0.0;
+    });
+  }
+
+  // Renders sample `sample_index` of every pixel into the film. Returns false when `cancel` was set
+  // midway: the film is then unchanged.
+  bool render_pass(uint32_t sample_index, const std::atomic<bool>* cancel, WavefrontPassStats& stats) {
+    const SceneView s = b_.scene();
+    const PathParams pp = pp_;
+    const auto tracer = b_.tracer();
+    const uint32_t n = n_, W = uint32_t(s.camera.width);
+    PathState* states = states_.data();
+    Hit* hits = hits_.data();
+    ShadowRay* shadow = shadow_.data();
+    uint32_t* flags = flags_.data();
+    uint32_t* scan = scan_.data();
+    stats = WavefrontPassStats();
+
+    {
+      uint32_t* queue = queue_.data();
+      b_.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) {
+        path_start(s, pp, i % W, i / W, sample_index, states[i]);
+        queue[i] = i;
+      });
+    }
+    uint32_t len = n;
+    for (uint32_t depth = 0; len > 0; ++depth) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) return false;
+      uint32_t* queue = queue_.data();
+      // Closest hits. The first depth's queue is every slot in order, so the cache is indexed by slot.
+      if (depth == 0 && opt_.cache_first_bounce && cache_valid_) {
+        const Hit* cache = cache_.data();
+        b_.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) { hits[i] = cache[i]; });
+      } else {
+        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+          uint32_t i = queue[k];
+          if (states[i].active) tracer.intersect(states[i].ray, hits[i]);
+        });
+        if (depth == 0 && opt_.cache_first_bounce) {
+          Hit* cache = cache_.data();
+          b_.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) { cache[i] = hits[i]; });
+          cache_valid_ = true;
+        }
+      }
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });
+      stats.rays += b_.exclusive_scan(flags, scan, len);
+      if (opt_.sort_materials) {
+        // Keys: the hit's material, then misses, then finished paths (never shaded).
+        const uint32_t nm = num_materials_;
+        uint32_t* keys = keys_.data();
+        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+          uint32_t i = queue[k];
+          keys[k] = !states[i].active ? nm + 1 : hits[i].valid() ? s.prim_material[hits[i].prim] : nm;
+        });
+        int bits = 1;
+        while ((uint64_t(1) << bits) <= uint64_t(nm) + 1) ++bits;
+        b_.sort_pairs(keys, queue, len, bits, sort_k_, sort_v_);
+      }
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+        uint32_t i = queue[k];
+        if (states[i].active) path_shade(s, pp, states[i], hits[i], shadow[i]);
+        else shadow[i].active = false;
+      });
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+        uint32_t i = queue[k];
+        flags[k] = shadow[i].active ? 1u : 0u;
+        if (shadow[i].active) path_shadow(states[i], shadow[i], tracer.occluded(shadow[i].ray));
+      });
+      stats.shadow_rays += b_.exclusive_scan(flags, scan, len);
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });
+      uint32_t active = b_.exclusive_scan(flags, scan, len);
+      if (opt_.compaction) {
+        uint32_t* out = queue2_.data();
+        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+          if (flags[k]) out[scan[k]] = queue[k];
+        });
+        std::swap(queue_, queue2_);
+        len = active;
+      } else if (active == 0) {
+        len = 0;
+      }
+    }
+    if (cancel && cancel->load(std::memory_order_relaxed)) return false;
+    // Accumulate: slot i is pixel i (the film's layout: r, g, b, weight per pixel).
+    double* sum = sum_.data();
+    double* odd = odd_.data();
+    const bool odd_pass = (sample_index & 1u) != 0;
+    b_.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) {
+      const PathState& st = states[i];
+      bool ok = isfinite3(st.L);
+      flags[i] = ok ? 0u : 1u;
+      if (!ok) return;
+      double w = double(st.weight);
+      double c[4] = {double(st.L.x) * w, double(st.L.y) * w, double(st.L.z) * w, w};
+      for (int j = 0; j < 4; ++j) {
+        sum[4 * size_t(i) + j] += c[j];
+        if (odd_pass) odd[4 * size_t(i) + j] += c[j];
+      }
+    });
+    stats.invalid = b_.exclusive_scan(flags, scan, n);
+    return true;
+  }
+
+  // The film's sums (4 doubles per pixel: r, g, b, weight) over all passes and over odd passes.
+  void film(std::vector<double>& sum, std::vector<double>& odd) const {
+    sum.resize(size_t(n_) * 4);
+    odd.resize(size_t(n_) * 4);
+    b_.to_host(sum_, sum.data(), sum.size());
+    b_.to_host(odd_, odd.data(), odd.size());
+  }
+
+ private:
+  const B& b_;
+  PathParams pp_;
+  WavefrontOptions opt_;
+  uint32_t num_materials_;
+  uint32_t n_ = 0;
+  Buffer<PathState> states_;
+  Buffer<Hit> hits_, cache_;
+  Buffer<ShadowRay> shadow_;
+  Buffer<uint32_t> queue_, queue2_, flags_, scan_, keys_, sort_k_, sort_v_;
+  Buffer<double> sum_, odd_;
+  bool cache_valid_ = false;
+};
+
+}  // namespace caustica
