@@ -1,6 +1,7 @@
 """The command line: it renders and writes each format, and rejects each kind of bad input
 with one line on stderr, exit status 2, no traceback and no output file."""
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -128,19 +129,27 @@ def test_ctrl_c_writes_what_it_has(caustica_bin, tmp_path):
 
 
 def test_devices_and_the_device_option(caustica_bin, tmp_path):
-    # This build renders on the CPU only (the CUDA backend is issue 7): `caustica devices` lists the CPU, and
-    # --device cuda is one clear line with exit status 2 and no output file, as is an unknown device.
+    # `caustica devices` lists the CPU and every usable CUDA device, or says why there is none; an unknown
+    # device, and cuda where there is no GPU, are one clear line with exit status 2 and no output file.
     r = run(caustica_bin, "devices")
     assert r.returncode == 0 and r.stdout.startswith("cpu "), r.stdout
-    assert [d["name"] for d in caustica.devices()] == ["cpu"]
+    cuda, why = caustica.cuda_status()
+    names = [d["name"] for d in caustica.devices()]
+    assert names == ["cpu"] + [f"cuda:{d['index']}" for d in cuda]
+    if not cuda:
+        assert why and f"cuda   not available: {why}" in r.stdout, r.stdout
     out = tmp_path / "img.exr"
-    for dev, msg in (("cuda", "device 'cuda' is not available"), ("tpu", "unknown device 'tpu' (allowed: cpu, cuda)")):
+    bad = [("tpu", "unknown device 'tpu' (allowed: cpu, cuda, cuda:N)"),
+           ("cuda:99", "device 'cuda:99' " + ("does not exist" if cuda else "is not available"))]
+    if not cuda:
+        bad.append(("cuda", "device 'cuda' is not available"))
+    for dev, msg in bad:
         r = run(caustica_bin, "render", "cornell", "--spp", "1", "--width", "8", "--height", "8", "--quiet",
                 "--device", dev, "-o", str(out))
         assert r.returncode == 2 and msg in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
         assert not out.exists()
-        with pytest.raises(caustica.InputError, match=msg.split(" (")[0]):
+        with pytest.raises(caustica.InputError, match=re.escape(msg.split(" (")[0])):
             caustica.render("cornell", spp=1, device=dev)
     r = run(caustica_bin, "render", "cornell", "--spp", "1", "--width", "8", "--height", "8", "--quiet",
             "--device", "cpu", "-o", str(out))

@@ -163,7 +163,14 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* why) {
   int n = 0;
   cudaError_t e = cudaGetDeviceCount(&n);
   if (e != cudaSuccess) {
-    if (why) *why = std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
+    if (why) {
+      if (e == cudaErrorInsufficientDriver)
+        *why = "no NVIDIA driver for CUDA 13.0 (none installed, or older than release 580)";
+      else if (e == cudaErrorNoDevice)
+        *why = "no CUDA device found";
+      else
+        *why = std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
+    }
     cudaGetLastError();  // clear the sticky-free error so later calls start clean
     return {};
   }

@@ -1,0 +1,70 @@
+"""The wavefront path tracer (integrator/wavefront_path.h) from Python and the command line: on the CPU
+(`--wavefront`) it is the CUDA backend's driver code, and must give the path tracer's image bit for bit;
+on a GPU (`--device cuda`) the image must agree with the CPU's within standard errors. GPU tests are
+skipped, saying why, where there is no usable CUDA device."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import caustica
+from test_bidirectional import seeded_regions
+
+CUDA, WHY = caustica.cuda_status()
+needs_gpu = pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "caustica.cli", *args], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("switches", [{}, {"compaction": False}, {"sort_materials": True},
+                                      {"accel": "bvh", "sort_materials": True}])
+def test_cpu_wavefront_gives_the_path_tracers_image(switches):
+    s = caustica.load_scene("smallvcm-spheres", width=24, height=20)
+    accel = switches.get("accel", "embree")
+    ref = caustica.render(s, spp=2, seed=3, accel=accel)
+    r = caustica.render_job(s, spp=2, seed=3, wavefront=True, **switches)
+    assert r.stats["device"] == f"cpu (wavefront, {'portable BVH' if accel == 'bvh' else 'embree'})"
+    assert r.stats["rays"] > 0 and r.stats["shadow_rays"] > 0
+    assert np.array_equal(r.image, ref)
+
+
+def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
+    s = caustica.load_scene("cornell", width=16, height=16)
+    ref = caustica.render(s, spp=3, jitter=False)
+    img = caustica.render(s, spp=3, jitter=False, wavefront=True, cache_first_bounce=True)
+    assert np.array_equal(img, ref)
+    out = tmp_path / "x.exr"
+    for args, msg in ((["--wavefront", "--cache-first-bounce"], "--cache-first-bounce needs --no-jitter"),
+                      (["--sort-materials"], "--sort-materials applies to the wavefront path tracer"),
+                      (["--no-compaction"], "--no-compaction applies to the wavefront path tracer"),
+                      (["--wavefront", "--integrator", "sppm"], "--wavefront runs the path tracer only"),
+                      (["--no-jitter", "--integrator", "bdpt"], "--no-jitter applies to integrator 'path'")):
+        r = cli("render", "cornell", "--spp", "1", "--width", "8", "--height", "8", "--quiet", "-o", str(out), *args)
+        assert r.returncode == 2 and msg in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
+        assert not out.exists()
+
+
+@needs_gpu
+@pytest.mark.parametrize("name", ["cornell", "smallvcm-spheres"])
+def test_gpu_path_tracer_matches_the_cpu_per_region(name):
+    # 16 region means of 12 seeds each on the CPU and on the GPU: within 4 combined standard errors.
+    s = caustica.load_scene(name, width=32, height=32)
+    m_cpu, se_cpu = seeded_regions(s, "path", 16, range(100, 112))
+    m_gpu, se_gpu = seeded_regions(s, "path", 16, range(200, 212), device="cuda")
+    z = np.abs(m_cpu - m_gpu) / np.sqrt(se_cpu ** 2 + se_gpu ** 2)
+    assert z.max() < 4.0, np.round(z, 1)
+
+
+@needs_gpu
+def test_gpu_render_from_the_command_line(tmp_path):
+    out = tmp_path / "gpu.exr"
+    r = cli("render", "cornell", "--device", "cuda", "--spp", "4", "--width", "64", "--height", "48", "--quiet",
+            "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "on cuda:0" in r.stderr
+    img = caustica.read_image(out)
+    assert img.shape == (48, 64, 3) and np.isfinite(img).all() and img.mean() > 0.05
