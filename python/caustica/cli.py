@@ -116,10 +116,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--sampler", default=None, help="sobol (Owen-scrambled) or independent (default: the scene's, else sobol)")
     r.add_argument("--accel", default="embree", help="embree, or bvh (the portable BVH the GPU uses)")
     r.add_argument("--device", default="cpu",
-                   help="cpu (default), cuda or cuda:N (path: the wavefront path tracer on the GPU); "
+                   help="cpu (default), cuda or cuda:N (path, sppm, pppm: wavefronts on the GPU); "
                         "`caustica devices` lists what this build and machine offer")
     r.add_argument("--wavefront", action="store_true",
-                   help="path: run the GPU's wavefront driver on the CPU (the same code as --device cuda)")
+                   help="path, sppm, pppm: run the GPU's wavefront driver on the CPU (the same code as --device cuda)")
     r.add_argument("--no-compaction", action="store_true",
                    help="wavefront: keep finished paths in the queues (no stream compaction)")
     r.add_argument("--sort-materials", action="store_true",
@@ -308,6 +308,7 @@ def cmd_render(a) -> int:
     for name, img in res.strategies.items():
         _api.write_image(os.path.join(a.strategy_images, name + ".exr"), img)
     secs = max(st["seconds"], 1e-9)
+    where = "" if st.get("device", "cpu") == "cpu" else f" on {st['device']}"
     if integrator in ("light", "bdpt", "bpm", "vcm", "upg"):
         # Bidirectional: one light path (and, except for light, one eye path) per pixel per pass.
         msg = (f"{scene.name}: {integrator}, {st['passes']} passes, {scene.width}x{scene.height}, "
@@ -317,12 +318,11 @@ def cmd_render(a) -> int:
             msg += f", initial radius {st['radius']:.4g}"
         msg += f" -> {', '.join(outputs)}"
     elif st.get("photons") or integrator != "path":
-        msg = (f"{scene.name}: {integrator}, {st['passes']} passes, {scene.width}x{scene.height}, "
+        msg = (f"{scene.name}: {integrator}{where}, {st['passes']} passes, {scene.width}x{scene.height}, "
                f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "
                f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g} "
                f"-> {', '.join(outputs)}")
     else:
-        where = "" if st.get("device", "cpu") == "cpu" else f" on {st['device']}"
         msg = (f"{scene.name}: {st['passes']} spp{where}, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
                f"{st['samples'] / secs / 1e6:.2f} M samples/s, "
                f"{(st['rays'] + st['shadow_rays']) / secs / 1e6:.2f} M rays/s -> {', '.join(outputs)}")

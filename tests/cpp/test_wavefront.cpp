@@ -12,6 +12,7 @@
 #include "caustica/backend/cuda/cuda_render.h"
 #include "caustica/base/error.h"
 #include "caustica/integrator/render.h"
+#include "caustica/integrator/wavefront_render.h"
 #include "caustica/scene/builtin/builtin.h"
 
 using namespace caustica;
@@ -127,9 +128,12 @@ TEST(Wavefront, OptionsAreCheckedWithOneLineErrors) {
   o.sort_materials = true;
   EXPECT_THROW(make_job(sc, o), InputError);  // not a wavefront render
   o = path_options(1, 0);
-  o.integrator = "sppm";
+  o.integrator = "bdpt";
   o.wavefront = true;
-  EXPECT_THROW(make_job(sc, o), InputError);
+  EXPECT_THROW(make_job(sc, o), InputError);  // not on the wavefront
+  o.integrator = "sppm";
+  o.sort_materials = true;
+  EXPECT_THROW(make_job(sc, o), InputError);  // a path-tracer switch
   o = path_options(1, 0);
   o.device = "gpu";
   EXPECT_THROW(make_job(sc, o), InputError);
@@ -220,5 +224,127 @@ TEST(Cuda, SwitchesChangeNothingOnTheGpu) {
     w.sort_materials = (mask & 2) != 0;
     w.cache_first_bounce = (mask & 4) != 0;
     EXPECT_EQ(render(sc, w), ref) << mask;
+  }
+}
+
+namespace {
+
+RenderOptions photon_options(const char* integrator, int passes, uint64_t seed) {
+  RenderOptions o;
+  o.integrator = integrator;
+  o.spp = passes;
+  o.seed = seed;
+  o.max_depth = 10;
+  return o;
+}
+
+// Per-region means over seeds: (mean, standard error) of each of R x R blocks of a W x H image.
+std::vector<std::pair<double, double>> seeded_region_means(std::shared_ptr<Scene> sc, RenderOptions o, int seeds,
+                                                           uint64_t seed0, int R) {
+  const int W = sc->view().camera.width, H = sc->view().camera.height;
+  std::vector<double> sum(R * R, 0.0), sq(R * R, 0.0);
+  for (int k = 0; k < seeds; ++k) {
+    o.seed = seed0 + uint64_t(k);
+    std::vector<float> img = render(sc, o);
+    for (int r = 0; r < R * R; ++r) {
+      int rx = r % R, ry = r / R;
+      double m = 0.0;
+      int cnt = 0;
+      for (int y = ry * H / R; y < (ry + 1) * H / R; ++y)
+        for (int x = rx * W / R; x < (rx + 1) * W / R; ++x, ++cnt)
+          for (int c = 0; c < 3; ++c) m += img[(size_t(y) * W + x) * 3 + c];
+      m /= 3.0 * cnt;
+      sum[r] += m;
+      sq[r] += m * m;
+    }
+  }
+  std::vector<std::pair<double, double>> out;
+  for (int r = 0; r < R * R; ++r) {
+    double mean = sum[r] / seeds, var = (sq[r] - seeds * mean * mean) / (seeds - 1);
+    out.push_back({mean, std::sqrt(std::max(var, 0.0) / seeds)});
+  }
+  return out;
+}
+
+}  // namespace
+
+// sppm and pppm on the CPU backend run the CPU photon integrator's stage functions; only the order in which
+// a visible point adds its photons (in double precision) may differ, so every pixel agrees to 1e-5
+// relative (a single photon changes a pixel by far more: 1e-3 or more of its value at these sizes).
+TEST(WavefrontPhoton, CpuBackendMatchesThePhotonIntegrators) {
+  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-env", "point-in-glass"}) {
+    auto sc = small_scene(name, 36, 28);
+    for (const char* integrator : {"sppm", "pppm"}) {
+      RenderOptions o = photon_options(integrator, 4, 21);
+      std::vector<float> ref = render(sc, o);
+      double total = 0.0;
+      for (float v : ref) total += v;
+      ASSERT_GT(total, 0.0) << name;
+      o.wavefront = true;
+      std::vector<float> img = render(sc, o);
+      ASSERT_EQ(img.size(), ref.size());
+      for (size_t i = 0; i < img.size(); ++i)
+        ASSERT_LE(std::fabs(img[i] - ref[i]), 1e-5f * std::fabs(ref[i]) + 1e-9f)
+            << name << " " << integrator << " value " << i;
+    }
+  }
+}
+
+// With stochastic hashing the photon kept in a cell is drawn in another order than on the CPU: the same
+// distribution, so the two agree per region within 4 standard errors over independent seeds.
+TEST(WavefrontPhoton, StochasticHashingAgreesWithTheCpuPerRegion) {
+  auto sc = small_scene("smallvcm-spheres", 24, 24);
+  RenderOptions o = photon_options("sppm", 4, 0);
+  o.stochastic_hash = true;
+  auto cpu = seeded_region_means(sc, o, 16, 500, 3);
+  o.wavefront = true;
+  auto wf = seeded_region_means(sc, o, 16, 600, 3);
+  for (size_t r = 0; r < cpu.size(); ++r)
+    EXPECT_LT(std::fabs(cpu[r].first - wf[r].first), 4.0 * std::hypot(cpu[r].second, wf[r].second)) << r;
+}
+
+TEST(WavefrontPhoton, CancelledPassChangesNothing) {
+  auto sc = small_scene("cornell", 16, 16);
+  RenderOptions o = photon_options("sppm", 2, 3);
+  o.wavefront = true;
+  std::vector<float> two = render(sc, o);
+  // A third pass cancelled before it starts leaves the image of two passes.
+  auto wf = make_cpu_photon_wavefront(sc, [&] {
+    PhotonWavefrontParams p;
+    p.seed = 3;
+    p.max_depth = 10;
+    p.photons = 256;
+    p.radius = 0.05f;
+    return p;
+  }(), true);
+  std::atomic<bool> cancel{false};
+  WavefrontPassStats st;
+  ASSERT_TRUE(wf->render_pass(0, &cancel, st));
+  ASSERT_TRUE(wf->render_pass(1, &cancel, st));
+  std::vector<float> before = wf->image(2);
+  cancel = true;
+  EXPECT_FALSE(wf->render_pass(2, &cancel, st));
+  EXPECT_EQ(wf->image(2), before);
+  EXPECT_EQ(two.size(), before.size());
+}
+
+// On a GPU: sppm and pppm agree with the CPU wavefront per region (independent seeds, 4 standard errors).
+TEST(Cuda, PhotonMappingMatchesTheCpuPerRegion) {
+  std::string why;
+  if (cuda_devices(&why).empty()) GTEST_SKIP() << "no CUDA device: " << why;
+  auto sc = small_scene("smallvcm-spheres", 32, 32);
+  for (const char* integrator : {"sppm", "pppm"}) {
+    for (bool stochastic : {false, true}) {
+      RenderOptions o = photon_options(integrator, 8, 0);
+      o.stochastic_hash = stochastic;
+      o.accel = "bvh";
+      o.wavefront = true;
+      auto cpu = seeded_region_means(sc, o, 12, 100, 4);
+      o.device = "cuda";
+      auto gpu = seeded_region_means(sc, o, 12, 200, 4);
+      for (size_t r = 0; r < cpu.size(); ++r)
+        EXPECT_LT(std::fabs(cpu[r].first - gpu[r].first), 4.0 * std::hypot(cpu[r].second, gpu[r].second) + 1e-7)
+            << integrator << " stochastic " << stochastic << " region " << r;
+    }
   }
 }

@@ -6,9 +6,11 @@
 //   void parallel_for(uint32_t n, F f);      calls f(i) for every i < n, in any order and concurrently;
 //                                            f is a CAUSTICA_KERNEL lambda (a __device__ lambda under nvcc)
 //   uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, uint32_t n);   out[i] = sum in[0..i), returns
-//                                            the total; in == out allowed
-//   void sort_pairs(uint32_t* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<uint32_t>& tmp_k,
+//                                            the total; in != out
+//   void sort_pairs(K* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<K>& tmp_k,
 //                   Buffer<uint32_t>& tmp_v); stable sort of (key, value) pairs by the low key_bits of key
+//                                            (K = uint32_t or uint64_t)
+//   T reduce(const T* in, uint32_t n, T init, Op op); op an associative CHD functor (min, max, bounds)
 //   Tracer tracer() const;                   batch ray queries, per item inside parallel_for:
 //                                            tracer.intersect(const Ray&, Hit&), tracer.occluded(const Ray&)
 //   void to_host(const Buffer<T>&, T* dst, size_t n); void to_device(Buffer<T>&, const T* src, size_t n)

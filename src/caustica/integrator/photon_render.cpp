@@ -20,68 +20,6 @@ bool is_photon_integrator(const std::string& n) { return n == "ppm" || n == "spp
 
 namespace {
 
-// Follows a camera ray through specular bounces to the first non-specular
-// surface, adding emission seen along the way (no MIS: the specular chain has no
-// light-sampling alternative) and NEE at the visible point. Returns the point.
-template <typename Accel>
-VisiblePoint trace_camera(const SceneView& s, const Accel& accel, Ray ray, RGB beta, Sampler& smp, uint32_t max_depth,
-                          RGB& L) {
-  VisiblePoint vp;
-  for (uint32_t depth = 1; depth <= max_depth; ++depth) {
-    Hit hit;
-    if (!accel.intersect(ray, hit)) {
-      if (s.environment_light >= 0) L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
-      return vp;
-    }
-    SurfaceHit sh = make_surface_hit(s, ray, hit);
-    Vec3f wo_world = -ray.d;
-    beta *= segment_transmittance(s, ray.d, hit.t, sh);
-    if (sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
-    const Material m = surface_material(s, sh);
-    Frame frame(sh.ns);
-    Vec3f wo = frame.to_local(wo_world);
-    float u_l = smp.next_1d();
-    Vec2f u_l2 = smp.next_2d();
-    if (!material_is_delta(m)) {
-      // Direct light by NEE (photons of the first hit are not stored).
-      if (depth < max_depth && s.num_lights > 0) {
-        float pmf;
-        const Light& l = s.lights[s.light_sampler.sample(u_l, pmf)];
-        Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
-        LightSample ls;
-        if (sample_light(s, l, p_front, u_l2, ls)) {
-          RGB f = bsdf_eval(m, wo, frame.to_local(ls.wi));
-          if (!is_black(f)) {
-            Vec3f o = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);
-            Ray sray;
-            if (std::isfinite(ls.dist)) sray = spawn_ray_to(o, ls.p_l, ls.n_l);
-            else sray = Ray{o, ls.wi, kInf};
-            if (!accel.occluded(sray)) L += beta * f * ls.Li * (abs_cos_theta(frame.to_local(ls.wi)) / (pmf * ls.pdf));
-          }
-        }
-      }
-      vp.p = sh.p;
-      vp.ng = sh.ng;
-      vp.ns = sh.ns;
-      vp.wo = wo_world;
-      vp.beta = beta;
-      vp.material = m;
-      vp.valid = depth < max_depth;  // a photon adds at least one more segment
-      return vp;
-    }
-    BSDFSample bs;
-    float uc = smp.next_1d();
-    Vec2f u = smp.next_2d();
-    if (!bsdf_sample(m, wo, uc, u, bs)) return vp;
-    Vec3f wi = frame.to_world(bs.wi);
-    beta *= bs.weight;
-    ray.o = offset_ray_origin(sh.p, sh.ng, wi);
-    ray.d = wi;
-    ray.tmax = kInf;
-  }
-  return vp;
-}
-
 // PPM's measurement points (Hachisuka et al. 2008, Sec. 4.1): the camera ray is
 // traced through every specular branch, splitting at dielectrics into reflection
 // and refraction weighted by their Fresnel probabilities, so a pixel's fixed points
@@ -204,13 +142,6 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
     tau_.assign(3 * n * K_, 0.0);
     R_.assign(n * K_, r0_);
   }
-}
-
-float PhotonIntegrator::pppm_radius(int64_t abs_pass) const {
-  // Knaus & Zwicker 2011 Eq. 15 with i = 1, 2, ...: r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1).
-  double r2 = double(r0_) * r0_;
-  for (int64_t i = 1; i <= abs_pass; ++i) r2 *= (double(i) + opt_.alpha) / double(i + 1);
-  return float(std::sqrt(r2));
 }
 
 void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
@@ -348,7 +279,7 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
     return false;
   }
   traced_ += photons_per_pass_;
-  float rmax = kind_ == Kind::kPPPM ? pppm_radius(abs_pass) : *std::max_element(R_.begin(), R_.end());
+  float rmax = kind_ == Kind::kPPPM ? pppm_radius(r0_, opt_.alpha, abs_pass) : *std::max_element(R_.begin(), R_.end());
   PhotonHashGrid grid;
   // Cells of twice the largest radius: a query sphere then overlaps at most 2x2x2 cells.
   grid.build(photons, v.bounds, 2.f * rmax, opt_.stochastic_hash, hash3(opt_.seed, uint64_t(abs_pass), 0x9d));
@@ -360,53 +291,42 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
         size_t i = size_t(y) * W_ * K_ + x;  // visible point index (pixel i / K_)
         const VisiblePoint& vp = vp_[i];
         if (!vp.valid) continue;
-        const Material& m = vp.material;
-        Frame frame(vp.ns);
-        Vec3f wo = frame.to_local(vp.wo);
         float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
-        double phi[3] = {0, 0, 0};
-        uint64_t M = 0;
-        gv.query(vp.p, radius, [&](const Photon& ph) {
-          // Photons on the far side of a thin wall arrive from below the point's
-          // surface and are filtered by the (one-sided) BSDF.
-          RGB f = bsdf_eval(m, wo, frame.to_local(ph.wi), TransportMode::kRadiance);
-          ++M;
-          for (int c = 0; c < 3; ++c) phi[c] += double(f[c]) * ph.power[c];
-        });
-        if (kind_ == Kind::kPPPM) {
-          double k = inv_np / (double(kPi) * double(radius) * radius);
-          for (int c = 0; c < 3; ++c) indirect_[3 * i + c] += double(vp.beta[c]) * phi[c] * k;
-        } else if (M > 0) {
-          // Hachisuka & Jensen 2009 Eqs. 5-8 / Hachisuka et al. 2008 Eqs. 6-11.
-          double N = N_[i], Nn = N + opt_.alpha * double(M);
-          double ratio = Nn / (N + double(M));
-          for (int c = 0; c < 3; ++c) tau_[3 * i + c] = (tau_[3 * i + c] + double(vp.beta[c]) * phi[c]) * ratio;
-          N_[i] = Nn;
-          R_[i] = float(R_[i] * std::sqrt(ratio));
-        }
+        double phi[3];
+        uint32_t M;
+        sppm_gather(vp, gv, radius, phi, M);
+        if (kind_ == Kind::kPPPM) pppm_add(&indirect_[3 * i], vp.beta, phi, inv_np, radius);
+        else sppm_update(N_[i], &tau_[3 * i], R_[i], vp.beta, phi, M, opt_.alpha);
       }
   });
   return true;
 }
 
-std::vector<float> PhotonIntegrator::image(int64_t passes) const {
-  size_t n = size_t(W_) * H_;
-  std::vector<float> img(3 * n, 0.f);
+std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t photons_per_pass, PhotonEstimate kind,
+                                const std::vector<double>& direct, const std::vector<double>& tau,
+                                const std::vector<float>& R, const std::vector<double>& indirect) {
+  std::vector<float> img(3 * pixels, 0.f);
   if (passes <= 0) return img;
-  double emitted = double(passes) * double(photons_per_pass_);
-  for (size_t i = 0; i < n; ++i)
+  double emitted = double(passes) * double(photons_per_pass);
+  for (size_t i = 0; i < pixels; ++i)
     for (int c = 0; c < 3; ++c) {
-      double L = direct_[3 * i + c] / double(passes);
-      if (kind_ == Kind::kPPPM) L += indirect_[3 * i + c] / double(passes);
-      else if (kind_ == Kind::kPM) {
-      } else
-        for (int k = 0; k < K_; ++k) {
-          size_t j = i * K_ + k;
-          L += tau_[3 * j + c] / (emitted * double(kPi) * double(R_[j]) * R_[j]);
+      double L = direct[3 * i + c] / double(passes);
+      if (kind == PhotonEstimate::kPerPass) L += indirect[3 * i + c] / double(passes);
+      else if (kind == PhotonEstimate::kProgressive)
+        for (int k = 0; k < K; ++k) {
+          size_t j = i * K + k;
+          L += tau[3 * j + c] / (emitted * double(kPi) * double(R[j]) * R[j]);
         }
       img[3 * i + c] = float(L);
     }
   return img;
+}
+
+std::vector<float> PhotonIntegrator::image(int64_t passes) const {
+  PhotonEstimate e = kind_ == Kind::kPPPM ? PhotonEstimate::kPerPass
+                     : kind_ == Kind::kPM ? PhotonEstimate::kNone
+                                          : PhotonEstimate::kProgressive;
+  return photon_image(size_t(W_) * H_, K_, passes, photons_per_pass_, e, direct_, tau_, R_, indirect_);
 }
 
 }  // namespace caustica

@@ -26,15 +26,10 @@
 #include "../photon/kdtree.h"
 #include "../photon/photon.h"
 #include "render.h"
+#include "sppm.h"
 
 namespace caustica {
 
-struct VisiblePoint {
-  Vec3f p, ng, ns, wo;  // wo in world space
-  RGB beta{0.f};        // camera throughput to the point
-  Material material;     // with its textures applied at the point
-  bool valid = false;
-};
 
 // The default gather radius of the photon, bidirectional-merging and gathering
 // integrators: twice the median pixel footprint (first-hit distance x pixel
@@ -65,7 +60,6 @@ class PhotonIntegrator {
   uint64_t global_paths_ = 0;
   uint64_t traced_ = 0;
   void trace_visible_points(int64_t abs_pass);
-  float pppm_radius(int64_t abs_pass) const;
   std::shared_ptr<Scene> scene_;
   RenderOptions opt_;
   uint32_t max_depth_;
@@ -81,5 +75,14 @@ class PhotonIntegrator {
 };
 
 bool is_photon_integrator(const std::string& name);
+
+// How the photon integrators turn their per-pixel statistics into an image (direct light is averaged over
+// the passes in every case): kProgressive (ppm, sppm) adds tau / (pi R^2 N_emitted) over K points per
+// pixel (Hachisuka et al. 2008 Eq. 12); kPerPass (pppm) adds the mean of the per-pass estimates (Knaus &
+// Zwicker 2011 Eq. 4); kNone (pm) has its photon estimates in `direct` already.
+enum class PhotonEstimate { kNone, kProgressive, kPerPass };
+std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t photons_per_pass, PhotonEstimate kind,
+                                const std::vector<double>& direct, const std::vector<double>& tau,
+                                const std::vector<float>& R, const std::vector<double>& indirect);
 
 }  // namespace caustica

@@ -100,12 +100,16 @@ void RenderJob::validate(const RenderOptions& o) {
   bool cuda = cuda_device_index(o.device) >= 0;
   if (o.device != "cpu" && !cuda)
     throw InputError("unknown device '" + o.device + "' (allowed: cpu, cuda, cuda:N)");
-  if (cuda && o.integrator != "path")
+  const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "pppm";
+  if (cuda && !wavefront_integrator)
     throw InputError("integrator '" + o.integrator + "' does not run on the CUDA backend yet (allowed with " +
-                     "--device cuda: path)");
-  if (o.wavefront && o.integrator != "path")
-    throw InputError("--wavefront runs the path tracer only (integrator 'path'), got '" + o.integrator + "'");
-  if (!uses_wavefront(o)) {
+                     "--device cuda: path, sppm, pppm)");
+  if (o.wavefront && !wavefront_integrator)
+    throw InputError("--wavefront runs path, sppm and pppm, got '" + o.integrator + "'");
+  if (uses_wavefront(o) && is_photon_integrator(o.integrator) && o.photons > 0x7fffffff)
+    throw InputError("--photons: at most 2147483647 photon paths per pass on the wavefront, got " +
+                     std::to_string(o.photons));
+  if (!uses_wavefront(o) || o.integrator != "path") {
     if (!o.compaction) throw InputError("--no-compaction applies to the wavefront path tracer (--wavefront or --device cuda)");
     if (o.sort_materials) throw InputError("--sort-materials applies to the wavefront path tracer (--wavefront or --device cuda)");
     if (o.cache_first_bounce)
@@ -136,10 +140,26 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
                      std::to_string(scene_->view().camera.height));
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
   if (opt_.spp == 0 && opt_.time == 0.0 && !target) opt_.spp = 16;
-  if (is_photon_integrator(opt_.integrator)) photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
+  if (is_photon_integrator(opt_.integrator) && !uses_wavefront(opt_))
+    photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
   if (opt_.integrator == "upg") upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
-  if (uses_wavefront(opt_)) {
+  if (uses_wavefront(opt_) && opt_.integrator != "path") {
+    PhotonWavefrontParams p;
+    p.pppm = opt_.integrator == "pppm";
+    p.seed = opt_.seed;
+    p.sampler = opt_.sampler;
+    p.max_depth = path_params().max_depth;
+    const SceneView& v = scene_->view();
+    p.photons = opt_.photons > 0 ? uint32_t(opt_.photons) : uint32_t(v.camera.width) * uint32_t(v.camera.height);
+    p.radius = opt_.radius > 0.f ? opt_.radius : automatic_radius(*scene_);
+    p.alpha = opt_.alpha;
+    p.pass_offset = opt_.pass_offset;
+    p.stochastic_hash = opt_.stochastic_hash;
+    int dev = cuda_device_index(opt_.device);
+    wavefront_ = dev >= 0 ? make_cuda_photon_wavefront(scene_, p, dev)
+                          : make_cpu_photon_wavefront(scene_, p, opt_.accel == "embree");
+  } else if (uses_wavefront(opt_)) {
     if (opt_.cache_first_bounce && scene_->view().camera.aperture_radius > 0.f)
       throw InputError("--cache-first-bounce: the camera has a lens (aperture radius " +
                        std::to_string(scene_->view().camera.aperture_radius) +
@@ -167,7 +187,7 @@ PathParams RenderJob::path_params() const {
 
 Film RenderJob::wavefront_film() const {
   Film f(film_.width, film_.height);
-  wavefront_->film(f.sum, f.odd);
+  if (!wavefront_->film(f.sum, f.odd)) throw std::logic_error("wavefront_film: not a path-tracer film");
   return f;
 }
 
@@ -240,7 +260,15 @@ void RenderJob::run() {
       {
         std::lock_guard<std::mutex> lock(mutex_);
         arena.execute([&] {
-          if (photon_) {
+          if (wavefront_) {
+            WavefrontPassStats ps;
+            if (!wavefront_->render_pass(uint32_t(pass), &cancel_, ps)) return;
+            rays_ += ps.rays;
+            shadow_rays_ += ps.shadow_rays;
+            invalid_ += ps.invalid;
+            photons_ += ps.photons;
+            samples_ += uint64_t(film_.width) * film_.height;
+          } else if (photon_) {
             bool complete = photon_->render_pass(pass, cancel_);
             photons_ = photon_->photons_traced();
             if (!complete) return;
@@ -256,13 +284,6 @@ void RenderJob::run() {
             photons_ = upg_->photons_traced();
             rays_ = upg_->rays();
             if (!complete) return;
-            samples_ += uint64_t(film_.width) * film_.height;
-          } else if (wavefront_) {
-            WavefrontPassStats ps;
-            if (!wavefront_->render_pass(uint32_t(pass), &cancel_, ps)) return;
-            rays_ += ps.rays;
-            shadow_rays_ += ps.shadow_rays;
-            invalid_ += ps.invalid;
             samples_ += uint64_t(film_.width) * film_.height;
           } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);
@@ -332,7 +353,7 @@ RenderStats RenderJob::stats() const {
   s.invalid_samples = invalid_.load();
   s.seconds = seconds_.load();
   s.photons = photons_.load();
-  s.radius = photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
+  s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
   s.done = finished_.load();
   s.cancelled = cancel_.load();
   s.error = error_value_.load();
@@ -348,7 +369,7 @@ std::vector<float> RenderJob::image() const {
   if (photon_) return photon_->image(passes_.load());
   if (vcm_) return vcm_->image(passes_.load());
   if (upg_) return upg_->image(passes_.load());
-  if (wavefront_) return wavefront_film().image();
+  if (wavefront_) return wavefront_->image(passes_.load());
   return film_.image();
 }
 

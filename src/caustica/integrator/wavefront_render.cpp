@@ -1,37 +1,49 @@
 #include "wavefront_render.h"
 
 #include "../backend/cpu/cpu_backend.h"
-#include "wavefront_path.h"
+#include "wavefront_renderers.h"
 
 namespace caustica {
 
 namespace {
 
+// Owns the CPU backend (the scene's arrays and Embree) for the renderer built over it.
 class CpuWavefront final : public WavefrontRenderer {
  public:
-  CpuWavefront(std::shared_ptr<Scene> scene, const PathParams& pp, const WavefrontOptions& opt, bool use_embree)
-      : scene_(std::move(scene)),
-        backend_(scene_->view(), use_embree ? &scene_->embree() : nullptr),
-        wf_(backend_, pp, opt, uint32_t(scene_->materials.size())),
-        use_embree_(use_embree) {}
-  bool render_pass(uint32_t sample_index, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
-    return wf_.render_pass(sample_index, cancel, stats);
+  template <class Make>
+  CpuWavefront(std::shared_ptr<Scene> scene, bool use_embree, Make make)
+      : scene_(std::move(scene)), backend_(scene_->view(), use_embree ? &scene_->embree() : nullptr) {
+    inner_ = make(backend_, std::string(use_embree ? "cpu (wavefront, embree)" : "cpu (wavefront, portable BVH)"));
   }
-  void film(std::vector<double>& sum, std::vector<double>& odd) const override { wf_.film(sum, odd); }
-  std::string device_name() const override { return use_embree_ ? "cpu (wavefront, embree)" : "cpu (wavefront, portable BVH)"; }
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    return inner_->render_pass(pass, cancel, stats);
+  }
+  std::vector<float> image(int64_t passes) const override { return inner_->image(passes); }
+  bool film(std::vector<double>& sum, std::vector<double>& odd) const override { return inner_->film(sum, odd); }
+  std::string device_name() const override { return inner_->device_name(); }
+  float initial_radius() const override { return inner_->initial_radius(); }
 
  private:
   std::shared_ptr<Scene> scene_;
   CpuBackend backend_;
-  WavefrontPath<CpuBackend> wf_;
-  bool use_embree_;
+  std::unique_ptr<WavefrontRenderer> inner_;
 };
 
 }  // namespace
 
 std::unique_ptr<WavefrontRenderer> make_cpu_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
                                                       const WavefrontOptions& opt, bool use_embree) {
-  return std::make_unique<CpuWavefront>(std::move(scene), pp, opt, use_embree);
+  const uint32_t materials = uint32_t(scene->materials.size());
+  return std::make_unique<CpuWavefront>(std::move(scene), use_embree, [&](const CpuBackend& b, std::string name) {
+    return std::make_unique<PathWavefrontRenderer<CpuBackend>>(b, std::move(name), pp, opt, materials);
+  });
+}
+
+std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
+                                                             const PhotonWavefrontParams& p, bool use_embree) {
+  return std::make_unique<CpuWavefront>(std::move(scene), use_embree, [&](const CpuBackend& b, std::string name) {
+    return std::make_unique<PhotonWavefrontRenderer<CpuBackend>>(b, std::move(name), p);
+  });
 }
 
 }  // namespace caustica

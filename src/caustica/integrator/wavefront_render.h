@@ -19,21 +19,45 @@ struct WavefrontOptions {
 };
 
 struct WavefrontPassStats {
-  uint64_t rays = 0, shadow_rays = 0, invalid = 0;
+  uint64_t rays = 0, shadow_rays = 0, invalid = 0, photons = 0;
 };
 
+// A render on a backend, pass by pass: the path tracer (wavefront_path.h) or sppm/pppm (wavefront_photon.h).
 class WavefrontRenderer {
  public:
   virtual ~WavefrontRenderer() = default;
-  // Adds sample `sample_index` of every pixel to the film; false when cancelled midway (film unchanged).
-  virtual bool render_pass(uint32_t sample_index, const std::atomic<bool>* cancel, WavefrontPassStats& stats) = 0;
-  // The film's sums (r, g, b, weight per pixel) over all passes and over the odd passes (render.h's Film).
-  virtual void film(std::vector<double>& sum, std::vector<double>& odd) const = 0;
+  // Renders pass `pass` (0-based); false when cancelled midway (the image is then unchanged).
+  virtual bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) = 0;
+  // The image after `passes` complete passes (H*W*3).
+  virtual std::vector<float> image(int64_t passes) const = 0;
+  // Path tracer only: the film's sums (r, g, b, weight per pixel) over all passes and over the odd passes
+  // (render.h's Film), for the noise estimate; false for the photon integrators.
+  virtual bool film(std::vector<double>& sum, std::vector<double>& odd) const {
+    (void)sum;
+    (void)odd;
+    return false;
+  }
   virtual std::string device_name() const = 0;
+  virtual float initial_radius() const { return 0.f; }  // photon integrators
 };
 
 // The wavefront on the CPU backend: Embree (use_embree) or the portable BVH for ray queries.
 std::unique_ptr<WavefrontRenderer> make_cpu_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
                                                       const WavefrontOptions& opt, bool use_embree);
+
+// What the photon wavefront needs beyond the scene (RenderOptions of sppm / pppm, resolved).
+struct PhotonWavefrontParams {
+  bool pppm = false;           // false: sppm
+  uint64_t seed = 0;
+  SamplerType sampler = SamplerType::kSobol;
+  uint32_t max_depth = 0xffffffffu;  // segments, Mitsuba's count
+  uint32_t photons = 0;        // photon paths per pass
+  float radius = 0.f;          // initial radius (resolved: > 0)
+  float alpha = 0.7f;
+  int64_t pass_offset = 0;
+  bool stochastic_hash = false;
+};
+std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
+                                                             const PhotonWavefrontParams& p, bool use_embree);
 
 }  // namespace caustica

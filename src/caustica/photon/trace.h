@@ -16,55 +16,90 @@
 
 namespace caustica {
 
+// One photon path's state between bounces: the stage functions below run it one segment at a time (the
+// wavefront drivers run each as a kernel over all paths), trace_photon runs them back to back.
+struct PhotonPathState {
+  Ray ray;
+  RGB beta{0.f};
+  PCG32 rng;
+  uint32_t depth = 0;  // segments traced so far
+  bool specular_seen = false, diffuse_seen = false;
+  bool active = false;
+};
+
+// Chooses a light in proportion to power and emits the path's first ray. The random stream depends only on
+// (seed, pass, index).
+CHD void photon_start(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t index, PhotonPathState& st) {
+  st = PhotonPathState();
+  if (s.num_lights == 0) return;
+  st.rng = PCG32(hash3(seed, pass, index), mix64(uint64_t(pass) << 32 | index));
+  float pmf;
+  uint32_t li = s.light_sampler.sample(st.rng.next_float(), pmf);
+  EmitSample e;
+  Vec2f up(st.rng.next_float(), st.rng.next_float());
+  Vec2f ud(st.rng.next_float(), st.rng.next_float());
+  if (!sample_emission(s, s.lights[li], up, ud, st.rng.next_float(), e)) return;
+  st.beta = e.weight / pmf;
+  st.ray = e.ray;
+  st.active = true;
+}
+
+// The segment st.ray just traced ended at `hit`: stores a photon there (returns true and fills `ph`) if
+// the surface is not specular, then samples the BSDF and Russian roulette for the next segment (st.active
+// false when the path ends). max_depth counts segments from the light (the first hit is depth 1).
+CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathState& st, const Hit& hit, Photon& ph) {
+  st.depth += 1;
+  if (!hit.valid()) {
+    st.active = false;
+    return false;
+  }
+  SurfaceHit sh = make_surface_hit(s, st.ray, hit);
+  st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
+  const Material m = surface_material(s, sh);
+  Vec3f wo_world = -st.ray.d;
+  bool stored = false;
+  if (!material_is_delta(m)) {
+    ph.p = sh.p;
+    ph.wi = wo_world;
+    ph.power = st.beta;
+    ph.flags = (st.depth == 1 ? kPhotonDirect : 0u) | ((st.specular_seen && !st.diffuse_seen) ? kPhotonCaustic : 0u);
+    stored = true;
+  }
+  st.active = false;
+  if (st.depth >= max_depth) return stored;
+  Frame frame(sh.ns);
+  BSDFSample bs;
+  float uc = st.rng.next_float();
+  Vec2f u(st.rng.next_float(), st.rng.next_float());
+  if (!bsdf_sample(m, frame.to_local(wo_world), uc, u, bs, TransportMode::kImportance)) return stored;
+  Vec3f wi_world = frame.to_world(bs.wi);
+  if (dot(wi_world, sh.ng) * bs.wi.z * dot(sh.ns, sh.ng) < 0.f) return stored;
+  RGB next = st.beta * bs.weight;
+  float q = minf(1.f, max_component(next) / max_component(st.beta));
+  if (!(st.rng.next_float() < q)) return stored;
+  st.beta = next / q;
+  if (bs.delta) st.specular_seen = true;
+  else st.diffuse_seen = true;
+  st.ray.o = offset_ray_origin(sh.p, sh.ng, wi_world);
+  st.ray.d = wi_world;
+  st.ray.tmax = kInf;
+  st.active = true;
+  return stored;
+}
+
 // Traces one photon path. `intersect(ray, hit)` is the accelerator's closest
 // hit; `store(const Photon&)` receives each stored photon. max_depth counts
 // segments from the light (the first hit is depth 1).
 template <typename Intersect, typename Store>
 CHD void trace_photon(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t index, uint32_t max_depth,
                       Intersect&& intersect, Store&& store) {
-  if (s.num_lights == 0) return;
-  PCG32 rng(hash3(seed, pass, index), mix64(uint64_t(pass) << 32 | index));
-  float pmf;
-  uint32_t li = s.light_sampler.sample(rng.next_float(), pmf);
-  EmitSample e;
-  Vec2f up(rng.next_float(), rng.next_float());
-  Vec2f ud(rng.next_float(), rng.next_float());
-  if (!sample_emission(s, s.lights[li], up, ud, rng.next_float(), e)) return;
-  RGB beta = e.weight / pmf;
-  Ray ray = e.ray;
-  bool specular_seen = false, diffuse_seen = false;
-  for (uint32_t depth = 1; depth <= max_depth; ++depth) {
+  PhotonPathState st;
+  photon_start(s, seed, pass, index, st);
+  while (st.active && st.depth < max_depth) {
     Hit hit;
-    if (!intersect(ray, hit)) return;
-    SurfaceHit sh = make_surface_hit(s, ray, hit);
-    beta *= segment_transmittance(s, ray.d, hit.t, sh);
-    const Material m = surface_material(s, sh);
-    Vec3f wo_world = -ray.d;
-    if (!material_is_delta(m)) {
-      Photon ph;
-      ph.p = sh.p;
-      ph.wi = wo_world;
-      ph.power = beta;
-      ph.flags = (depth == 1 ? kPhotonDirect : 0u) | ((specular_seen && !diffuse_seen) ? kPhotonCaustic : 0u);
-      store(ph);
-    }
-    if (depth == max_depth) return;
-    Frame frame(sh.ns);
-    BSDFSample bs;
-    float uc = rng.next_float();
-    Vec2f u(rng.next_float(), rng.next_float());
-    if (!bsdf_sample(m, frame.to_local(wo_world), uc, u, bs, TransportMode::kImportance)) return;
-    Vec3f wi_world = frame.to_world(bs.wi);
-    if (dot(wi_world, sh.ng) * bs.wi.z * dot(sh.ns, sh.ng) < 0.f) return;
-    RGB next = beta * bs.weight;
-    float q = minf(1.f, max_component(next) / max_component(beta));
-    if (!(rng.next_float() < q)) return;
-    beta = next / q;
-    if (bs.delta) specular_seen = true;
-    else diffuse_seen = true;
-    ray.o = offset_ray_origin(sh.p, sh.ng, wi_world);
-    ray.d = wi_world;
-    ray.tmax = kInf;
+    intersect(st.ray, hit);
+    Photon ph;
+    if (photon_bounce(s, max_depth, st, hit, ph)) store(ph);
   }
 }
 

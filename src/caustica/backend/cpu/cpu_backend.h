@@ -59,18 +59,19 @@ class CpuBackend {
     return sum;
   }
 
-  // LSD radix sort, 8 bits per pass (stable, as CUB's DeviceRadixSort::SortPairs).
-  void sort_pairs(uint32_t* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<uint32_t>& tmp_k,
-                  Buffer<uint32_t>& tmp_v) const {
+  // LSD radix sort, 8 bits per pass (stable, as CUB's DeviceRadixSort::SortPairs); 32- or 64-bit keys.
+  template <class K>
+  void sort_pairs(K* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<K>& tmp_k, Buffer<uint32_t>& tmp_v) const {
     if (tmp_k.size() < n) tmp_k.resize(n);
     if (tmp_v.size() < n) tmp_v.resize(n);
-    uint32_t *k0 = keys, *v0 = values, *k1 = tmp_k.data(), *v1 = tmp_v.data();
+    K *k0 = keys, *k1 = tmp_k.data();
+    uint32_t *v0 = values, *v1 = tmp_v.data();
     for (int shift = 0; shift < key_bits; shift += 8) {
       uint32_t count[257] = {};
-      for (uint32_t i = 0; i < n; ++i) ++count[((k0[i] >> shift) & 0xffu) + 1];
+      for (uint32_t i = 0; i < n; ++i) ++count[uint32_t((k0[i] >> shift) & 0xffu) + 1];
       for (int d = 0; d < 256; ++d) count[d + 1] += count[d];
       for (uint32_t i = 0; i < n; ++i) {
-        uint32_t d = (k0[i] >> shift) & 0xffu;
+        uint32_t d = uint32_t((k0[i] >> shift) & 0xffu);
         uint32_t j = count[d]++;
         k1[j] = k0[i];
         v1[j] = v0[i];
@@ -79,9 +80,16 @@ class CpuBackend {
       std::swap(v0, v1);
     }
     if (k0 != keys) {
-      std::memcpy(keys, k0, sizeof(uint32_t) * n);
+      std::memcpy(keys, k0, sizeof(K) * n);
       std::memcpy(values, v0, sizeof(uint32_t) * n);
     }
+  }
+
+  // op(...op(op(init, in[0]), in[1])..., in[n-1]); op associative (the CUDA backend regroups it).
+  template <class T, class Op>
+  T reduce(const T* in, uint32_t n, T init, Op op) const {
+    for (uint32_t i = 0; i < n; ++i) init = op(init, in[i]);
+    return init;
   }
 
   template <class T>

@@ -1,6 +1,6 @@
-// Compile check of the stage functions that do not run on the CUDA backend yet (the path tracer does:
-// integrator/wavefront_path.h on cuda_backend.cuh): photon tracing, the photon gather, and the
-// bidirectional and unbiased-gathering stages, as kernels traversing the portable BVH. Compiled into the
+// Compile check of the stage functions that do not run on the CUDA backend yet (the path tracer, sppm and
+// pppm do: integrator/wavefront_path.h, wavefront_photon.h on cuda_backend.cuh): the bidirectional and
+// unbiased-gathering stages, as kernels traversing the portable BVH. Compiled into the
 // CUDA build (nvcc, warnings as errors) so that device code cannot rot before its driver exists.
 #include "../../integrator/vcm.h"
 #include "../../integrator/upg.h"
@@ -9,33 +9,6 @@
 #include "../../scene/intersect.h"
 
 namespace caustica {
-
-// Photon tracing with the portable BVH: one thread per photon path, stored
-// photons appended through an atomic counter (order fixed later by the grid's sort).
-__global__ void k_trace_photons(SceneView s, uint64_t seed, uint32_t pass, uint32_t count, uint32_t max_depth,
-                                Photon* out, uint32_t capacity, uint32_t* n_out) {
-  uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= count) return;
-  trace_photon(
-      s, seed, pass, i, max_depth, [&](const Ray& r, Hit& h) { return scene_intersect(s, r, h); },
-      [&](const Photon& ph) {
-        uint32_t k = atomicAdd(n_out, 1u);
-        if (k < capacity) out[k] = ph;
-      });
-}
-
-// Photon gather at visible points from the sorted hash grid (Hachisuka & Jensen 2010).
-__global__ void k_gather(SceneView s, PhotonGridView grid, const Vec3f* points, const uint32_t* materials,
-                         const Vec3f* normals, const Vec3f* wo, const float* radius, float3* flux, uint32_t n) {
-  uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const Material& m = s.materials[materials[i]];
-  Frame frame(normals[i]);
-  Vec3f wol = frame.to_local(wo[i]);
-  RGB phi(0.f);
-  grid.query(points[i], radius[i], [&](const Photon& ph) { phi += bsdf_eval(m, wol, frame.to_local(ph.wi)) * ph.power; });
-  flux[i] = make_float3(phi.x, phi.y, phi.z);
-}
 
 // Unbiased photon gathering stages (integrator/upg.h): one gathered photon per thread
 // (connection share, shadow test, trials from the previous eye vertex).

@@ -3,6 +3,9 @@
 // CUB, ray queries through the portable BVH (geometry/bvh.h) that the CPU tests against Embree.
 // Everything runs on one stream; host reads (to_host, a scan's total) synchronise it.
 #pragma once
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_reduce.cuh>
+#include <cub/device/device_scan.cuh>
 #include <cuda_runtime.h>
 
 #include <cstdint>
@@ -85,8 +88,8 @@ class CudaBackend {
 
   struct Tracer {
     SceneView s;  // device pointers
-    __device__ bool intersect(const Ray& r, Hit& h) const { return scene_intersect(s, r, h); }
-    __device__ bool occluded(const Ray& r) const { return scene_occluded(s, r); }
+    CHD bool intersect(const Ray& r, Hit& h) const { return scene_intersect(s, r, h); }
+    CHD bool occluded(const Ray& r) const { return scene_occluded(s, r); }
   };
 
   // `device_view`: the scene with device pointers (DeviceScene::view()).
@@ -108,8 +111,34 @@ class CudaBackend {
   uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, uint32_t n) const;
 
   // Stable sort of (key, value) pairs by the low key_bits (CUB DeviceRadixSort::SortPairs), in place.
-  void sort_pairs(uint32_t* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<uint32_t>& tmp_k,
-                  Buffer<uint32_t>& tmp_v) const;
+  template <class K>
+  void sort_pairs(K* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<K>& tmp_k, Buffer<uint32_t>& tmp_v) const {
+    if (n <= 1) return;
+    if (tmp_k.size() < n) tmp_k.resize(n);
+    if (tmp_v.size() < n) tmp_v.resize(n);
+    size_t bytes = 0;
+    CAUSTICA_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, tmp_k.data(), values, tmp_v.data(),
+                                                        n, 0, key_bits, stream_));
+    CAUSTICA_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp(bytes), bytes, keys, tmp_k.data(), values,
+                                                        tmp_v.data(), n, 0, key_bits, stream_));
+    CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(keys, tmp_k.data(), sizeof(K) * n, cudaMemcpyDeviceToDevice, stream_));
+    CAUSTICA_CUDA_CHECK(
+        cudaMemcpyAsync(values, tmp_v.data(), sizeof(uint32_t) * n, cudaMemcpyDeviceToDevice, stream_));
+  }
+
+  // CUB DeviceReduce::Reduce; the result is copied to the host.
+  template <class T, class Op>
+  T reduce(const T* in, uint32_t n, T init, Op op) const {
+    if (n == 0) return init;
+    DeviceBuffer<T> out(1);
+    size_t bytes = 0;
+    CAUSTICA_CUDA_CHECK(cub::DeviceReduce::Reduce(nullptr, bytes, in, out.data(), n, op, init, stream_));
+    CAUSTICA_CUDA_CHECK(cub::DeviceReduce::Reduce(temp(bytes), bytes, in, out.data(), n, op, init, stream_));
+    T r;
+    CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(&r, out.data(), sizeof(T), cudaMemcpyDeviceToHost, stream_));
+    CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    return r;
+  }
 
   template <class T>
   void to_host(const Buffer<T>& b, T* dst, size_t n) const {

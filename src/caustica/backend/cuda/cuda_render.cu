@@ -1,12 +1,10 @@
-// The CUDA backend: the backend primitives (CUB scan and sort), the scene in device memory, the device
-// list, and the wavefront path tracer (integrator/wavefront_path.h) instantiated on CudaBackend.
-#include <cub/device/device_radix_sort.cuh>
-#include <cub/device/device_scan.cuh>
-
+// The CUDA backend: the backend primitives (CUB scan; sort and reduce are templates in cuda_backend.cuh),
+// the scene in device memory, the device list, and the wavefront path tracer and photon integrators
+// (integrator/wavefront_path.h, wavefront_photon.h) instantiated on CudaBackend.
 #include <map>
 
 #include "../../base/error.h"
-#include "../../integrator/wavefront_path.h"
+#include "../../integrator/wavefront_renderers.h"
 #include "cuda_backend.cuh"
 #include "cuda_render.h"
 
@@ -32,21 +30,6 @@ uint32_t CudaBackend::exclusive_scan(const uint32_t* in, uint32_t* out, uint32_t
   CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(&t, total_.data(), sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_));
   CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_));
   return t;
-}
-
-void CudaBackend::sort_pairs(uint32_t* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<uint32_t>& tmp_k,
-                             Buffer<uint32_t>& tmp_v) const {
-  if (n <= 1) return;
-  if (tmp_k.size() < n) tmp_k.resize(n);
-  if (tmp_v.size() < n) tmp_v.resize(n);
-  size_t bytes = 0;
-  CAUSTICA_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, tmp_k.data(), values, tmp_v.data(), n,
-                                                      0, key_bits, stream_));
-  CAUSTICA_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp(bytes), bytes, keys, tmp_k.data(), values, tmp_v.data(),
-                                                      n, 0, key_bits, stream_));
-  CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(keys, tmp_k.data(), sizeof(uint32_t) * n, cudaMemcpyDeviceToDevice, stream_));
-  CAUSTICA_CUDA_CHECK(
-      cudaMemcpyAsync(values, tmp_v.data(), sizeof(uint32_t) * n, cudaMemcpyDeviceToDevice, stream_));
 }
 
 namespace {
@@ -118,24 +101,31 @@ class DeviceScene {
   std::map<const float*, const float*> texels_;
 };
 
+// Owns the device (selected, then kept current around every call), the scene in device memory and the
+// backend, for the renderer built over them.
 class CudaWavefront final : public WavefrontRenderer {
  public:
-  CudaWavefront(std::shared_ptr<Scene> scene, const PathParams& pp, const WavefrontOptions& opt, int device)
-      : scene_(std::move(scene)), device_(select(device)), dscene_(*scene_), backend_(dscene_.view()),
-        wf_(backend_, pp, opt, uint32_t(scene_->materials.size())) {}
-  bool render_pass(uint32_t sample_index, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
-    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
-    return wf_.render_pass(sample_index, cancel, stats);
-  }
-  void film(std::vector<double>& sum, std::vector<double>& odd) const override {
-    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
-    wf_.film(sum, odd);
-  }
-  std::string device_name() const override {
+  template <class Make>
+  CudaWavefront(std::shared_ptr<Scene> scene, int device, Make make)
+      : scene_(std::move(scene)), device_(select(device)), dscene_(*scene_), backend_(dscene_.view()) {
     cudaDeviceProp p{};
-    cudaGetDeviceProperties(&p, device_);
-    return std::string("cuda:") + std::to_string(device_) + " (" + p.name + ")";
+    CAUSTICA_CUDA_CHECK(cudaGetDeviceProperties(&p, device_));
+    inner_ = make(backend_, "cuda:" + std::to_string(device_) + " (" + p.name + ")");
   }
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
+    return inner_->render_pass(pass, cancel, stats);
+  }
+  std::vector<float> image(int64_t passes) const override {
+    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
+    return inner_->image(passes);
+  }
+  bool film(std::vector<double>& sum, std::vector<double>& odd) const override {
+    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
+    return inner_->film(sum, odd);
+  }
+  std::string device_name() const override { return inner_->device_name(); }
+  float initial_radius() const override { return inner_->initial_radius(); }
 
  private:
   static int select(int device) {
@@ -152,7 +142,7 @@ class CudaWavefront final : public WavefrontRenderer {
   int device_;
   DeviceScene dscene_;
   CudaBackend backend_;
-  WavefrontPath<CudaBackend> wf_;
+  std::unique_ptr<WavefrontRenderer> inner_;
 };
 
 }  // namespace
@@ -193,7 +183,17 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* why) {
 
 std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
                                                        const WavefrontOptions& opt, int device) {
-  return std::make_unique<CudaWavefront>(std::move(scene), pp, opt, device);
+  const uint32_t materials = uint32_t(scene->materials.size());
+  return std::make_unique<CudaWavefront>(std::move(scene), device, [&](const CudaBackend& b, std::string name) {
+    return std::make_unique<PathWavefrontRenderer<CudaBackend>>(b, std::move(name), pp, opt, materials);
+  });
+}
+
+std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Scene> scene,
+                                                              const PhotonWavefrontParams& p, int device) {
+  return std::make_unique<CudaWavefront>(std::move(scene), device, [&](const CudaBackend& b, std::string name) {
+    return std::make_unique<PhotonWavefrontRenderer<CudaBackend>>(b, std::move(name), p);
+  });
 }
 
 }  // namespace caustica

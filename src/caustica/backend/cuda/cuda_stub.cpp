@@ -16,4 +16,9 @@ std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene>, c
   throw InputError("device 'cuda' is not available: this build of caustica has no CUDA backend");
 }
 
+std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Scene>, const PhotonWavefrontParams&,
+                                                              int) {
+  throw InputError("device 'cuda' is not available: this build of caustica has no CUDA backend");
+}
+
 }  // namespace caustica

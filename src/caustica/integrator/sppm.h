@@ -1,0 +1,130 @@
+// Stage functions of stochastic progressive photon mapping shared by the CPU driver (photon_render.cpp) and
+// the wavefront driver (wavefront_photon.h) on every backend:
+//   trace_camera   a camera ray through specular bounces to its visible point, with emission and NEE on
+//                  the way (Hachisuka & Jensen 2009, Sec. 4: a new visible point per pixel per pass)
+//   sppm_gather    the photons within a radius of a visible point, weighted by its BSDF (the sum in
+//                  Hachisuka et al. 2008 Eq. 6 / Knaus & Zwicker 2011 Eq. 3's numerator)
+//   pppm_add       one pass's estimate with the global radius (Knaus & Zwicker 2011 Eq. 3)
+//   sppm_update    the progressive statistics (Hachisuka et al. 2008 Eqs. 6-11, shared per pixel in
+//                  Hachisuka & Jensen 2009 Eqs. 5-8): N += alpha M, R and tau scaled by (N + alpha M)/(N + M)
+#pragma once
+#include "../base/sampler.h"
+#include "../light/light_sample.h"
+#include "../material/bsdf.h"
+#include "../photon/hash_grid.h"
+#include "../scene/shading.h"
+
+namespace caustica {
+
+struct VisiblePoint {
+  Vec3f p, ng, ns, wo;  // wo in world space
+  RGB beta{0.f};        // camera throughput to the point
+  Material material;     // with its textures applied at the point
+  bool valid = false;
+};
+
+// Follows a camera ray through specular bounces to the first non-specular
+// surface, adding emission seen along the way (no MIS: the specular chain has no
+// light-sampling alternative) and NEE at the visible point. Returns the point.
+template <typename Tracer>
+CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, RGB beta, Sampler& smp,
+                              uint32_t max_depth, RGB& L) {
+  VisiblePoint vp;
+  for (uint32_t depth = 1; depth <= max_depth; ++depth) {
+    Hit hit;
+    if (!accel.intersect(ray, hit)) {
+      if (s.environment_light >= 0) L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
+      return vp;
+    }
+    SurfaceHit sh = make_surface_hit(s, ray, hit);
+    Vec3f wo_world = -ray.d;
+    beta *= segment_transmittance(s, ray.d, hit.t, sh);
+    if (sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
+    const Material m = surface_material(s, sh);
+    Frame frame(sh.ns);
+    Vec3f wo = frame.to_local(wo_world);
+    float u_l = smp.next_1d();
+    Vec2f u_l2 = smp.next_2d();
+    if (!material_is_delta(m)) {
+      // Direct light by NEE (photons of the first hit are not stored).
+      if (depth < max_depth && s.num_lights > 0) {
+        float pmf;
+        const Light& l = s.lights[s.light_sampler.sample(u_l, pmf)];
+        Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
+        LightSample ls;
+        if (sample_light(s, l, p_front, u_l2, ls)) {
+          RGB f = bsdf_eval(m, wo, frame.to_local(ls.wi));
+          if (!is_black(f)) {
+            Vec3f o = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);
+            Ray sray;
+            if (std::isfinite(ls.dist)) sray = spawn_ray_to(o, ls.p_l, ls.n_l);
+            else sray = Ray{o, ls.wi, kInf};
+            if (!accel.occluded(sray)) L += beta * f * ls.Li * (abs_cos_theta(frame.to_local(ls.wi)) / (pmf * ls.pdf));
+          }
+        }
+      }
+      vp.p = sh.p;
+      vp.ng = sh.ng;
+      vp.ns = sh.ns;
+      vp.wo = wo_world;
+      vp.beta = beta;
+      vp.material = m;
+      vp.valid = depth < max_depth;  // a photon adds at least one more segment
+      return vp;
+    }
+    BSDFSample bs;
+    float uc = smp.next_1d();
+    Vec2f u = smp.next_2d();
+    if (!bsdf_sample(m, wo, uc, u, bs)) return vp;
+    Vec3f wi = frame.to_world(bs.wi);
+    beta *= bs.weight;
+    ray.o = offset_ray_origin(sh.p, sh.ng, wi);
+    ray.d = wi;
+    ray.tmax = kInf;
+  }
+  return vp;
+}
+
+// Sums f(wo, wi) * power over the photons of `grid` within `radius` of the point (photons on the far side of
+// a thin wall arrive from below its surface and are filtered by the one-sided BSDF); M counts them.
+CHD void sppm_gather(const VisiblePoint& vp, const PhotonGridView& grid, float radius, double phi[3], uint32_t& M) {
+  const Material& m = vp.material;
+  Frame frame(vp.ns);
+  Vec3f wo = frame.to_local(vp.wo);
+  phi[0] = phi[1] = phi[2] = 0.0;
+  M = 0;
+  grid.query(vp.p, radius, [&](const Photon& ph) {
+    RGB f = bsdf_eval(m, wo, frame.to_local(ph.wi), TransportMode::kRadiance);
+    ++M;
+    for (int c = 0; c < 3; ++c) phi[c] += double(f[c]) * ph.power[c];
+  });
+}
+
+// Hachisuka & Jensen 2009 Eqs. 5-8 (Hachisuka et al. 2008 Eqs. 6-11) after M > 0 photons with flux sum
+// beta * phi: the new photon count N, the flux tau and the radius R of one visible point.
+CHD void sppm_update(double& N, double* tau, float& R, const RGB& beta, const double phi[3], uint32_t M,
+                     float alpha) {
+  if (M == 0) return;
+  double Nn = N + double(alpha) * double(M);
+  double ratio = Nn / (N + double(M));
+  for (int c = 0; c < 3; ++c) tau[c] = (tau[c] + double(beta[c]) * phi[c]) * ratio;
+  N = Nn;
+  R = float(R * std::sqrt(ratio));
+}
+
+// Knaus & Zwicker 2011 Eq. 3 (one pass's estimate with the pass's global radius r), added to the pixel's
+// sum over passes: beta * phi / (pi r^2 N_emitted).
+CHD void pppm_add(double* indirect, const RGB& beta, const double phi[3], double inv_emitted, float radius) {
+  double k = inv_emitted / (double(kPi) * double(radius) * radius);
+  for (int c = 0; c < 3; ++c) indirect[c] += double(beta[c]) * phi[c] * k;
+}
+
+// Knaus & Zwicker 2011 Eq. 15 with i = 1, 2, ...: r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1); the radius of
+// pass `abs_pass` (0-based) from the initial radius r0.
+inline float pppm_radius(float r0, float alpha, int64_t abs_pass) {
+  double r2 = double(r0) * r0;
+  for (int64_t i = 1; i <= abs_pass; ++i) r2 *= (double(i) + alpha) / double(i + 1);
+  return float(std::sqrt(r2));
+}
+
+}  // namespace caustica

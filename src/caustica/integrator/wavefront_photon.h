@@ -1,0 +1,384 @@
+// Stochastic progressive photon mapping (Hachisuka & Jensen 2009) and probabilistic PPM (Knaus & Zwicker
+// 2011) as wavefronts over the backend interface (backend/backend.h), the way Hachisuka & Jensen 2010
+// ("Parallel Progressive Photon Mapping on GPUs", SIGGRAPH Asia sketch) run PPM on a GPU. One pass:
+//   visible points  one thread per pixel: the camera ray through specular bounces to its visible point,
+//                   emission and NEE on the way (sppm.h: trace_camera)
+//   photons         photon paths one segment per stage over a queue of paths (photon_start, then per
+//                   depth: intersect, photon_bounce, append the stored photons by a prefix sum of their
+//                   flags, compact the queue). Photons land in (depth, path) order: deterministic, no
+//                   atomics
+//   hash grid       hash_grid.h's construction on the backend: bounds by a reduction, each photon's slot
+//                   from its decoded position, a radix sort of (slot, index), cell starts by one writer
+//                   per slot boundary; or, with stochastic hashing, one photon per grid cell (a radix sort
+//                   of (cell, index), group starts by a prefix sum, the kept photon chosen by hash(seed,
+//                   cell) and its power scaled by the cell's count), then the grid over those
+//   gather          one thread per visible point: sppm_gather, then sppm_update (sppm, Hachisuka & Jensen
+//                   2009 Eqs. 5-8) or pppm_add (pppm, Knaus & Zwicker 2011 Eqs. 3 and 15)
+// The stage functions are the CPU photon integrator's (photon_render.cpp); only the order of photons in
+// the grid's slots differs (photon_render.cpp appends them path by path), so the sums of a visible point
+// are added in another order: images agree with the CPU integrator's to rounding (tests/cpp/
+// test_wavefront.cpp), except with stochastic hashing, where the photon kept in a cell is drawn among them
+// in another order (same distribution).
+#pragma once
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "../backend/backend.h"
+#include "../photon/trace.h"
+#include "path.h"
+#include "sppm.h"
+#include "wavefront_render.h"
+
+namespace caustica {
+
+struct BoundsUnion {
+  CHD Bounds3 operator()(Bounds3 a, const Bounds3& b) const {
+    a.extend(b);
+    return a;
+  }
+};
+struct FloatMax {
+  CHD float operator()(float a, float b) const { return a > b ? a : b; }
+};
+
+// The sorted hash grid of hash_grid.h built by a backend; view() is what kernels query.
+template <class B>
+class BackendPhotonGrid {
+ public:
+  template <class T>
+  using Buffer = typename B::template Buffer<T>;
+
+  // Builds over photons[0, n), cell side cell_size, with the scene's bounds extended by the photons'.
+  void build(const B& b, const Photon* photons, uint32_t n, const Bounds3& scene_bounds, float cell_size,
+             bool stochastic, uint64_t seed) {
+    if (pb_.size() < n) pb_.resize(n);
+    Bounds3* pb = pb_.data();
+    b.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) {
+      Bounds3 x;
+      x.extend(photons[i].p);
+      pb[i] = x;
+    });
+    Bounds3 bounds = b.reduce(pb, n, scene_bounds, BoundsUnion());
+    shape_ = PhotonGridView();
+    shape_.quant = make_photon_quantizer(bounds);
+    shape_.cell_size = cell_size;
+    shape_.inv_cell_size = 1.f / cell_size;
+    const PhotonGridView g = shape_;
+    if (stochastic) {
+      select_one_per_cell(b, photons, n, seed);
+      photons = kept_.data();
+      n = kept_count_;
+    }
+    // Table: the smallest power of two >= 2n (at most half the slots occupied).
+    uint32_t table = 1;
+    int bits = 0;
+    while (uint64_t(table) < 2 * uint64_t(n)) {
+      table <<= 1;
+      ++bits;
+    }
+    const uint32_t mask = table - 1;
+    if (compact_.size() < n) compact_.resize(n);
+    if (keys_.size() < n) keys_.resize(n);
+    if (values_.size() < n) values_.resize(n);
+    if (sorted_.size() < n) sorted_.resize(n);
+    cell_start_.resize(size_t(table) + 1);
+    CompactPhoton* compact = compact_.data();
+    uint32_t* keys = keys_.data();
+    uint32_t* values = values_.data();
+    b.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) {
+      compact[i] = encode_photon(photons[i], g.quant);
+      keys[i] = grid_slot(g.cell_of(decode_position(compact[i].q, g.quant)), mask);
+      values[i] = i;
+    });
+    b.sort_pairs(keys, values, n, bits > 0 ? bits : 1, tmp_k_, tmp_v_);
+    CompactPhoton* sorted = sorted_.data();
+    uint32_t* cell_start = cell_start_.data();
+    b.parallel_for(n, CAUSTICA_KERNEL(uint32_t j) { sorted[j] = compact[values[j]]; });
+    // cell_start[s] = the first position j with slot[j] >= s: each s written by exactly one j.
+    b.parallel_for(n + 1, CAUSTICA_KERNEL(uint32_t j) {
+      int64_t prev = j == 0 ? -1 : int64_t(keys[j - 1]);
+      int64_t cur = j == n ? int64_t(table) : int64_t(keys[j]);
+      for (int64_t s = prev + 1; s <= cur; ++s) cell_start[s] = j;
+    });
+    view_ = shape_;
+    view_.photons = sorted;
+    view_.cell_start = cell_start;
+    view_.num_photons = n;
+    view_.table_mask = mask;
+  }
+
+  const PhotonGridView& view() const { return view_; }
+
+  // Stochastic hashing (hash_grid.h): the photons sorted by (cell, index), one kept per cell, chosen
+  // uniformly by a hash of (seed, cell), its power multiplied by the cell's photon count.
+  void select_one_per_cell(const B& b, const Photon* photons, uint32_t n, uint64_t seed) {
+    if (cells_.size() < n) cells_.resize(n);
+    if (values_.size() < n) values_.resize(n);
+    if (flags_.size() < n + 1) flags_.resize(n + 1);
+    if (group_.size() < n + 1) group_.resize(n + 1);
+    uint64_t* cells = cells_.data();
+    uint32_t* values = values_.data();
+    const PhotonGridView g = shape_;
+    b.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) {
+      uint16_t q[3];
+      encode_position(photons[i].p, g.quant, q);
+      cells[i] = g.cell_of(decode_position(q, g.quant));
+      values[i] = i;
+    });
+    b.sort_pairs(cells, values, n, 63, tmp_k64_, tmp_v_);  // cell keys have 63 bits; stable: index order
+    uint32_t* flags = flags_.data();
+    uint32_t* group = group_.data();
+    b.parallel_for(n, CAUSTICA_KERNEL(uint32_t j) { flags[j] = (j == 0 || cells[j] != cells[j - 1]) ? 1u : 0u; });
+    const uint32_t groups = b.exclusive_scan(flags, group, n);
+    if (begin_.size() < groups + 1) begin_.resize(groups + 1);
+    if (kept_.size() < groups) kept_.resize(groups);
+    uint32_t* begin = begin_.data();
+    b.parallel_for(n + 1, CAUSTICA_KERNEL(uint32_t j) {
+      if (j == n) begin[groups] = n;
+      else if (flags[j]) begin[group[j]] = j;
+    });
+    Photon* kept = kept_.data();
+    b.parallel_for(groups, CAUSTICA_KERNEL(uint32_t k) {
+      const uint32_t lo = begin[k], count = begin[k + 1] - lo;
+      // Uniform among the cell's photons (Lemire's multiply-shift maps 32 hashed bits to [0, count)).
+      uint32_t h = uint32_t(hash3(seed, cells[lo], 0x73746f63ULL) >> 32);
+      uint32_t pick = uint32_t((uint64_t(h) * count) >> 32);
+      Photon ph = photons[values[lo + pick]];
+      ph.power = ph.power * float(count);
+      kept[k] = ph;
+    });
+    kept_count_ = groups;
+  }
+
+ private:
+  PhotonGridView shape_, view_;
+  Buffer<Bounds3> pb_;
+  Buffer<CompactPhoton> compact_, sorted_;
+  Buffer<uint32_t> keys_, values_, cell_start_, tmp_k_, tmp_v_, flags_, group_, begin_;
+  Buffer<uint64_t> cells_, tmp_k64_;
+  Buffer<Photon> kept_;
+  uint32_t kept_count_ = 0;
+};
+
+template <class B>
+class WavefrontPhoton {
+ public:
+  template <class T>
+  using Buffer = typename B::template Buffer<T>;
+
+  WavefrontPhoton(const B& backend, const PhotonWavefrontParams& p) : b_(backend), p_(p) {
+    const Camera& c = b_.scene().camera;
+    n_ = uint32_t(c.width) * uint32_t(c.height);
+    vp_.resize(n_);
+    lpass_.resize(3 * size_t(n_));
+    direct_.resize(3 * size_t(n_));
+    if (p_.pppm) {
+      indirect_.resize(3 * size_t(n_));
+    } else {
+      N_.resize(n_);
+      tau_.resize(3 * size_t(n_));
+      R_.resize(n_);
+    }
+    const uint32_t P = p_.photons;
+    paths_.resize(P);
+    hits_.resize(P);
+    staged_.resize(P);
+    queue_.resize(P);
+    queue2_.resize(P);
+    flags_.resize(P);
+    scan_.resize(P);
+    reset();
+  }
+
+  // No light, no flux, every radius r0 (a member function of its own: nvcc's device lambdas may not live
+  // in constructors).
+  void reset() {
+    double* direct = direct_.data();
+    double* indirect = indirect_.data();
+    double* N = N_.data();
+    double* tau = tau_.data();
+    float* R = R_.data();
+    const bool pppm = p_.pppm;
+    const float r0 = p_.radius;
+    b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
+      for (int c = 0; c < 3; ++c) direct[3 * size_t(i) + c] = 0.0;
+      if (pppm) {
+        for (int c = 0; c < 3; ++c) indirect[3 * size_t(i) + c] = 0.0;
+      } else {
+        N[i] = 0.0;
+        for (int c = 0; c < 3; ++c) tau[3 * size_t(i) + c] = 0.0;
+        R[i] = r0;
+      }
+    });
+  }
+
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) {
+    const SceneView s = b_.scene();
+    const auto tracer = b_.tracer();
+    const int64_t abs_pass = p_.pass_offset + int64_t(pass);
+    const uint32_t W = uint32_t(s.camera.width);
+    const uint32_t max_depth = p_.max_depth;
+    stats = WavefrontPassStats();
+    auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
+
+    // Visible points: a new camera path per pixel (its direct light kept apart until the pass completes).
+    {
+      PathParams pp;
+      pp.seed = p_.seed;
+      pp.sampler = p_.sampler;
+      VisiblePoint* vp = vp_.data();
+      double* lpass = lpass_.data();
+      b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
+        PathState st;
+        path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
+        RGB L(0.f);
+        vp[i] = trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L);
+        bool ok = isfinite3(L);
+        for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
+      });
+    }
+    if (cancelled()) return false;
+
+    // Photon paths, one segment per stage. A photon stored after k segments completes a path of k + 1
+    // segments with a first-hit visible point: paths of at most max_depth - 1 segments (as the CPU driver).
+    const uint32_t photon_depth = max_depth == 0xffffffffu ? max_depth : max_depth - 1;
+    const uint32_t P = p_.photons;
+    uint32_t count = 0;
+    {
+      PhotonPathState* paths = paths_.data();
+      uint32_t* queue = queue_.data();
+      const uint64_t seed = p_.seed;
+      b_.parallel_for(P, CAUSTICA_KERNEL(uint32_t i) {
+        photon_start(s, seed, uint32_t(abs_pass), i, paths[i]);
+        if (photon_depth == 0) paths[i].active = false;
+        queue[i] = i;
+      });
+    }
+    uint32_t len = P;
+    for (uint32_t depth = 0; len > 0; ++depth) {
+      if (cancelled()) return false;
+      PhotonPathState* paths = paths_.data();
+      Hit* hits = hits_.data();
+      Photon* staged = staged_.data();
+      uint32_t* queue = queue_.data();
+      uint32_t* flags = flags_.data();
+      uint32_t* scan = scan_.data();
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+        uint32_t i = queue[k];
+        if (paths[i].active) tracer.intersect(paths[i].ray, hits[i]);
+      });
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
+      stats.rays += b_.exclusive_scan(flags, scan, len);
+      // Stored photons (never the light's direct photons: NEE at the visible points covers them).
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+        uint32_t i = queue[k];
+        bool stored = false;
+        if (paths[i].active) {
+          Photon ph;
+          stored = photon_bounce(s, photon_depth, paths[i], hits[i], ph) && !(ph.flags & kPhotonDirect);
+          if (stored) staged[k] = ph;
+        }
+        flags[k] = stored ? 1u : 0u;
+      });
+      const uint32_t stored = b_.exclusive_scan(flags, scan, len);
+      reserve_photons(size_t(count) + stored);
+      {
+        Photon* out = photons_.data() + count;
+        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+          if (flags[k]) out[scan[k]] = staged[k];
+        });
+      }
+      count += stored;
+      // Stream compaction of the paths still going.
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
+      const uint32_t active = b_.exclusive_scan(flags, scan, len);
+      uint32_t* next = queue2_.data();
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+        if (flags[k]) next[scan[k]] = queue[k];
+      });
+      std::swap(queue_, queue2_);
+      len = active;
+    }
+    stats.photons = P;
+    if (cancelled()) return false;
+
+    // The grid, with cells of twice the largest radius (a query then overlaps at most 2x2x2 cells).
+    const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), n_, 0.f, FloatMax());
+    grid_.build(b_, photons_.data(), count, s.bounds, 2.f * rmax, p_.stochastic_hash,
+                hash3(p_.seed, uint64_t(abs_pass), 0x9d));
+    if (cancelled()) return false;
+
+    // Gather and update: the last stage, so a cancelled pass changes nothing.
+    {
+      const PhotonGridView g = grid_.view();
+      const VisiblePoint* vp = vp_.data();
+      const double* lpass = lpass_.data();
+      double* direct = direct_.data();
+      double* indirect = indirect_.data();
+      double* N = N_.data();
+      double* tau = tau_.data();
+      float* R = R_.data();
+      const bool pppm = p_.pppm;
+      const float alpha = p_.alpha;
+      const double inv_np = 1.0 / double(P);
+      b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
+        for (int c = 0; c < 3; ++c) direct[3 * size_t(i) + c] += lpass[3 * size_t(i) + c];
+        if (!vp[i].valid) return;
+        double phi[3];
+        uint32_t M;
+        float radius = pppm ? rmax : R[i];
+        sppm_gather(vp[i], g, radius, phi, M);
+        if (pppm) pppm_add(&indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, radius);
+        else sppm_update(N[i], &tau[3 * size_t(i)], R[i], vp[i].beta, phi, M, alpha);
+      });
+    }
+    return true;
+  }
+
+  // The per-pixel statistics, copied to the host: direct (3 per pixel), and tau (3), R (1) for sppm or
+  // indirect (3) for pppm.
+  void statistics(std::vector<double>& direct, std::vector<double>& tau, std::vector<float>& R,
+                  std::vector<double>& indirect) const {
+    direct.resize(3 * size_t(n_));
+    b_.to_host(direct_, direct.data(), direct.size());
+    if (p_.pppm) {
+      indirect.resize(3 * size_t(n_));
+      b_.to_host(indirect_, indirect.data(), indirect.size());
+    } else {
+      tau.resize(3 * size_t(n_));
+      R.resize(n_);
+      b_.to_host(tau_, tau.data(), tau.size());
+      b_.to_host(R_, R.data(), R.size());
+    }
+  }
+
+  // Grows the photon array keeping its contents (public: nvcc's device lambdas may not live in private
+  // member functions).
+  void reserve_photons(size_t n) {
+    if (photons_.size() >= n) return;
+    size_t cap = photons_.size() ? photons_.size() : size_t(p_.photons) * 2 + 1024;
+    while (cap < n) cap *= 2;
+    Buffer<Photon> bigger(cap);
+    const Photon* from = photons_.data();
+    Photon* to = bigger.data();
+    b_.parallel_for(uint32_t(photons_.size()), CAUSTICA_KERNEL(uint32_t i) { to[i] = from[i]; });
+    std::swap(photons_, bigger);
+  }
+
+ private:
+  const B& b_;
+  PhotonWavefrontParams p_;
+  uint32_t n_ = 0;
+  Buffer<VisiblePoint> vp_;
+  Buffer<double> lpass_, direct_, indirect_, N_, tau_;
+  Buffer<float> R_;
+  Buffer<PhotonPathState> paths_;
+  Buffer<Hit> hits_;
+  Buffer<Photon> staged_, photons_;
+  Buffer<uint32_t> queue_, queue2_, flags_, scan_;
+  BackendPhotonGrid<B> grid_;
+};
+
+}  // namespace caustica

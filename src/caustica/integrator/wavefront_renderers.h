@@ -1,0 +1,66 @@
+// The WavefrontRenderer handles (wavefront_render.h) over any backend: the path tracer and the photon
+// integrators, turning their device statistics into images the way the CPU drivers do. Included by the
+// CPU backend's factory (wavefront_render.cpp) and the CUDA backend's (backend/cuda/cuda_render.cu).
+#pragma once
+#include <string>
+
+#include "photon_render.h"
+#include "render.h"
+#include "wavefront_path.h"
+#include "wavefront_photon.h"
+
+namespace caustica {
+
+template <class B>
+class PathWavefrontRenderer final : public WavefrontRenderer {
+ public:
+  PathWavefrontRenderer(const B& b, std::string name, const PathParams& pp, const WavefrontOptions& opt,
+                        uint32_t num_materials)
+      : wf_(b, pp, opt, num_materials), name_(std::move(name)), W_(b.scene().camera.width), H_(b.scene().camera.height) {}
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    return wf_.render_pass(pass, cancel, stats);
+  }
+  std::vector<float> image(int64_t) const override {
+    Film f(W_, H_);
+    wf_.film(f.sum, f.odd);
+    return f.image();
+  }
+  bool film(std::vector<double>& sum, std::vector<double>& odd) const override {
+    wf_.film(sum, odd);
+    return true;
+  }
+  std::string device_name() const override { return name_; }
+
+ private:
+  WavefrontPath<B> wf_;
+  std::string name_;
+  int W_, H_;
+};
+
+template <class B>
+class PhotonWavefrontRenderer final : public WavefrontRenderer {
+ public:
+  PhotonWavefrontRenderer(const B& b, std::string name, const PhotonWavefrontParams& p)
+      : wf_(b, p), p_(p), name_(std::move(name)),
+        pixels_(size_t(b.scene().camera.width) * size_t(b.scene().camera.height)) {}
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    return wf_.render_pass(pass, cancel, stats);
+  }
+  std::vector<float> image(int64_t passes) const override {
+    std::vector<double> direct, tau, indirect;
+    std::vector<float> R;
+    wf_.statistics(direct, tau, R, indirect);
+    return photon_image(pixels_, 1, passes, p_.photons,
+                        p_.pppm ? PhotonEstimate::kPerPass : PhotonEstimate::kProgressive, direct, tau, R, indirect);
+  }
+  std::string device_name() const override { return name_; }
+  float initial_radius() const override { return p_.radius; }
+
+ private:
+  WavefrontPhoton<B> wf_;
+  PhotonWavefrontParams p_;
+  std::string name_;
+  size_t pixels_;
+};
+
+}  // namespace caustica
