@@ -7,6 +7,8 @@
 // The ray sets are generated once (fixed seed) and both accelerators trace exactly the same rays, with 1
 // thread and with all threads (tbb::parallel_for over blocks of 1024 rays); each figure is the best of 3.
 // Hits are compared too (count of rays whose hit/miss differs), as a sanity check of the comparison.
+// Where a CUDA device is present (a CUDA build), the same rays are traced there too (*_gpu_mrays: the
+// traversal kernel's time, CUDA events, best of 3; *_gpu_differ: hit/miss differences from Embree).
 //
 // Build: cmake --build build/py --target caustica_bench_bvh   (after `make build`)
 // Run:   ./build/py/caustica_bench_bvh SCENE [WIDTH HEIGHT]
@@ -27,6 +29,7 @@
 #include <vector>
 
 #include "caustica/backend/cpu/embree_accel.h"
+#include "caustica/backend/cuda/cuda_render.h"
 #include "caustica/base/error.h"
 #include "caustica/base/rng.h"
 #include "caustica/base/sampling.h"
@@ -139,9 +142,11 @@ int main(int argc, char** argv) {
 
     BVHAccel bvh{&v};
     const int all = int(std::thread::hardware_concurrency());
+    const std::vector<CudaDeviceInfo> gpus = cuda_devices();
     std::printf("{\"scene\": \"%s\", \"triangles\": %u, \"spheres\": %u, \"width\": %d, \"height\": %d, "
                 "\"bvh_nodes\": %zu, \"bvh_build_s\": %.4f, \"embree_build_s\": %.4f",
                 name.c_str(), v.num_triangles, v.num_spheres, W, H, nodes, bvh_build, embree_build);
+    if (!gpus.empty()) std::printf(", \"gpu\": \"%s\"", gpus[0].name.c_str());
     const RaySet* sets[3] = {&primary, &diffuse, &shadow};
     const char* names[3] = {"primary", "diffuse", "shadow"};
     for (int k = 0; k < 3; ++k) {
@@ -161,6 +166,17 @@ int main(int argc, char** argv) {
         if (threads == 1) std::printf(", \"%s_hits\": %zu, \"%s_differ\": %zu", names[k], hits, names[k], differ);
         std::printf(", \"%s_%dt_bvh_mrays\": %.2f, \"%s_%dt_embree_mrays\": %.2f", names[k], threads,
                     double(set.rays.size()) / tb / 1e6, names[k], threads, double(set.rays.size()) / te / 1e6);
+      }
+      // The same rays on the GPU (the portable BVH in device memory; kernel time only, best of 3).
+      if (!gpus.empty()) {
+        std::vector<Hit> gh;
+        double tg = cuda_trace_rays(*sc, set.rays, set.shadow, gh, 3);
+        std::vector<uint8_t> he;
+        trace(sc->embree(), set, he);
+        size_t differ = 0;
+        for (size_t i = 0; i < gh.size(); ++i) differ += uint8_t(gh[i].valid()) != he[i];
+        std::printf(", \"%s_gpu_differ\": %zu, \"%s_gpu_mrays\": %.1f", names[k], differ, names[k],
+                    double(set.rays.size()) / tg / 1e6);
       }
     }
     std::printf("}\n");

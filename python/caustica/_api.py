@@ -355,7 +355,6 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
             pass
     stats = job.stats()
     stats["integrator"] = integrator
-    stats["device"] = job.device_name()
     if progress is not None and not interrupted:
         progress(stats)
     return RenderResult(image=job.image(), stats=stats, interrupted=interrupted,

@@ -15,6 +15,7 @@
 //                                            tracer.intersect(const Ray&, Hit&), tracer.occluded(const Ray&)
 //   void to_host(const Buffer<T>&, T* dst, size_t n); void to_device(Buffer<T>&, const T* src, size_t n)
 //   const SceneView& scene() const;          the scene with this backend's pointers
+//   void synchronize() const;                returns when all work submitted so far is done (timing)
 //
 // CPU (backend/cpu/cpu_backend.h): oneTBB and Embree (or the portable BVH). CUDA
 // (backend/cuda/cuda_backend.cuh): kernel launches, device memory, CUB, the portable BVH.

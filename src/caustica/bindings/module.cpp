@@ -338,6 +338,16 @@ NB_MODULE(_native, m) {
         d["error"] = s.error >= 0.0 ? nb::cast(s.error) : nb::none();
         d["noise"] = s.noise >= 0.0 ? nb::cast(s.noise) : nb::none();
         d["target_reached"] = s.target_reached;
+        d["device"] = j.device_name();
+        if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {
+          nb::dict st;
+          st["visible_points"] = s.seconds_visible;
+          st["photons"] = s.seconds_photons;
+          st["grid"] = s.seconds_grid;
+          st["gather"] = s.seconds_gather;
+          d["stage_seconds"] = st;
+          d["stored_photons"] = s.stored_photons;
+        }
         return d;
       })
       .def("image", [](const RenderJob& j) {

@@ -144,6 +144,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
   if (opt_.integrator == "upg") upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
+  if (uses_wavefront(opt_)) stage_totals_ = std::make_unique<WavefrontPassStats>();
   if (uses_wavefront(opt_) && opt_.integrator != "path") {
     PhotonWavefrontParams p;
     p.pppm = opt_.integrator == "pppm";
@@ -268,6 +269,12 @@ void RenderJob::run() {
             invalid_ += ps.invalid;
             photons_ += ps.photons;
             samples_ += uint64_t(film_.width) * film_.height;
+            std::lock_guard<std::mutex> stage_lock(stage_mutex_);
+            stage_totals_->seconds_visible += ps.seconds_visible;
+            stage_totals_->seconds_photons += ps.seconds_photons;
+            stage_totals_->seconds_grid += ps.seconds_grid;
+            stage_totals_->seconds_gather += ps.seconds_gather;
+            stage_totals_->stored_photons += ps.stored_photons;
           } else if (photon_) {
             bool complete = photon_->render_pass(pass, cancel_);
             photons_ = photon_->photons_traced();
@@ -359,6 +366,14 @@ RenderStats RenderJob::stats() const {
   s.error = error_value_.load();
   s.noise = noise_value_.load();
   s.target_reached = target_reached_.load();
+  if (stage_totals_) {
+    std::lock_guard<std::mutex> lock(stage_mutex_);
+    s.seconds_visible = stage_totals_->seconds_visible;
+    s.seconds_photons = stage_totals_->seconds_photons;
+    s.seconds_grid = stage_totals_->seconds_grid;
+    s.seconds_gather = stage_totals_->seconds_gather;
+    s.stored_photons = stage_totals_->stored_photons;
+  }
   return s;
 }
 

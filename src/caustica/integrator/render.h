@@ -69,6 +69,10 @@ struct RenderStats {
   double error = -1.0;           // the last relMSE checked against the reference (-1: none)
   double noise = -1.0;           // the last noise estimate (-1: none)
   bool target_reached = false;   // stopped because a target was met
+  // sppm/pppm on the wavefront (--wavefront, --device cuda): seconds spent per stage over all passes, and
+  // the photons stored (the hash grid's input).
+  double seconds_visible = 0.0, seconds_photons = 0.0, seconds_grid = 0.0, seconds_gather = 0.0;
+  uint64_t stored_photons = 0;
 };
 
 // Names of the integrators this build offers (the registry).
@@ -110,6 +114,7 @@ class VcmIntegrator;
 class UpgIntegrator;
 class WavefrontRenderer;
 struct PathParams;
+struct WavefrontPassStats;
 
 // Whether the options run the wavefront path tracer (on the CPU with `wavefront`, or on CUDA).
 bool uses_wavefront(const RenderOptions& o);
@@ -161,6 +166,8 @@ class RenderJob {
   std::unique_ptr<UpgIntegrator> upg_;
   std::unique_ptr<WavefrontRenderer> wavefront_;
   std::atomic<uint64_t> photons_{0};
+  std::unique_ptr<WavefrontPassStats> stage_totals_;  // wavefront renders: sums over passes
+  mutable std::mutex stage_mutex_;                     // guards stage_totals_ (held briefly)
   std::string error_;
 };
 

@@ -21,6 +21,7 @@
 // in another order (same distribution).
 #pragma once
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -222,6 +223,13 @@ class WavefrontPhoton {
     const uint32_t max_depth = p_.max_depth;
     stats = WavefrontPassStats();
     auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
+    auto t0 = std::chrono::steady_clock::now();
+    auto lap = [&](double& seconds) {
+      b_.synchronize();
+      auto t = std::chrono::steady_clock::now();
+      seconds = std::chrono::duration<double>(t - t0).count();
+      t0 = t;
+    };
 
     // Visible points: a new camera path per pixel (its direct light kept apart until the pass completes).
     {
@@ -239,6 +247,7 @@ class WavefrontPhoton {
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });
     }
+    lap(stats.seconds_visible);
     if (cancelled()) return false;
 
     // Photon paths, one segment per stage. A photon stored after k segments completes a path of k + 1
@@ -302,12 +311,15 @@ class WavefrontPhoton {
       len = active;
     }
     stats.photons = P;
+    stats.stored_photons = count;
+    lap(stats.seconds_photons);
     if (cancelled()) return false;
 
     // The grid, with cells of twice the largest radius (a query then overlaps at most 2x2x2 cells).
     const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), n_, 0.f, FloatMax());
     grid_.build(b_, photons_.data(), count, s.bounds, 2.f * rmax, p_.stochastic_hash,
                 hash3(p_.seed, uint64_t(abs_pass), 0x9d));
+    lap(stats.seconds_grid);
     if (cancelled()) return false;
 
     // Gather and update: the last stage, so a cancelled pass changes nothing.
@@ -334,6 +346,7 @@ class WavefrontPhoton {
         else sppm_update(N[i], &tau[3 * size_t(i)], R[i], vp[i].beta, phi, M, alpha);
       });
     }
+    lap(stats.seconds_gather);
     return true;
   }
 

@@ -20,6 +20,9 @@ struct WavefrontOptions {
 
 struct WavefrontPassStats {
   uint64_t rays = 0, shadow_rays = 0, invalid = 0, photons = 0;
+  // Photon integrators: wall-clock seconds of the pass's stages (the backend synchronised after each).
+  double seconds_visible = 0.0, seconds_photons = 0.0, seconds_grid = 0.0, seconds_gather = 0.0;
+  uint64_t stored_photons = 0;  // photons in the grid's input (before stochastic hashing)
 };
 
 // A render on a backend, pass by pass: the path tracer (wavefront_path.h) or sppm/pppm (wavefront_photon.h).

@@ -41,6 +41,7 @@ class CpuBackend {
   CpuBackend(const SceneView& view, const EmbreeAccel* embree) : view_(view), embree_(embree) {}
   const SceneView& scene() const { return view_; }
   Tracer tracer() const { return Tracer{embree_, &view_}; }
+  void synchronize() const {}
 
   template <class F>
   void parallel_for(uint32_t n, F f) const {

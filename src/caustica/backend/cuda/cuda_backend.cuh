@@ -98,6 +98,7 @@ class CudaBackend {
   const SceneView& scene() const { return view_; }
   Tracer tracer() const { return Tracer{view_}; }
   cudaStream_t stream() const { return stream_; }
+  void synchronize() const { CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
 
   template <class F>
   void parallel_for(uint32_t n, F f) const {

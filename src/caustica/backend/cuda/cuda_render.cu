@@ -196,4 +196,48 @@ std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Sc
   });
 }
 
+double cuda_trace_rays(const Scene& scene, const std::vector<Ray>& rays, bool any_hit, std::vector<Hit>& hits,
+                       int repeats, int device) {
+  std::string why;
+  std::vector<CudaDeviceInfo> list = cuda_devices(&why);
+  if (list.empty()) throw InputError("device 'cuda' is not available: " + why);
+  if (device < 0 || device >= int(list.size())) throw InputError("no CUDA device " + std::to_string(device));
+  CAUSTICA_CUDA_CHECK(cudaSetDevice(device));
+  DeviceScene ds(scene);
+  CudaBackend b(ds.view());
+  const uint32_t n = uint32_t(rays.size());
+  DeviceBuffer<Ray> d_rays(n);
+  DeviceBuffer<Hit> d_hits(n);
+  b.to_device(d_rays, rays.data(), n);
+  const Ray* r = d_rays.data();
+  Hit* h = d_hits.data();
+  const CudaBackend::Tracer tracer = b.tracer();
+  cudaEvent_t start, stop;
+  CAUSTICA_CUDA_CHECK(cudaEventCreate(&start));
+  CAUSTICA_CUDA_CHECK(cudaEventCreate(&stop));
+  float best = 1e30f;
+  for (int rep = 0; rep < (repeats > 0 ? repeats : 1); ++rep) {
+    CAUSTICA_CUDA_CHECK(cudaEventRecord(start, b.stream()));
+    if (any_hit) {
+      b.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) {
+        Hit x;
+        if (tracer.occluded(r[i])) x.prim = 0;
+        h[i] = x;
+      });
+    } else {
+      b.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) { tracer.intersect(r[i], h[i]); });
+    }
+    CAUSTICA_CUDA_CHECK(cudaEventRecord(stop, b.stream()));
+    CAUSTICA_CUDA_CHECK(cudaEventSynchronize(stop));
+    float ms = 0.f;
+    CAUSTICA_CUDA_CHECK(cudaEventElapsedTime(&ms, start, stop));
+    best = ms < best ? ms : best;
+  }
+  cudaEventDestroy(start);
+  cudaEventDestroy(stop);
+  hits.resize(n);
+  b.to_host(d_hits, hits.data(), n);
+  return double(best) * 1e-3;
+}
+
 }  // namespace caustica

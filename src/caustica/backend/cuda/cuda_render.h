@@ -33,4 +33,11 @@ std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene> sc
 std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Scene> scene,
                                                               const PhotonWavefrontParams& p, int device);
 
+// Ray queries on CUDA device `device` over the portable BVH, for the accelerator tests and bench_bvh:
+// closest hits of `rays` (any_hit false) or occlusion (any_hit true: hits[i].prim != ~0u marks an occluded
+// ray), copied back to `hits`. Returns the seconds of one traversal kernel, the best of `repeats` (CUDA
+// events; the scene upload and copies are not counted). Throws InputError without a device.
+double cuda_trace_rays(const Scene& scene, const std::vector<Ray>& rays, bool any_hit, std::vector<Hit>& hits,
+                       int repeats = 3, int device = 0);
+
 }  // namespace caustica

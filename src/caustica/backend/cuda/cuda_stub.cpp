@@ -6,6 +6,12 @@ namespace caustica {
 
 bool cuda_built() { return false; }
 
+namespace {
+[[noreturn]] void no_cuda() {
+  throw InputError("device 'cuda' is not available: this build of caustica has no CUDA backend");
+}
+}  // namespace
+
 std::vector<CudaDeviceInfo> cuda_devices(std::string* why) {
   if (why) *why = "this build of caustica has no CUDA backend (configure with -DCAUSTICA_CUDA=ON)";
   return {};
@@ -13,12 +19,14 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* why) {
 
 std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene>, const PathParams&,
                                                        const WavefrontOptions&, int) {
-  throw InputError("device 'cuda' is not available: this build of caustica has no CUDA backend");
+  no_cuda();
 }
 
 std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Scene>, const PhotonWavefrontParams&,
                                                               int) {
-  throw InputError("device 'cuda' is not available: this build of caustica has no CUDA backend");
+  no_cuda();
 }
+
+double cuda_trace_rays(const Scene&, const std::vector<Ray>&, bool, std::vector<Hit>&, int, int) { no_cuda(); }
 
 }  // namespace caustica
