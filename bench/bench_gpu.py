@@ -38,8 +38,11 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(ROOT, "python"))
-import caustica  # noqa: E402
+try:
+    import caustica  # the installed package (or PYTHONPATH: the GPU bundle of scripts/gpu-bundle.sh)
+except ImportError:
+    sys.path.insert(0, os.path.join(ROOT, "python"))
+    import caustica  # noqa: E402
 from caustica._provenance import commit, machine  # noqa: E402
 
 RESULTS = os.path.join(HERE, "RESULTS.md")

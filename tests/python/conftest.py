@@ -4,7 +4,8 @@ import sys
 import numpy as np
 import pytest
 
-BIN = os.path.join(os.path.dirname(sys.executable), "caustica")
+# The command line: the one installed beside this Python, or CAUSTICA_BIN (the GPU bundle's wrapper).
+BIN = os.environ.get("CAUSTICA_BIN") or os.path.join(os.path.dirname(sys.executable), "caustica")
 
 
 def mean_and_se(values):

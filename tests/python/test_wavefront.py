@@ -92,3 +92,10 @@ def test_gpu_render_from_the_command_line(tmp_path):
     assert "on cuda:0" in r.stderr
     img = caustica.read_image(out)
     assert img.shape == (48, 64, 3) and np.isfinite(img).all() and img.mean() > 0.05
+
+
+@pytest.mark.parametrize("integrator", ["path", "sppm"])
+def test_cpu_wavefront_is_deterministic_across_thread_counts(integrator):
+    s = caustica.load_scene("smallvcm-spheres", width=20, height=16)
+    kw = dict(integrator=integrator, spp=2, seed=8, wavefront=True, stochastic_hash=integrator == "sppm")
+    assert np.array_equal(caustica.render(s, threads=1, **kw), caustica.render(s, threads=2, **kw))

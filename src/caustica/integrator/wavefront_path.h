@@ -91,7 +91,8 @@ class WavefrontPath {
       if (cancel && cancel->load(std::memory_order_relaxed)) return false;
       uint32_t* queue = queue_.data();
       // Closest hits. The first depth's queue is every slot in order, so the cache is indexed by slot.
-      if (depth == 0 && opt_.cache_first_bounce && cache_valid_) {
+      const bool cached = depth == 0 && opt_.cache_first_bounce && cache_valid_;
+      if (cached) {
         const Hit* cache = cache_.data();
         b_.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) { hits[i] = cache[i]; });
       } else {
@@ -106,7 +107,8 @@ class WavefrontPath {
         }
       }
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });
-      stats.rays += b_.exclusive_scan(flags, scan, len);
+      const uint32_t traced = b_.exclusive_scan(flags, scan, len);
+      if (!cached) stats.rays += traced;  // cached camera rays were not traced this pass
       if (opt_.sort_materials) {
         // Keys: the hit's material, then misses, then finished paths (never shaded).
         const uint32_t nm = num_materials_;
