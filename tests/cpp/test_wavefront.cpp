@@ -43,6 +43,43 @@ RenderOptions path_options(int spp, uint64_t seed) {
   return o;
 }
 
+RenderOptions photon_options(const char* integrator, int passes, uint64_t seed) {
+  RenderOptions o;
+  o.integrator = integrator;
+  o.spp = passes;
+  o.seed = seed;
+  o.max_depth = 10;
+  return o;
+}
+
+// Per-region means over seeds: (mean, standard error) of each of R x R blocks of a W x H image.
+std::vector<std::pair<double, double>> seeded_region_means(std::shared_ptr<Scene> sc, RenderOptions o, int seeds,
+                                                           uint64_t seed0, int R) {
+  const int W = sc->view().camera.width, H = sc->view().camera.height;
+  std::vector<double> sum(R * R, 0.0), sq(R * R, 0.0);
+  for (int k = 0; k < seeds; ++k) {
+    o.seed = seed0 + uint64_t(k);
+    std::vector<float> img = render(sc, o);
+    for (int r = 0; r < R * R; ++r) {
+      int rx = r % R, ry = r / R;
+      double m = 0.0;
+      int cnt = 0;
+      for (int y = ry * H / R; y < (ry + 1) * H / R; ++y)
+        for (int x = rx * W / R; x < (rx + 1) * W / R; ++x, ++cnt)
+          for (int c = 0; c < 3; ++c) m += img[(size_t(y) * W + x) * 3 + c];
+      m /= 3.0 * cnt;
+      sum[r] += m;
+      sq[r] += m * m;
+    }
+  }
+  std::vector<std::pair<double, double>> out;
+  for (int r = 0; r < R * R; ++r) {
+    double mean = sum[r] / seeds, var = (sq[r] - seeds * mean * mean) / (seeds - 1);
+    out.push_back({mean, std::sqrt(std::max(var, 0.0) / seeds)});
+  }
+  return out;
+}
+
 }  // namespace
 
 TEST(CpuBackend, ExclusiveScanAndTotal) {
@@ -174,35 +211,13 @@ TEST(Cuda, PathTracerMatchesTheCpuPerRegion) {
   if (cuda_devices(&why).empty()) GTEST_SKIP() << "no CUDA device: " << why;
   for (const char* name : {"cornell", "smallvcm-spheres"}) {
     auto sc = small_scene(name, 32, 32);
-    auto regions = [&](const std::string& device, uint64_t seed0) {
-      const int seeds = 12, R = 4;
-      std::vector<double> sum(R * R, 0.0), sq(R * R, 0.0);
-      for (int k = 0; k < seeds; ++k) {
-        RenderOptions o = path_options(16, seed0 + uint64_t(k));
-        o.sampler = SamplerType::kIndependent;
-        o.device = device;
-        o.wavefront = true;
-        o.accel = "bvh";
-        std::vector<float> img = render(sc, o);
-        for (int r = 0; r < R * R; ++r) {
-          double m = 0.0;
-          int rx = r % R, ry = r / R;
-          for (int y = ry * 8; y < ry * 8 + 8; ++y)
-            for (int x = rx * 8; x < rx * 8 + 8; ++x)
-              for (int c = 0; c < 3; ++c) m += img[(size_t(y) * 32 + x) * 3 + c];
-          m /= 8 * 8 * 3;
-          sum[r] += m;
-          sq[r] += m * m;
-        }
-      }
-      std::vector<std::pair<double, double>> out;
-      for (int r = 0; r < R * R; ++r) {
-        double mean = sum[r] / seeds, var = (sq[r] - seeds * mean * mean) / (seeds - 1);
-        out.push_back({mean, std::sqrt(std::max(var, 0.0) / seeds)});
-      }
-      return out;
-    };
-    auto cpu = regions("cpu", 100), gpu = regions("cuda", 200);
+    RenderOptions o = path_options(16, 0);
+    o.sampler = SamplerType::kIndependent;
+    o.wavefront = true;
+    o.accel = "bvh";
+    auto cpu = seeded_region_means(sc, o, 12, 100, 4);
+    o.device = "cuda";
+    auto gpu = seeded_region_means(sc, o, 12, 200, 4);
     for (size_t r = 0; r < cpu.size(); ++r) {
       double se = std::hypot(cpu[r].second, gpu[r].second);
       EXPECT_LT(std::fabs(cpu[r].first - gpu[r].first), 4.0 * se + 1e-7) << name << " region " << r;
@@ -228,46 +243,6 @@ TEST(Cuda, SwitchesChangeNothingOnTheGpu) {
   }
 }
 
-namespace {
-
-RenderOptions photon_options(const char* integrator, int passes, uint64_t seed) {
-  RenderOptions o;
-  o.integrator = integrator;
-  o.spp = passes;
-  o.seed = seed;
-  o.max_depth = 10;
-  return o;
-}
-
-// Per-region means over seeds: (mean, standard error) of each of R x R blocks of a W x H image.
-std::vector<std::pair<double, double>> seeded_region_means(std::shared_ptr<Scene> sc, RenderOptions o, int seeds,
-                                                           uint64_t seed0, int R) {
-  const int W = sc->view().camera.width, H = sc->view().camera.height;
-  std::vector<double> sum(R * R, 0.0), sq(R * R, 0.0);
-  for (int k = 0; k < seeds; ++k) {
-    o.seed = seed0 + uint64_t(k);
-    std::vector<float> img = render(sc, o);
-    for (int r = 0; r < R * R; ++r) {
-      int rx = r % R, ry = r / R;
-      double m = 0.0;
-      int cnt = 0;
-      for (int y = ry * H / R; y < (ry + 1) * H / R; ++y)
-        for (int x = rx * W / R; x < (rx + 1) * W / R; ++x, ++cnt)
-          for (int c = 0; c < 3; ++c) m += img[(size_t(y) * W + x) * 3 + c];
-      m /= 3.0 * cnt;
-      sum[r] += m;
-      sq[r] += m * m;
-    }
-  }
-  std::vector<std::pair<double, double>> out;
-  for (int r = 0; r < R * R; ++r) {
-    double mean = sum[r] / seeds, var = (sq[r] - seeds * mean * mean) / (seeds - 1);
-    out.push_back({mean, std::sqrt(std::max(var, 0.0) / seeds)});
-  }
-  return out;
-}
-
-}  // namespace
 
 // sppm and pppm on the CPU backend run the CPU photon integrator's stage functions; only the order in which
 // a visible point adds its photons (in double precision) may differ, so every pixel agrees to 1e-5

@@ -193,24 +193,28 @@ class WavefrontPhoton {
     reset();
   }
 
+  // The per-pixel statistics' arrays, for kernels to capture (the unused ones are null). Public, as every
+  // type a device lambda captures must be.
+  struct PixelStats {
+    double *direct, *indirect, *N, *tau;
+    float* R;
+  };
+  PixelStats pixel_stats() { return {direct_.data(), indirect_.data(), N_.data(), tau_.data(), R_.data()}; }
+
   // No light, no flux, every radius r0 (a member function of its own: nvcc's device lambdas may not live
   // in constructors).
   void reset() {
-    double* direct = direct_.data();
-    double* indirect = indirect_.data();
-    double* N = N_.data();
-    double* tau = tau_.data();
-    float* R = R_.data();
+    const PixelStats ps = pixel_stats();
     const bool pppm = p_.pppm;
     const float r0 = p_.radius;
     b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
-      for (int c = 0; c < 3; ++c) direct[3 * size_t(i) + c] = 0.0;
+      for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(i) + c] = 0.0;
       if (pppm) {
-        for (int c = 0; c < 3; ++c) indirect[3 * size_t(i) + c] = 0.0;
+        for (int c = 0; c < 3; ++c) ps.indirect[3 * size_t(i) + c] = 0.0;
       } else {
-        N[i] = 0.0;
-        for (int c = 0; c < 3; ++c) tau[3 * size_t(i) + c] = 0.0;
-        R[i] = r0;
+        ps.N[i] = 0.0;
+        for (int c = 0; c < 3; ++c) ps.tau[3 * size_t(i) + c] = 0.0;
+        ps.R[i] = r0;
       }
     });
   }
@@ -327,23 +331,19 @@ class WavefrontPhoton {
       const PhotonGridView g = grid_.view();
       const VisiblePoint* vp = vp_.data();
       const double* lpass = lpass_.data();
-      double* direct = direct_.data();
-      double* indirect = indirect_.data();
-      double* N = N_.data();
-      double* tau = tau_.data();
-      float* R = R_.data();
+      const PixelStats ps = pixel_stats();
       const bool pppm = p_.pppm;
       const float alpha = p_.alpha;
       const double inv_np = 1.0 / double(P);
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
-        for (int c = 0; c < 3; ++c) direct[3 * size_t(i) + c] += lpass[3 * size_t(i) + c];
+        for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(i) + c] += lpass[3 * size_t(i) + c];
         if (!vp[i].valid) return;
         double phi[3];
         uint32_t M;
-        float radius = pppm ? rmax : R[i];
+        float radius = pppm ? rmax : ps.R[i];
         sppm_gather(vp[i], g, radius, phi, M);
-        if (pppm) pppm_add(&indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, radius);
-        else sppm_update(N[i], &tau[3 * size_t(i)], R[i], vp[i].beta, phi, M, alpha);
+        if (pppm) pppm_add(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, radius);
+        else sppm_update(ps.N[i], &ps.tau[3 * size_t(i)], ps.R[i], vp[i].beta, phi, M, alpha);
       });
     }
     lap(stats.seconds_gather);

@@ -8,25 +8,17 @@ namespace caustica {
 namespace {
 
 // Owns the CPU backend (the scene's arrays and Embree) for the renderer built over it.
-class CpuWavefront final : public WavefrontRenderer {
+class CpuWavefront final : public OwningRenderer {
  public:
   template <class Make>
   CpuWavefront(std::shared_ptr<Scene> scene, bool use_embree, Make make)
       : scene_(std::move(scene)), backend_(scene_->view(), use_embree ? &scene_->embree() : nullptr) {
     inner_ = make(backend_, std::string(use_embree ? "cpu (wavefront, embree)" : "cpu (wavefront, portable BVH)"));
   }
-  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
-    return inner_->render_pass(pass, cancel, stats);
-  }
-  std::vector<float> image(int64_t passes) const override { return inner_->image(passes); }
-  bool film(std::vector<double>& sum, std::vector<double>& odd) const override { return inner_->film(sum, odd); }
-  std::string device_name() const override { return inner_->device_name(); }
-  float initial_radius() const override { return inner_->initial_radius(); }
 
  private:
   std::shared_ptr<Scene> scene_;
   CpuBackend backend_;
-  std::unique_ptr<WavefrontRenderer> inner_;
 };
 
 }  // namespace

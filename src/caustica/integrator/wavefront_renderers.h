@@ -63,4 +63,28 @@ class PhotonWavefrontRenderer final : public WavefrontRenderer {
   size_t pixels_;
 };
 
+// A renderer that owns a backend (and what the backend needs) and forwards every call to the renderer built
+// over it; enter() runs first (the CUDA backend makes its device current there).
+class OwningRenderer : public WavefrontRenderer {
+ public:
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    enter();
+    return inner_->render_pass(pass, cancel, stats);
+  }
+  std::vector<float> image(int64_t passes) const override {
+    enter();
+    return inner_->image(passes);
+  }
+  bool film(std::vector<double>& sum, std::vector<double>& odd) const override {
+    enter();
+    return inner_->film(sum, odd);
+  }
+  std::string device_name() const override { return inner_->device_name(); }
+  float initial_radius() const override { return inner_->initial_radius(); }
+
+ protected:
+  virtual void enter() const {}
+  std::unique_ptr<WavefrontRenderer> inner_;
+};
+
 }  // namespace caustica

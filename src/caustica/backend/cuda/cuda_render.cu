@@ -101,48 +101,38 @@ class DeviceScene {
   std::map<const float*, const float*> texels_;
 };
 
+// Makes CUDA device `device` current; InputError when there is none such.
+int select_cuda_device(int device) {
+  std::string why;
+  std::vector<CudaDeviceInfo> list = cuda_devices(&why);
+  if (list.empty()) throw InputError("device 'cuda' is not available: " + why);
+  if (device < 0 || device >= int(list.size()))
+    throw InputError("device 'cuda:" + std::to_string(device) + "' does not exist (this machine has " +
+                     std::to_string(list.size()) + " CUDA device(s))");
+  CAUSTICA_CUDA_CHECK(cudaSetDevice(device));
+  return device;
+}
+
 // Owns the device (selected, then kept current around every call), the scene in device memory and the
 // backend, for the renderer built over them.
-class CudaWavefront final : public WavefrontRenderer {
+class CudaWavefront final : public OwningRenderer {
  public:
   template <class Make>
   CudaWavefront(std::shared_ptr<Scene> scene, int device, Make make)
-      : scene_(std::move(scene)), device_(select(device)), dscene_(*scene_), backend_(dscene_.view()) {
+      : scene_(std::move(scene)), device_(select_cuda_device(device)), dscene_(*scene_), backend_(dscene_.view()) {
     cudaDeviceProp p{};
     CAUSTICA_CUDA_CHECK(cudaGetDeviceProperties(&p, device_));
     inner_ = make(backend_, "cuda:" + std::to_string(device_) + " (" + p.name + ")");
   }
-  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
-    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
-    return inner_->render_pass(pass, cancel, stats);
-  }
-  std::vector<float> image(int64_t passes) const override {
-    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
-    return inner_->image(passes);
-  }
-  bool film(std::vector<double>& sum, std::vector<double>& odd) const override {
-    CAUSTICA_CUDA_CHECK(cudaSetDevice(device_));
-    return inner_->film(sum, odd);
-  }
-  std::string device_name() const override { return inner_->device_name(); }
-  float initial_radius() const override { return inner_->initial_radius(); }
+
+ protected:
+  void enter() const override { CAUSTICA_CUDA_CHECK(cudaSetDevice(device_)); }
 
  private:
-  static int select(int device) {
-    std::string why;
-    std::vector<CudaDeviceInfo> list = cuda_devices(&why);
-    if (list.empty()) throw InputError("device 'cuda' is not available: " + why);
-    if (device < 0 || device >= int(list.size()))
-      throw InputError("device 'cuda:" + std::to_string(device) + "' does not exist (this machine has " +
-                       std::to_string(list.size()) + " CUDA device(s))");
-    CAUSTICA_CUDA_CHECK(cudaSetDevice(device));
-    return device;
-  }
   std::shared_ptr<Scene> scene_;
   int device_;
   DeviceScene dscene_;
   CudaBackend backend_;
-  std::unique_ptr<WavefrontRenderer> inner_;
 };
 
 }  // namespace
@@ -198,11 +188,7 @@ std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Sc
 
 double cuda_trace_rays(const Scene& scene, const std::vector<Ray>& rays, bool any_hit, std::vector<Hit>& hits,
                        int repeats, int device) {
-  std::string why;
-  std::vector<CudaDeviceInfo> list = cuda_devices(&why);
-  if (list.empty()) throw InputError("device 'cuda' is not available: " + why);
-  if (device < 0 || device >= int(list.size())) throw InputError("no CUDA device " + std::to_string(device));
-  CAUSTICA_CUDA_CHECK(cudaSetDevice(device));
+  select_cuda_device(device);
   DeviceScene ds(scene);
   CudaBackend b(ds.view());
   const uint32_t n = uint32_t(rays.size());
