@@ -190,7 +190,8 @@ def main() -> int:
     if not a.no_results:
         cmd = "python bench/bench_gpu.py " + " ".join(sys.argv[1:])
         host = machine()
-        lines = [f"\n## {started:%Y-%m-%d %H:%M} UTC, commit {commit(ROOT)}: CUDA backend figures (bench_gpu.py)\n",
+        lines = [f"\n## {started:%Y-%m-%d %H:%M} UTC, commit {commit(ROOT)}: wavefront figures on {device} "
+                 f"(bench_gpu.py)\n",
                  f"\nDevice: {device}; host: {host}. Command: `{cmd}`. {a.width}x{a.height}, best of "
                  f"{a.repeats} after a warm-up.\n",
                  "\n| scene | setting | samples/s | rays/s (all) | camera+bounce rays/s |\n|---|---|---|---|---|\n"]
