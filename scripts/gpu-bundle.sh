@@ -57,6 +57,12 @@ step $B/bin/caustica_tests --gtest_filter='Cuda*:Wavefront*:CpuBackend*' 2>&1 | 
 step python3 -m pytest -q -p no:cacheprovider tests/python/test_wavefront.py tests/python/test_cli.py -k "gpu or device" 2>&1 | tee "$OUT/pytest.txt"
 step compute-sanitizer --tool memcheck --error-exitcode 1 $B/bin/caustica_tests \
   --gtest_filter='Cuda.SwitchesChangeNothingOnTheGpu' 2>&1 | tail -n 40 | tee "$OUT/memcheck.txt"
+for args in "--integrator path --sort-materials" "--integrator sppm --photons 5000" \
+            "--integrator pppm --photons 5000 --stochastic-hash"; do
+  step compute-sanitizer --tool memcheck --error-exitcode 1 python3 -m caustica.cli render smallvcm-spheres \
+    --device cuda --spp 2 --width 64 --height 48 --quiet -o /tmp/memcheck.exr $args 2>&1 | tail -n 20 \
+    | tee -a "$OUT/memcheck.txt"
+done
 step $B/bin/caustica_bench_bvh cornell 1920 1080 2>&1 | tee "$OUT/bvh.txt"
 step python3 bench/bench_gpu.py --no-results 2>&1 | tee "$OUT/bench.txt"
 EOF

@@ -15,6 +15,7 @@ class CpuWavefront final : public OwningRenderer {
       : scene_(std::move(scene)), backend_(scene_->view(), use_embree ? &scene_->embree() : nullptr) {
     inner_ = make(backend_, std::string(use_embree ? "cpu (wavefront, embree)" : "cpu (wavefront, portable BVH)"));
   }
+  ~CpuWavefront() override { inner_.reset(); }  // before the backend it refers to
 
  private:
   std::shared_ptr<Scene> scene_;

@@ -15,6 +15,8 @@ __global__ void k_scan_total(const uint32_t* in, const uint32_t* out, uint32_t n
 }
 
 void* CudaBackend::temp(size_t bytes) const {
+  // Never null: CUB reads a null temporary buffer as "only report the size" and would skip the work.
+  if (bytes < 256) bytes = 256;
   if (temp_.size() < bytes) temp_.resize(bytes);
   return temp_.data();
 }
@@ -123,6 +125,10 @@ class CudaWavefront final : public OwningRenderer {
     cudaDeviceProp p{};
     CAUSTICA_CUDA_CHECK(cudaGetDeviceProperties(&p, device_));
     inner_ = make(backend_, "cuda:" + std::to_string(device_) + " (" + p.name + ")");
+  }
+  ~CudaWavefront() override {
+    enter();
+    inner_.reset();  // before the backend and the scene it refers to
   }
 
  protected:
