@@ -26,9 +26,10 @@ std::shared_ptr<Scene> small_scene(const std::string& name, int w, int h) {
   return sc;
 }
 
-std::vector<float> render(std::shared_ptr<Scene> sc, RenderOptions o) {
+std::vector<float> render(std::shared_ptr<Scene> sc, RenderOptions o, RenderStats* stats = nullptr) {
   RenderJob job(std::move(sc), o);
   job.run();
+  if (stats) *stats = job.stats();
   return job.image();
 }
 
@@ -123,7 +124,8 @@ TEST(Wavefront, CpuBackendReproducesThePathTracerBitForBit) {
   for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-point", "smallvcm-env", "smallvcm-sun"}) {
     auto sc = small_scene(name, 40, 30);
     RenderOptions o = path_options(3, 11);
-    std::vector<float> ref = render(sc, o);
+    RenderStats ref_stats;
+    std::vector<float> ref = render(sc, o, &ref_stats);
     double total = 0.0;
     for (float v : ref) total += v;
     ASSERT_GT(total, 0.0) << name;
@@ -132,11 +134,16 @@ TEST(Wavefront, CpuBackendReproducesThePathTracerBitForBit) {
       w.wavefront = true;
       w.compaction = (mask & 1) != 0;
       w.sort_materials = (mask & 2) != 0;
-      std::vector<float> img = render(sc, w);
+      RenderStats st;
+      std::vector<float> img = render(sc, w, &st);
       ASSERT_EQ(img.size(), ref.size());
       size_t diff = 0;
       for (size_t i = 0; i < img.size(); ++i) diff += img[i] != ref[i];
       EXPECT_EQ(diff, 0u) << name << " compaction " << w.compaction << " sort " << w.sort_materials;
+      // The same paths: the same numbers of camera/bounce rays and shadow rays as the tile driver counts.
+      EXPECT_EQ(st.rays, ref_stats.rays) << name;
+      EXPECT_EQ(st.shadow_rays, ref_stats.shadow_rays) << name;
+      EXPECT_EQ(st.invalid_samples, ref_stats.invalid_samples) << name;
     }
   }
 }

@@ -86,7 +86,7 @@ class WavefrontPath {
         queue[i] = i;
       });
     }
-    uint32_t len = n;
+    uint32_t len = n, active_paths = n;  // path_start leaves every path active
     for (uint32_t depth = 0; len > 0; ++depth) {
       if (cancel && cancel->load(std::memory_order_relaxed)) return false;
       uint32_t* queue = queue_.data();
@@ -106,9 +106,8 @@ class WavefrontPath {
           cache_valid_ = true;
         }
       }
-      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });
-      const uint32_t traced = b_.exclusive_scan(flags, scan, len);
-      if (!cached) stats.rays += traced;  // cached camera rays were not traced this pass
+      // Rays traced: the paths active after the previous depth (every path at depth 0), known without a scan.
+      if (!cached) stats.rays += active_paths;  // cached camera rays were not traced this pass
       if (opt_.sort_materials) {
         // Keys: the hit's material, then misses, then finished paths (never shaded).
         const uint32_t nm = num_materials_;
@@ -133,7 +132,8 @@ class WavefrontPath {
       });
       stats.shadow_rays += b_.exclusive_scan(flags, scan, len);
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });
-      uint32_t active = b_.exclusive_scan(flags, scan, len);
+      const uint32_t active = b_.exclusive_scan(flags, scan, len);
+      active_paths = active;
       if (opt_.compaction) {
         uint32_t* out = queue2_.data();
         b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
