@@ -99,3 +99,33 @@ def test_cpu_wavefront_is_deterministic_across_thread_counts(integrator):
     s = caustica.load_scene("smallvcm-spheres", width=20, height=16)
     kw = dict(integrator=integrator, spp=2, seed=8, wavefront=True, stochastic_hash=integrator == "sppm")
     assert np.array_equal(caustica.render(s, threads=1, **kw), caustica.render(s, threads=2, **kw))
+
+
+def textured_sun_scene(tmp_path):
+    """test_envmap's floor and box under an environment map with a sun (a texture file), the box's
+    reflectance an image texture: what the device copy of a scene must carry beyond flat arrays."""
+    from test_envmap import sun_scene
+    d = sun_scene(tmp_path)
+    checker = np.indices((8, 8)).sum(0) % 2
+    tex = np.stack([0.2 + 0.6 * checker, 0.5 - 0.3 * checker, 0.3 + 0.0 * checker], -1).astype(np.float32)
+    caustica.write_image(tmp_path / "checker.exr", tex)
+    d["materials"]["box"] = {"type": "diffuse", "reflectance": {"texture": "checker.exr"}}
+    return caustica.load_dict(d, base_dir=str(tmp_path))
+
+
+def test_cpu_wavefront_with_textures_and_an_environment_map(tmp_path):
+    s = textured_sun_scene(tmp_path)
+    for integrator in ("path", "sppm"):
+        ref = caustica.render(s, integrator=integrator, spp=2, seed=5, max_depth=4)
+        img = caustica.render(s, integrator=integrator, spp=2, seed=5, max_depth=4, wavefront=True)
+        np.testing.assert_allclose(img, ref, rtol=1e-5, atol=1e-9)
+
+
+@needs_gpu
+@pytest.mark.parametrize("integrator", ["path", "sppm"])
+def test_gpu_with_textures_and_an_environment_map(tmp_path, integrator):
+    s = textured_sun_scene(tmp_path)
+    m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112), max_depth=4)
+    m_gpu, se_gpu = seeded_regions(s, integrator, 8, range(200, 212), max_depth=4, device="cuda")
+    z = np.abs(m_cpu - m_gpu) / np.sqrt(se_cpu ** 2 + se_gpu ** 2 + 1e-30)
+    assert z.max() < 4.0, np.round(z, 1)
