@@ -9,7 +9,7 @@ JOBS    ?= $(shell nproc)
 FUZZ_SECONDS ?= 3600
 FUZZ_SEED    ?= 1
 
-.PHONY: all deps build render test test-cpp test-python cuda-check fuzz-build fuzz fuzz-short bench clean
+.PHONY: all deps build render test test-cpp test-python cuda-check gpu-bundle fuzz-build fuzz fuzz-short bench clean
 
 all: build
 
@@ -45,6 +45,11 @@ cuda-check: build
 	@grep -q '^CAUSTICA_CUDA:BOOL=ON' build/py/CMakeCache.txt || \
 	  (echo "cuda-check: build/py has no CUDA backend (CUDA=$(CUDA), nvcc: '$(NVCC)')"; exit 1)
 	@echo "cuda-check: the CUDA backend compiled for sm_$$(grep '^CMAKE_CUDA_ARCHITECTURES' build/py/CMakeCache.txt | cut -d= -f2 | sed 's/;/, sm_/g') with $$($(NVCC) --version | tail -n 2 | head -n 1)"
+
+# The GPU checks' bundle for a lent GPU machine (docs/gpu.md): tests, benchmarks and a CPython 3.12 module
+# with their shared libraries in .gpu-bundle/bundle.tar.xz (needs a CPython 3.12 with headers: PYTHON312).
+gpu-bundle: deps
+	bash scripts/gpu-bundle.sh
 
 # The scene-loader fuzzer under AddressSanitizer + UBSan (tests/fuzz, docs/fuzzing.md):
 # `make test` runs it for a minute; `make fuzz` for FUZZ_SECONDS (default an hour).
