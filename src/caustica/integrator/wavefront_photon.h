@@ -282,8 +282,14 @@ class WavefrontPhoton {
         uint32_t i = queue[k];
         if (paths[i].active) tracer.intersect(paths[i].ray, hits[i]);
       });
-      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
-      stats.rays += b_.exclusive_scan(flags, scan, len);
+      // Rays traced: after the first compaction every queued path is active; at depth 0 some paths may have
+      // emitted nothing (counted with a scan, once).
+      if (depth == 0) {
+        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
+        stats.rays += b_.exclusive_scan(flags, scan, len);
+      } else {
+        stats.rays += len;
+      }
       // Stored photons (never the light's direct photons: NEE at the visible points covers them).
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
         uint32_t i = queue[k];
