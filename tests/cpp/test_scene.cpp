@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "caustica/backend/cpu/embree_accel.h"
+#include "chi2.h"
 #include "caustica/base/rng.h"
 #include "caustica/base/sampling.h"
 #include "caustica/geometry/shapes.h"
@@ -51,6 +52,60 @@ TEST(LightSampler, SelectsInProportionToPower) {
   }
   EXPECT_EQ(v.num_lights, 11u);
   EXPECT_LT(chi2, 29.59);
+}
+
+TEST(LightSampler, SampleReuseChoosesAsSampleAndLeavesAUniformNumber) {
+  // sample_reuse(u) picks the light sample(u.x) picks, leaves u.y alone, and
+  // replaces u.x by a number that, given the light, is uniform on [0, 1): the
+  // joint histogram of (light, remapped u.x in 16 bins) must expect n * pmf / 16
+  // per cell. Lights of unequal powers make the alias table split buckets, so
+  // both remapping branches (own part, alias part) are exercised.
+  SceneDesc d = builtin_scene("cornell");
+  for (int i = 1; i <= 9; ++i) {
+    Light l;
+    l.type = LightType::kPoint;
+    l.L = RGB(float(i * i));
+    d.lights.push_back(l);
+  }
+  auto sc = Scene::build(d);
+  const SceneView& v = sc->view();
+  const int bins = 16, n = 2000000;
+  std::vector<double> count(size_t(v.num_lights) * bins, 0.0);
+  PCG32 rng(5, 13);
+  for (int k = 0; k < n; ++k) {
+    Vec2f u(rng.next_float(), rng.next_float());
+    float pmf_a, pmf_b;
+    uint32_t a = v.light_sampler.sample(u.x, pmf_a);
+    Vec2f w = u;
+    uint32_t b = v.light_sampler.sample_reuse(w, pmf_b);
+    ASSERT_EQ(a, b) << "u.x = " << u.x;
+    ASSERT_EQ(pmf_a, pmf_b);
+    ASSERT_EQ(w.y, u.y);
+    ASSERT_GE(w.x, 0.f);
+    ASSERT_LT(w.x, 1.f);
+    count[size_t(b) * bins + std::min(bins - 1, int(w.x * bins))] += 1.0;
+  }
+  // Ends of the unit interval map into it too.
+  for (float x : {0.f, kOneMinusEpsilon}) {
+    Vec2f w(x, 0.5f);
+    float pmf;
+    ASSERT_LT(v.light_sampler.sample_reuse(w, pmf), v.num_lights);
+    EXPECT_GE(w.x, 0.f);
+    EXPECT_LT(w.x, 1.f);
+  }
+  // Pearson chi-square over all 11 x 16 cells (each expects >= 5): 175 degrees
+  // of freedom; rejected below p = 1e-3, so a correct remapping fails 1 in 1000.
+  double total = 0, stat = 0;
+  for (uint32_t i = 0; i < v.num_lights; ++i) total += light_power(v, v.lights[i]);
+  for (uint32_t i = 0; i < v.num_lights; ++i)
+    for (int j = 0; j < bins; ++j) {
+      double e = n * light_power(v, v.lights[i]) / total / bins;
+      ASSERT_GT(e, 5.0);
+      double c = count[size_t(i) * bins + j];
+      stat += (c - e) * (c - e) / e;
+    }
+  double p = chi2::chi2_survival(stat, int(v.num_lights) * bins - 1);
+  EXPECT_GT(p, 1e-3) << "chi2 = " << stat;
 }
 
 TEST(Accelerators, EmbreeAndPortableBVHAgree) {

@@ -92,15 +92,33 @@ def test_sppm_beats_path_tracing_on_the_glass_box():
     # PPM's fixed measurement points must carry the specular branches' Fresnel weights
     # (a single random branch per pixel gave 40x the error).
     # Compared at equal passes with SPPM (deterministic, unlike equal time on a shared machine):
-    # within 2x of SPPM's error (measured 1.2x).
+    # within 3x of SPPM's error. Measured 1.9-2.4x over seeds 1-4 since the sampler's scramble
+    # hash takes its seed as a multiplier too (2026-12-01): that lowered SPPM's error at 32 passes
+    # (relMSE 0.0049-0.0137 before, 0.0044-0.0047 after) and left PPM's (0.008-0.024, set by where
+    # its one measurement point per pixel lies); before, 1.2x was measured and 2x was the bound.
     pp = caustica.render(s, integrator="ppm", spp=32, seed=1, photons=20000)
     sp32 = caustica.render(s, integrator="sppm", spp=32, seed=1, photons=20000)
     assert abs(pp.mean() / ref.mean() - 1) < 0.02
-    assert relmse(pp, ref) < 2 * relmse(sp32, ref), (relmse(pp, ref), relmse(sp32, ref))
+    assert relmse(pp, ref) < 3 * relmse(sp32, ref), (relmse(pp, ref), relmse(sp32, ref))
     # Jensen's photon mapping (fixed maps, caustic map + final gathering) agrees in energy
     # too (biased by its fixed k-nearest radius, measured within 1% here).
     pm = caustica.render(s, integrator="pm", spp=64, photons=100000, seed=1)
     assert abs(pm.mean() / ref.mean() - 1) < 0.03
+
+
+def test_sobol_camera_samples_beat_independent_ones_in_sppm():
+    # SPPM's camera pass draws its visible points from the pixel sampler. With a Laine-Karras hash whose
+    # seed was only added (Burley 2020's listing), a shift of those draws by one dimension pair (a pinhole
+    # camera no longer taking a lens sample) made Sobol's error at equal passes 1.07x the independent
+    # sampler's instead of below it (relMSE 0.0045 against 0.0042, seeds 1-4); with the seed also a
+    # multiplier (Vegdahl 2021, as pbrt-v4) it is 0.63x (0.0027 against 0.0042). Bound: 0.85, the
+    # measured ratio plus about two standard errors of it (per-seed spreads 0.0003 and 0.0012).
+    s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
+    ref = caustica.render(s, spp=8192, seed=77).astype(np.float64)
+    err = {smp: np.mean([relmse(caustica.render(s, integrator="sppm", spp=133, seed=seed, photons=20000,
+                                                sampler=smp), ref) for seed in (1, 2, 3, 4)])
+           for smp in ("sobol", "independent")}
+    assert err["sobol"] < 0.85 * err["independent"], err
 
 
 def test_cli_photon_integrator_and_checkpoint(caustica_bin, tmp_path):

@@ -60,7 +60,8 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
   st.sampler.start(pp.sampler, pp.seed, st.pixel, sample_index);
   FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
   if (!pp.jitter) fs = FilterSample{Vec2f(0.f, 0.f), 1.f};
-  Vec2f lens = st.sampler.next_2d();
+  // A pinhole camera takes no lens sample (and spends no dimension on one).
+  Vec2f lens = s.camera.aperture_radius > 0.f ? st.sampler.next_2d() : Vec2f(0.5f, 0.5f);
   Vec2f film(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y);
   st.ray = s.camera.generate_ray(film, lens);
   st.prev_p = st.ray.o;
@@ -113,11 +114,11 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
 
   // Next-event estimation: a path of depth + 1 segments.
-  float u_light = st.sampler.next_1d();
+  // One 2D sample chooses the light (u.x, then remapped) and the point on it.
   Vec2f u_light2 = st.sampler.next_2d();
   if (s.num_lights > 0 && !material_is_delta(m)) {
     float pmf;
-    uint32_t li = s.light_sampler.sample(u_light, pmf);
+    uint32_t li = s.light_sampler.sample_reuse(u_light2, pmf);
     const Light& l = s.lights[li];
     LightSample ls;
     if (sample_light(s, l, p_front, u_light2, ls)) {
@@ -142,9 +143,11 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   }
 
   // BSDF sampling for the next segment.
-  float u_lobe = st.sampler.next_1d();
+  // The lobe choice and Russian roulette share one 2D point (one scrambled
+  // Sobol pair instead of two 1D draws).
+  Vec2f u_lobe_rr = st.sampler.next_2d();
+  float u_lobe = u_lobe_rr.x, u_rr = u_lobe_rr.y;
   Vec2f u_bsdf = st.sampler.next_2d();
-  float u_rr = st.sampler.next_1d();
   BSDFSample bs;
   if (!bsdf_sample(m, wo, u_lobe, u_bsdf, bs)) { st.active = false; return; }
   Vec3f wi_world = frame.to_world(bs.wi);

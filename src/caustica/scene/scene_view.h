@@ -30,6 +30,30 @@ struct LightSamplerView {
     pmf_out = pmf[l];
     return l;
   }
+  // The same choice from u.x, with u.x then remapped to a fresh uniform number
+  // in [0, 1): the part of the bucket that chose the light, stretched to the
+  // unit interval (sample reuse, as Mitsuba's emitter selection does). A
+  // stratified 2D point set thus stays stratified on each chosen light, instead
+  // of the light's point being decorrelated from its choice by a separate
+  // dimension.
+  CHD uint32_t sample_reuse(Vec2f& u, float& pmf_out) const {
+    float x = u.x * float(count);
+    uint32_t i = x >= float(count) ? count - 1 : uint32_t(x);
+    float frac = minf(x - float(i), kOneMinusEpsilon);  // u.x * count may round up to count
+    float p = prob[i];
+    uint32_t l;
+    float r;
+    if (frac < p) {
+      l = i;
+      r = frac / p;
+    } else {
+      l = alias[i];
+      r = (frac - p) / (1.f - p);
+    }
+    u.x = r < kOneMinusEpsilon ? r : kOneMinusEpsilon;
+    pmf_out = pmf[l];
+    return l;
+  }
 };
 
 struct SceneView {
