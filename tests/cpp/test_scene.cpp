@@ -18,8 +18,10 @@
 
 using namespace caustica;
 
-TEST(LightSampler, SelectsInProportionToPower) {
-  // Lights of very different powers: point lights of intensities 1..9 and a sun.
+namespace {
+// Lights of very different powers: cornell's two light triangles and point
+// lights of intensities 1, 4, ..., 81 (11 lights).
+std::shared_ptr<Scene> cornell_with_unequal_lights() {
   SceneDesc d = builtin_scene("cornell");
   for (int i = 1; i <= 9; ++i) {
     Light l;
@@ -27,7 +29,12 @@ TEST(LightSampler, SelectsInProportionToPower) {
     l.L = RGB(float(i * i));
     d.lights.push_back(l);
   }
-  auto sc = Scene::build(d);
+  return Scene::build(d);
+}
+}  // namespace
+
+TEST(LightSampler, SelectsInProportionToPower) {
+  auto sc = cornell_with_unequal_lights();
   const SceneView& v = sc->view();
   std::vector<double> power(v.num_lights);
   double total = 0;
@@ -60,14 +67,7 @@ TEST(LightSampler, SampleReuseChoosesAsSampleAndLeavesAUniformNumber) {
   // joint histogram of (light, remapped u.x in 16 bins) must expect n * pmf / 16
   // per cell. Lights of unequal powers make the alias table split buckets, so
   // both remapping branches (own part, alias part) are exercised.
-  SceneDesc d = builtin_scene("cornell");
-  for (int i = 1; i <= 9; ++i) {
-    Light l;
-    l.type = LightType::kPoint;
-    l.L = RGB(float(i * i));
-    d.lights.push_back(l);
-  }
-  auto sc = Scene::build(d);
+  auto sc = cornell_with_unequal_lights();
   const SceneView& v = sc->view();
   const int bins = 16, n = 2000000;
   std::vector<double> count(size_t(v.num_lights) * bins, 0.0);
