@@ -7,8 +7,9 @@
 //   two Sobol dimensions (a (0,2)-sequence) with the sample index shuffled by a
 //   nested uniform scramble of its reversed bits (Sec. 4), and the point Owen
 //   scrambled by a per-(pixel, dimension) hash (Sec. 3, the Laine-Karras style
-//   permutation, in Vegdahl's 2021 form). Any 2^k consecutive-from-zero samples of a pixel form a
-//   (0,k,2)-net in each pair of dimensions, and pairs are decorrelated.
+//   permutation, in Vegdahl's 2021 form). Any 2^k consecutive-from-zero
+//   samples of a pixel form a (0,k,2)-net in each pair of dimensions, and
+//   pairs are decorrelated.
 #pragma once
 #include <cstdint>
 #include "host_device.h"

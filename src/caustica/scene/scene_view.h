@@ -23,12 +23,8 @@ struct LightSamplerView {
   uint32_t count = 0;
 
   CHD uint32_t sample(float u, float& pmf_out) const {
-    float x = u * float(count);
-    uint32_t i = x >= float(count) ? count - 1 : uint32_t(x);
-    float frac = x - float(i);
-    uint32_t l = frac < prob[i] ? i : alias[i];
-    pmf_out = pmf[l];
-    return l;
+    Vec2f v(u, 0.f);
+    return sample_reuse(v, pmf_out);
   }
   // The same choice from u.x, with u.x then remapped to a fresh uniform number
   // in [0, 1): the part of the bucket that chose the light, stretched to the
@@ -50,7 +46,7 @@ struct LightSamplerView {
       l = alias[i];
       r = (frac - p) / (1.f - p);
     }
-    u.x = r < kOneMinusEpsilon ? r : kOneMinusEpsilon;
+    u.x = minf(r, kOneMinusEpsilon);
     pmf_out = pmf[l];
     return l;
   }
