@@ -24,11 +24,15 @@ CHD uint32_t reverse_bits32(uint32_t v) {
 #if defined(__CUDA_ARCH__)
   return __brev(v);
 #else
-  v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
-  v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
-  v = ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
+#if defined(__GNUC__) || defined(__clang__)
+  v = __builtin_bswap32(v);  // reverses the bytes; the three steps below reverse the bits in each byte
+#else
   v = ((v >> 8) & 0x00FF00FFu) | ((v & 0x00FF00FFu) << 8);
-  return (v >> 16) | (v << 16);
+  v = (v >> 16) | (v << 16);
+#endif
+  v = ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
+  v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+  return ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
 #endif
 }
 
@@ -79,28 +83,31 @@ CHD uint32_t sobol_dim1_reference(uint32_t i) {
 
 struct Sampler {
   SamplerType type = SamplerType::kSobol;
-  uint32_t index = 0;      // sample index within the pixel
+  uint32_t index_reversed = 0;  // sample index within the pixel, bits reversed
   uint32_t dimension = 0;  // next dimension pair
   uint64_t pixel_seed = 0; // hash of (seed, pixel)
-  PCG32 rng;               // the independent stream
+  PCG32 rng;               // the independent stream (seeded for kIndependent only)
 
   CHD void start(SamplerType t, uint64_t seed, uint32_t pixel, uint32_t sample_index) {
     type = t;
-    index = sample_index;
+    index_reversed = reverse_bits32(sample_index);
     dimension = 0;
-    pixel_seed = hash3(seed, pixel, 0x5ca1ab1eULL);
-    rng.set_sequence(hash3(seed, pixel, sample_index), mix64(sample_index ^ (uint64_t(pixel) << 32)));
+    if (t == SamplerType::kIndependent)
+      rng.set_sequence(hash3(seed, pixel, sample_index), mix64(sample_index ^ (uint64_t(pixel) << 32)));
+    else
+      pixel_seed = hash3(seed, pixel, 0x5ca1ab1eULL);
   }
-  // Owen scrambling acts on reversed bits: scramble(x) = rev(lk(rev(x))). Both
-  // Sobol dimensions are produced in reversed order, so each point costs one
-  // permutation and one reversal per coordinate.
+  // Owen scrambling acts on reversed bits: scramble(x) = rev(lk(rev(x))). The
+  // index is kept reversed and both Sobol dimensions are produced in reversed
+  // order, so each point costs one permutation and one reversal per
+  // coordinate, and one of each for the index shuffle.
   CHD Vec2f next_2d() {
     if (type == SamplerType::kIndependent) {
       float a = rng.next_float();
       return {a, rng.next_float()};
     }
     uint64_t h = mix64(pixel_seed + dimension++);
-    uint32_t shuffled = nested_uniform_scramble(index, uint32_t(h));
+    uint32_t shuffled = reverse_bits32(lk_permutation(index_reversed, uint32_t(h)));
     uint32_t h2 = uint32_t(mix64(h));
     uint32_t x = reverse_bits32(lk_permutation(shuffled, uint32_t(h >> 32)));
     uint32_t y = reverse_bits32(lk_permutation(sobol_dim1_reversed(shuffled), h2));
@@ -109,7 +116,7 @@ struct Sampler {
   CHD float next_1d() {
     if (type == SamplerType::kIndependent) return rng.next_float();
     uint64_t h = mix64(pixel_seed + dimension++);
-    uint32_t shuffled = nested_uniform_scramble(index, uint32_t(h));
+    uint32_t shuffled = reverse_bits32(lk_permutation(index_reversed, uint32_t(h)));
     return u32_to_unit_float(reverse_bits32(lk_permutation(shuffled, uint32_t(h >> 32))));
   }
 };
