@@ -21,6 +21,16 @@ CHD float maxf(float a, float b) { return a > b ? a : b; }
 CHD float sqr(float x) { return x * x; }
 CHD float safe_sqrt(float x) { return std::sqrt(maxf(x, 0.f)); }
 CHD float lerpf(float t, float a, float b) { return (1.f - t) * a + t * b; }
+// sin x and cos x for |x| <= pi/4 (the range the concentric disk mapping needs):
+// Taylor polynomials through x^9 and x^10 in Horner form. The truncation error
+// is below x^11/11! = 1.7e-9 and x^12/12! = 1.1e-10 at pi/4, under float's
+// rounding; the library's sincosf (range reduction, table) cost more than the
+// mapping around it. tests/cpp/test_warps.cpp compares with std::sin/std::cos.
+CHD void sincos_quarter_pi(float x, float& s, float& c) {
+  float x2 = x * x;
+  s = x * (1.f + x2 * (-1.f / 6.f + x2 * (1.f / 120.f + x2 * (-1.f / 5040.f + x2 * (1.f / 362880.f)))));
+  c = 1.f + x2 * (-0.5f + x2 * (1.f / 24.f + x2 * (-1.f / 720.f + x2 * (1.f / 40320.f + x2 * (-1.f / 3628800.f)))));
+}
 
 struct Vec2f {
   float x = 0, y = 0;

@@ -12,15 +12,15 @@ namespace caustica {
 CHD Vec2f square_to_concentric_disk(Vec2f u) {
   float ox = 2.f * u.x - 1.f, oy = 2.f * u.y - 1.f;
   if (ox == 0.f && oy == 0.f) return {0.f, 0.f};
-  float r, theta;
+  // Angle theta = pi/4 * oy/ox, or pi/2 - pi/4 * ox/oy (Shirley & Chiu 1997);
+  // with a = the pi/4 part, |a| <= pi/4 and cos/sin(pi/2 - a) = sin/cos a.
+  float s, c;
   if (std::fabs(ox) > std::fabs(oy)) {
-    r = ox;
-    theta = (kPi / 4.f) * (oy / ox);
-  } else {
-    r = oy;
-    theta = kPi / 2.f - (kPi / 4.f) * (ox / oy);
+    sincos_quarter_pi((kPi / 4.f) * (oy / ox), s, c);
+    return {ox * c, ox * s};
   }
-  return {r * std::cos(theta), r * std::sin(theta)};
+  sincos_quarter_pi((kPi / 4.f) * (ox / oy), s, c);
+  return {oy * s, oy * c};
 }
 CHD float concentric_disk_pdf() { return kInvPi; }
 
