@@ -55,9 +55,6 @@ CHD uint32_t lk_permutation(uint32_t x, uint32_t seed) {
   x ^= x * 0x53a22864u;
   return x;
 }
-CHD uint32_t nested_uniform_scramble(uint32_t x, uint32_t seed) {
-  return reverse_bits32(lk_permutation(reverse_bits32(x), seed));
-}
 
 // The second Sobol dimension (primitive polynomial x + 1) has the Pascal
 // matrix mod 2 as generator: by Lucas' theorem, output bit j (from the top)
