@@ -82,7 +82,7 @@ EmbreeAccel::EmbreeAccel(const SceneView& v) : num_triangles_(v.num_triangles), 
   if (!device_) throw std::runtime_error("Embree: could not create a device");
   scene_ = rtcNewScene(device_);
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
-  // Robust mode makes edges and vertices watertight: without it 3074 of the 20000 rays aimed at shared
+  // Robust mode makes edges and vertices watertight: without it 3161 of the 20000 rays aimed at shared
   // edges and vertices of a closed box leaked (Triangle.EmbreeWatertightOnSharedEdgesAndVertices). It
   // costs about 12% of a cornell render (bench/RESULTS.md, 2026-12-01).
   rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
