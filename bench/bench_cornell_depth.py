@@ -30,6 +30,28 @@ import caustica  # noqa: E402
 from caustica._provenance import commit, machine  # noqa: E402
 
 
+def mean_se(values) -> tuple[float, float]:
+    """Mean and its standard error (0 for a single value)."""
+    v = np.asarray(values, dtype=np.float64)
+    return float(v.mean()), (float(v.std(ddof=1) / np.sqrt(len(v))) if len(v) > 1 else 0.0)
+
+
+def append_block(script: str, started: _dt.datetime, com: str, title: str, settings: str, columns: list[str],
+                 rows: list[list[str]]) -> None:
+    """Appends a RESULTS.md block: heading, the command as run, settings, and a table whose rows start with
+    date, machine and commit (bench/bench_cornell_rr.py writes its block with this too). `com`: the commit
+    read when the run started."""
+    stamp = started.strftime("%Y-%m-%d %H:%M UTC")
+    cmd = f"`.venv/bin/python bench/{script}" + "".join(" " + x for x in sys.argv[1:]) + "`"
+    lines = [f"\n## {stamp}, commit {com}: {title}\n", f"Command: {cmd}  ", f"Machine: {machine()}. {settings}\n",
+             "| " + " | ".join(["date", "machine", "commit"] + columns) + " |",
+             "|---|---|---|" + "---:|" * len(columns)]
+    lines += ["| " + " | ".join([stamp, machine(), com] + r) + " |" for r in rows]
+    with open(RESULTS, "a") as f:
+        f.write("\n".join(lines) + "\n")
+    print("appended to bench/RESULTS.md")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--depths", type=int, nargs="+", default=[2, 3, 4, 8])
@@ -57,30 +79,22 @@ def main() -> int:
     for d in a.depths:
         row = {"depth": d}
         for smp in ("sobol", "independent"):
-            e = [float(np.mean((render(a.spp, s, d, smp) - refs[d]) ** 2 / den)) for s in range(1, a.seeds + 1)]
-            row[smp] = (float(np.mean(e)), float(np.std(e, ddof=1) / np.sqrt(len(e))) if len(e) > 1 else 0.0)
+            row[smp] = mean_se([np.mean((render(a.spp, s, d, smp) - refs[d]) ** 2 / den)
+                                for s in range(1, a.seeds + 1)])
         rows.append(row)
         print(f"max depth {d}: relMSE sobol {row['sobol'][0]:.6f} ± {row['sobol'][1]:.6f}, "
               f"independent {row['independent'][0]:.6f} ± {row['independent'][1]:.6f}", flush=True)
     if a.no_append:
         return 0
-    cmd = "`.venv/bin/python bench/bench_cornell_depth.py" + ("" if len(sys.argv) == 1 else " " + " ".join(sys.argv[1:])) + "`"
-    stamp = started.strftime("%Y-%m-%d %H:%M UTC")
-    lines = [f"\n## {stamp}, commit {com}: cornell relMSE by path depth\n",
-             f"Command: {cmd}  ",
-             f"Machine: {machine()}. Settings: cornell 256x256, box filter, rr_depth 5, {a.spp} spp, seeds 1-{a.seeds} "
-             f"(mean ± standard error over seeds); references sobol {a.ref_spp} spp (seed 77) per max depth; "
-             f"denominators r^2 + 0.01 from the max-depth-8 reference, so rows add up. The references' own error is "
-             f"included (at most about spp / ref spp = {a.spp / a.ref_spp:.3g} of a row's figure).\n",
-             "| date | machine | commit | max depth (segments) | relMSE sobol | relMSE independent | sobol / independent |",
-             "|---|---|---|---:|---:|---:|---:|"]
-    for r in rows:
-        s, i = r["sobol"], r["independent"]
-        lines.append(f"| {stamp} | {machine()} | {com} | {r['depth']} | {s[0]:.6f} ± {s[1]:.6f} | "
-                     f"{i[0]:.6f} ± {i[1]:.6f} | {s[0] / i[0]:.2f} |")
-    with open(RESULTS, "a") as f:
-        f.write("\n".join(lines) + "\n")
-    print("appended to bench/RESULTS.md")
+    append_block("bench_cornell_depth.py", started, com, "cornell relMSE by path depth",
+                 f"Settings: cornell 256x256, box filter, rr_depth 5, {a.spp} spp, seeds 1-{a.seeds} "
+                 f"(mean ± standard error over seeds); references sobol {a.ref_spp} spp (seed 77) per max depth; "
+                 f"denominators r^2 + 0.01 from the max-depth-8 reference, so rows add up. The references' own error "
+                 f"is included (at most about spp / ref spp = {a.spp / a.ref_spp:.3g} of a row's figure).",
+                 ["max depth (segments)", "relMSE sobol", "relMSE independent", "sobol / independent"],
+                 [[str(r["depth"]), f"{r['sobol'][0]:.6f} ± {r['sobol'][1]:.6f}",
+                   f"{r['independent'][0]:.6f} ± {r['independent'][1]:.6f}",
+                   f"{r['sobol'][0] / r['independent'][0]:.2f}"] for r in rows])
     return 0
 
 

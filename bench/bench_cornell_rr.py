@@ -23,16 +23,12 @@ import os
 import sys
 import time
 
-import numpy as np
-
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
-RESULTS = os.path.join(HERE, "RESULTS.md")
-sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import caustica  # noqa: E402
 from bench_cornell import rel_mse  # noqa: E402
-from caustica._provenance import commit, machine  # noqa: E402
+from bench_cornell_depth import ROOT, append_block, mean_se  # noqa: E402
+from caustica._provenance import commit  # noqa: E402
 
 
 def main() -> int:
@@ -49,7 +45,7 @@ def main() -> int:
 
     def render(spp, seed, rr):
         return caustica.render(scene, integrator="path", spp=spp, seed=seed, max_depth=8, rr_depth=rr,
-                               sampler="sobol").astype(np.float64)
+                               sampler="sobol").astype("float64")
 
     t = time.perf_counter()
     ref = render(a.ref_spp, 77, 8)
@@ -63,30 +59,20 @@ def main() -> int:
             img = render(a.spp, seed, rr)
             secs.append(time.perf_counter() - t)
             errs.append(rel_mse(img, ref))
-        e, s = float(np.mean(errs)), float(np.mean(secs))
-        se = float(np.std(errs, ddof=1) / np.sqrt(len(errs))) if len(errs) > 1 else 0.0
+        (e, se), s = mean_se(errs), sum(secs) / len(secs)
         rows.append((rr, e, se, s, e * s))
         print(f"rr_depth {rr}: relMSE {e:.6f} ± {se:.6f}, {s:.3f} s, relMSE x time {e * s:.6f}", flush=True)
     base = next((r for r in rows if r[0] == 5), rows[0])
     if a.no_append:
         return 0
-    cmd = "`.venv/bin/python bench/bench_cornell_rr.py" + ("" if len(sys.argv) == 1 else " " + " ".join(sys.argv[1:])) + "`"
-    stamp = started.strftime("%Y-%m-%d %H:%M UTC")
-    lines = [f"\n## {stamp}, commit {com}: cornell, Russian roulette start depth against efficiency\n",
-             f"Command: {cmd}  ",
-             f"Machine: {machine()}. Settings: cornell 256x256, box filter, max depth 8, sobol, {a.spp} spp, seeds "
-             f"1-{a.seeds} (mean ± standard error over seeds), all threads, timed in one process; reference sobol "
-             f"{a.ref_spp} spp (seed 77) without roulette. Efficiency column: relMSE x time relative to rr_depth "
-             f"{base[0]} (below 1: more efficient).\n",
-             "| date | machine | commit | rr_depth | relMSE | time (s) | relMSE x time | relative to rr_depth "
-             f"{base[0]} |",
-             "|---|---|---|---:|---:|---:|---:|---:|"]
-    for rr, e, se, s, p in rows:
-        lines.append(f"| {stamp} | {machine()} | {com} | {rr} | {e:.6f} ± {se:.6f} | {s:.3f} | {p:.6f} | "
-                     f"{p / base[4]:.2f} |")
-    with open(RESULTS, "a") as f:
-        f.write("\n".join(lines) + "\n")
-    print("appended to bench/RESULTS.md")
+    append_block("bench_cornell_rr.py", started, com, "cornell, Russian roulette start depth against efficiency",
+                 f"Settings: cornell 256x256, box filter, max depth 8, sobol, {a.spp} spp, seeds 1-{a.seeds} (mean ± "
+                 f"standard error over seeds), all threads, timed in one process; reference sobol {a.ref_spp} spp "
+                 f"(seed 77) without roulette. Efficiency column: relMSE x time relative to rr_depth {base[0]} "
+                 f"(below 1: more efficient).",
+                 ["rr_depth", "relMSE", "time (s)", "relMSE x time", f"relative to rr_depth {base[0]}"],
+                 [[str(rr), f"{e:.6f} ± {se:.6f}", f"{s:.3f}", f"{p:.6f}", f"{p / base[4]:.2f}"]
+                  for rr, e, se, s, p in rows])
     return 0
 
 
