@@ -268,7 +268,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                target_error: Optional[float] = None, reference=None,
                target_noise: Optional[float] = None, strategy_images: bool = False,
                device: str = "cpu", wavefront: bool = False, compaction: bool = True,
-               sort_materials: bool = False, cache_first_bounce: bool = False, jitter: bool = True) -> RenderResult:
+               sort_materials: bool = False, cache_first_bounce: bool = False, jitter: bool = True,
+               lanes: bool = True) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -293,7 +294,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     `compaction` (stream compaction of finished paths, default on), `sort_materials` (sort each queue by
     material before shading), `cache_first_bounce` (reuse the first pass's camera-ray hits; needs
     jitter=False and a pinhole camera). `jitter=False` (path) traces every sample through the pixel centre.
-    stats["device"] says where the passes ran.
+    stats["device"] says where the passes ran. `lanes` (path on the CPU): trace eight paths in lockstep with
+    AVX2 arithmetic where the lane-parallel driver covers the scene (today: untextured `diffuse` surfaces,
+    untextured triangle area lights, the sobol sampler); stats["lanes"] is 8 when it ran, 0 when paths were
+    traced one at a time. The image is bit-identical either way; lanes=False is for comparisons.
     Options left as None come from the scene's integrator defaults (see resolve_options);
     stats["integrator"] names the integrator used."""
     _check_device(device)
@@ -336,7 +340,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             k=_positive_int("k", k), strategy_images=bool(strategy_images), device=device,
                             wavefront=bool(wavefront), compaction=bool(compaction),
                             sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
-                            jitter=bool(jitter), **targets)
+                            jitter=bool(jitter), lanes=bool(lanes), **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()

@@ -28,3 +28,35 @@ def test_time_budget_renders_whole_passes():
     assert r.stats["passes"] >= 1
     assert r.stats["samples"] == r.stats["passes"] * 32 * 32
     assert r.stats["seconds"] >= 0.3
+
+
+def _has_avx2():
+    try:
+        with open("/proc/cpuinfo") as f:
+            return " avx2" in f.read()
+    except OSError:
+        return False
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_lanes_give_the_same_image_bit_for_bit(threads):
+    # path's lane-parallel driver (eight paths in lockstep, integrator/path_lanes.h) against one path at a
+    # time: the same bits in every pixel, and the same ray counts. 44 is not a multiple of the 8 lanes.
+    s = caustica.load_scene("cornell", width=44, height=36)
+    a = caustica.render_job(s, spp=6, seed=5, threads=threads, lanes=True)
+    b = caustica.render_job(s, spp=6, seed=5, threads=threads, lanes=False)
+    assert b.stats["lanes"] == 0
+    if not _has_avx2():
+        assert a.stats["lanes"] == 0
+        pytest.skip("this CPU has no AVX2: the lanes do not run here")
+    assert a.stats["lanes"] == 8
+    assert np.array_equal(a.image, b.image)
+    assert (a.stats["rays"], a.stats["shadow_rays"]) == (b.stats["rays"], b.stats["shadow_rays"])
+
+
+@pytest.mark.parametrize("scene,options", [("smallvcm-spheres", {}), ("cornell", {"sampler": "independent"}),
+                                           ("cornell", {"wavefront": True}), ("cornell", {"integrator": "sppm"})])
+def test_lanes_only_where_they_cover_the_render(scene, options):
+    s = caustica.load_scene(scene, width=16, height=16)
+    r = caustica.render_job(s, spp=1, seed=1, **options)
+    assert r.stats["lanes"] == 0

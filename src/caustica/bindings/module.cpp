@@ -272,7 +272,7 @@ NB_MODULE(_native, m) {
               bool stochastic_hash, int k, double target_error,
               std::optional<nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>> reference,
               double target_noise, bool strategy_images, const std::string& device, bool wavefront,
-              bool compaction, bool sort_materials, bool cache_first_bounce, bool jitter) {
+              bool compaction, bool sort_materials, bool cache_first_bounce, bool jitter, bool lanes) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -300,6 +300,7 @@ NB_MODULE(_native, m) {
              o.sort_materials = sort_materials;
              o.cache_first_bounce = cache_first_bounce;
              o.jitter = jitter;
+             o.lanes = lanes;
              if (reference) {
                if (reference->shape(2) != 3) throw InputError("the reference image must have 3 channels (H, W, 3)");
                const float* p = reference->data();
@@ -315,7 +316,8 @@ NB_MODULE(_native, m) {
            nb::arg("stochastic_hash") = false, nb::arg("k") = 50, nb::arg("target_error") = 0.0,
            nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0, nb::arg("strategy_images") = false,
            nb::arg("device") = "cpu", nb::arg("wavefront") = false, nb::arg("compaction") = true,
-           nb::arg("sort_materials") = false, nb::arg("cache_first_bounce") = false, nb::arg("jitter") = true)
+           nb::arg("sort_materials") = false, nb::arg("cache_first_bounce") = false, nb::arg("jitter") = true,
+           nb::arg("lanes") = true)
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
@@ -338,6 +340,7 @@ NB_MODULE(_native, m) {
         d["error"] = s.error >= 0.0 ? nb::cast(s.error) : nb::none();
         d["noise"] = s.noise >= 0.0 ? nb::cast(s.noise) : nb::none();
         d["target_reached"] = s.target_reached;
+        d["lanes"] = s.lanes;
         d["device"] = j.device_name();
         if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {
           nb::dict st;

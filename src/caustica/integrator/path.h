@@ -68,6 +68,23 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
   st.weight = fs.weight;
 }
 
+// Emission of the area light at sh reached by the ray that ends there (the BSDF sample of the previous
+// vertex, or the camera ray): MIS-weighted against light sampling unless that ray came from a delta
+// lobe or the camera. Also called per lane by the lane-parallel driver (path_lanes.cpp).
+CHD void path_add_emission(const SceneView& s, const SurfaceHit& sh, Vec3f wo_world, Vec3f prev_p, float prev_pdf,
+                           bool prev_delta, RGB beta, RGB& L) {
+  if (sh.light < 0) return;
+  const Light& l = s.lights[sh.light];
+  RGB Le = area_radiance(s, l, sh.ng, wo_world, sh.uv);
+  if (is_black(Le)) return;
+  float w = 1.f;
+  if (!prev_delta) {
+    float lp = s.light_sampler.pmf[sh.light] * light_pdf(s, l, prev_p, sh.p, sh.ng);
+    w = power_heuristic(prev_pdf, lp);
+  }
+  L += beta * Le * w;
+}
+
 CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, const Hit& hit, ShadowRay& sr) {
   sr.active = false;
   st.depth += 1;  // the segment just traced
@@ -88,19 +105,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   Vec3f wo_world = -st.ray.d;
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
 
-  // Emission reached by the BSDF sample (or the camera ray).
-  if (sh.light >= 0) {
-    const Light& l = s.lights[sh.light];
-    RGB Le = area_radiance(s, l, sh.ng, wo_world, sh.uv);
-    if (!is_black(Le)) {
-      float w = 1.f;
-      if (!st.prev_delta) {
-        float lp = s.light_sampler.pmf[sh.light] * light_pdf(s, l, st.prev_p, sh.p, sh.ng);
-        w = power_heuristic(st.prev_pdf, lp);
-      }
-      st.L += st.beta * Le * w;
-    }
-  }
+  path_add_emission(s, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
   if (st.depth >= pp.max_depth) { st.active = false; return; }
 
   const Material m = surface_material(s, sh);

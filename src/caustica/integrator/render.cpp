@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "../backend/cpu/embree_accel.h"
+#include "path_lanes.h"
 #include "../backend/cuda/cuda_render.h"
 #include "../base/error.h"
 #include "path.h"
@@ -145,6 +146,8 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (is_vcm_integrator(opt_.integrator)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
   if (opt_.integrator == "upg") upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
   if (uses_wavefront(opt_)) stage_totals_ = std::make_unique<WavefrontPassStats>();
+  lanes_ = opt_.lanes && opt_.integrator == "path" && !uses_wavefront(opt_) && path_lanes_available() &&
+           path_lanes_supported(scene_->view(), path_params());
   if (uses_wavefront(opt_) && opt_.integrator != "path") {
     PhotonWavefrontParams p;
     p.pppm = opt_.integrator == "pppm";
@@ -213,6 +216,33 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
     for (int tile = r.begin(); tile < r.end(); ++tile) {
       if (cancel_.load(std::memory_order_relaxed)) break;
       int x0 = (tile % tiles_x) * T, y0 = (tile / tiles_x) * T;
+      if (lanes_) {
+        // Up to kPathLanes pixels of a tile row at a time; every pixel's path is the scalar one, bit for bit.
+        for (int y = y0; y < std::min(y0 + T, H); ++y) {
+          for (int x = x0; x < std::min(x0 + T, W); x += kPathLanes) {
+            int n = std::min(kPathLanes, std::min(x0 + T, W) - x);
+            uint32_t px[kPathLanes], py[kPathLanes];
+            for (int i = 0; i < n; ++i) {
+              px[i] = uint32_t(x + i);
+              py[i] = uint32_t(y);
+            }
+            LaneResult res[kPathLanes];
+            LaneCounts counts;
+            path_lanes_trace(view, accel, pp, px, py, n, uint32_t(pass), res, counts);
+            rays += counts.rays;
+            shadow += counts.shadow_rays;
+            samples += uint64_t(n);
+            for (int i = 0; i < n; ++i) {
+              if (!isfinite3(res[i].L)) {
+                ++invalid;
+                continue;
+              }
+              film_.add(res[i].pixel, res[i].L, res[i].weight, (pass & 1) != 0);
+            }
+          }
+        }
+        continue;
+      }
       for (int y = y0; y < std::min(y0 + T, H); ++y) {
         for (int x = x0; x < std::min(x0 + T, W); ++x) {
           PathState st;
@@ -366,6 +396,7 @@ RenderStats RenderJob::stats() const {
   s.error = error_value_.load();
   s.noise = noise_value_.load();
   s.target_reached = target_reached_.load();
+  s.lanes = lanes_ ? kPathLanes : 0;
   if (stage_totals_) {
     std::lock_guard<std::mutex> lock(stage_mutex_);
     s.seconds_visible = stage_totals_->seconds_visible;

@@ -33,6 +33,9 @@ struct RenderOptions {
   bool sort_materials = false;      // wavefront: sort the queue by material before shading
   bool cache_first_bounce = false;  // wavefront: reuse the first pass's camera-ray hits (needs jitter off)
   bool jitter = true;               // path: false = samples through pixel centres (no anti-aliasing)
+  // path on the CPU: trace eight paths in lockstep where the lane-parallel driver covers the scene
+  // (integrator/path_lanes.h; the image is bit-identical either way); false = one path at a time.
+  bool lanes = true;
   // Photon mapping (ppm, sppm, pppm)
   int64_t photons = 0;       // photon paths per pass; 0 = one per pixel
   float radius = 0.f;        // initial gather radius; 0 = automatic (twice the median pixel footprint)
@@ -69,6 +72,7 @@ struct RenderStats {
   double error = -1.0;           // the last relMSE checked against the reference (-1: none)
   double noise = -1.0;           // the last noise estimate (-1: none)
   bool target_reached = false;   // stopped because a target was met
+  int lanes = 0;                 // path on the CPU: paths traced in lockstep (8), or 0 (one at a time)
   // sppm/pppm on the wavefront (--wavefront, --device cuda): seconds spent per stage over all passes, and
   // the photons stored (the hash grid's input).
   double seconds_visible = 0.0, seconds_photons = 0.0, seconds_grid = 0.0, seconds_gather = 0.0;
@@ -159,6 +163,7 @@ class RenderJob {
   std::atomic<double> seconds_{0.0};
   std::atomic<double> error_value_{-1.0}, noise_value_{-1.0};
   std::atomic<bool> target_reached_{false};
+  bool lanes_ = false;  // render_pass runs the lane-parallel driver (path_lanes.h)
   bool target_met(int64_t passes_done);
   std::thread thread_;
   std::unique_ptr<PhotonIntegrator> photon_;

@@ -1,0 +1,172 @@
+// Eight-lane values for the CPU's lane-parallel code (integrator/path_lanes.cpp): GCC vector
+// extensions, so one expression works on eight paths at once, one AVX2 instruction per operation. x86-64
+// with GCC or Clang only, and only included where `#pragma GCC target("avx2")` is in effect (the file
+// that includes it checks the CPU before calling such code). CPU only: the GPU's lanes are threads.
+//
+// Every operation here mirrors the scalar one in math.h, rng.h and sampler.h exactly (the same IEEE
+// operations in the same order: a reciprocal then products where math.h divides a vector by a scalar,
+// the sign of zero kept as std::fabs and std::copysign keep it), so that a lane computes bit for bit
+// what the scalar code computes for the same path. The build turns off floating-point contraction
+// (-ffp-contract=off) for the same reason. tests/cpp/test_path_lanes.cpp checks it on whole images.
+#pragma once
+#if defined(__CUDACC__)
+#error "lanes.h is CPU-only"
+#endif
+#include <cstdint>
+
+#include "math.h"
+#include "rng.h"
+#include "sampler.h"
+
+namespace caustica::lanes {
+
+constexpr int kWidth = 8;
+typedef float F __attribute__((vector_size(4 * kWidth)));
+typedef int32_t M __attribute__((vector_size(4 * kWidth)));  // masks: all bits set (-1) or 0
+typedef uint32_t U __attribute__((vector_size(4 * kWidth)));
+typedef uint64_t U64 __attribute__((vector_size(8 * kWidth)));
+
+inline F splat(float v) { return F{} + v; }
+inline M none() { return M{}; }
+inline M all() { return M{} - 1; }
+inline F sel(M m, F a, F b) { return m ? a : b; }
+inline bool any(M m) {
+  for (int i = 0; i < kWidth; ++i)
+    if (m[i]) return true;
+  return false;
+}
+inline F vfabs(F a) { return (F)((U)a & 0x7fffffffu); }
+// std::copysign(1.f, x), including the sign of -0.
+inline F sign_of(F x) { return (F)((U)splat(1.f) | ((U)x & 0x80000000u)); }
+inline F vsqrt(F x) { return __builtin_ia32_sqrtps256(x); }  // correctly rounded, as std::sqrt
+// maxf / minf of math.h: a > b ? a : b, a < b ? a : b (NaN operands as there).
+inline F vmaxf(F a, F b) { return sel(a > b, a, b); }
+inline F vminf(F a, F b) { return sel(a < b, a, b); }
+inline F safe_sqrt(F x) { return vsqrt(vmaxf(x, splat(0.f))); }
+// std::isfinite: false for +-inf and NaN.
+inline M finite(F x) { return vfabs(x) <= splat(0x1.fffffep127f); }
+
+struct V3 {
+  F x, y, z;
+};
+inline V3 splat3(Vec3f v) { return {splat(v.x), splat(v.y), splat(v.z)}; }
+inline V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline V3 operator-(V3 a) { return {-a.x, -a.y, -a.z}; }
+inline V3 operator*(V3 a, V3 b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
+inline V3 operator*(V3 a, F s) { return {a.x * s, a.y * s, a.z * s}; }
+inline V3 operator/(V3 a, F s) {
+  F r = 1.f / s;
+  return {a.x * r, a.y * r, a.z * r};
+}
+inline F dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline V3 cross(V3 a, V3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+inline F length(V3 a) { return vsqrt(dot(a, a)); }
+inline V3 normalize(V3 a) { return a / length(a); }
+inline V3 vabs(V3 a) { return {vfabs(a.x), vfabs(a.y), vfabs(a.z)}; }
+inline F max_component(V3 a) { return vmaxf(a.x, vmaxf(a.y, a.z)); }
+inline M is_black(V3 a) { return (a.x == 0.f) & (a.y == 0.f) & (a.z == 0.f); }
+inline M finite3(V3 a) { return finite(a.x) & finite(a.y) & finite(a.z); }
+inline V3 sel(M m, V3 a, V3 b) { return {sel(m, a.x, b.x), sel(m, a.y, b.y), sel(m, a.z, b.z)}; }
+inline void set(V3& v, int i, Vec3f s) {
+  v.x[i] = s.x;
+  v.y[i] = s.y;
+  v.z[i] = s.z;
+}
+inline Vec3f get(const V3& v, int i) { return Vec3f(v.x[i], v.y[i], v.z[i]); }
+
+// Frame of math.h (Duff et al. 2017) about n.
+struct Frame3 {
+  V3 s, t, n;
+  explicit Frame3(V3 nn) : n(nn) {
+    F sign = sign_of(nn.z);
+    F a = -1.f / (sign + nn.z);
+    F b = nn.x * nn.y * a;
+    s = {1.f + sign * nn.x * nn.x * a, sign * b, -sign * nn.x};
+    t = {b, sign + nn.y * nn.y * a, -nn.y};
+  }
+  V3 to_local(V3 v) const { return {dot(v, s), dot(v, t), dot(v, n)}; }
+  V3 to_world(V3 v) const { return s * v.x + t * v.y + n * v.z; }
+};
+
+// offset_ray_origin of geometry/ray.h.
+inline V3 offset_ray_origin(V3 p, V3 ng, V3 w) {
+  F scale = 1e-4f * vmaxf(splat(1.f), max_component(vabs(p)));
+  V3 off = ng * scale;
+  return sel(dot(w, ng) < 0.f, p - off, p + off);
+}
+
+// power_heuristic of sampling.h.
+inline F power_heuristic(F pdf_a, F pdf_b) {
+  F a = pdf_a * pdf_a, b = pdf_b * pdf_b;
+  return sel(a == splat(kInf), splat(1.f), sel(a > 0.f, a / (a + b), splat(0.f)));
+}
+
+// square_to_concentric_disk and square_to_cosine_hemisphere of sampling.h.
+inline V3 square_to_cosine_hemisphere(F ux, F uy) {
+  F ox = 2.f * ux - 1.f, oy = 2.f * uy - 1.f;
+  M wide = vfabs(ox) > vfabs(oy);
+  F num = sel(wide, oy, ox), den = sel(wide, ox, oy);
+  F x = (kPi / 4.f) * (num / den);
+  F x2 = x * x;
+  F s = x * (1.f + x2 * (-1.f / 6.f + x2 * (1.f / 120.f + x2 * (-1.f / 5040.f + x2 * (1.f / 362880.f)))));
+  F c = 1.f + x2 * (-0.5f + x2 * (1.f / 24.f + x2 * (-1.f / 720.f + x2 * (1.f / 40320.f + x2 * (-1.f / 3628800.f)))));
+  F dx = sel(wide, ox * c, oy * s), dy = sel(wide, ox * s, oy * c);
+  M centre = (ox == 0.f) & (oy == 0.f);
+  dx = sel(centre, splat(0.f), dx);
+  dy = sel(centre, splat(0.f), dy);
+  return {dx, dy, safe_sqrt(1.f - dx * dx - dy * dy)};
+}
+
+// Sampler::next_2d of sampler.h (kSobol) for eight pixels at one sample index and dimension.
+struct SobolLanes {
+  U64 pixel_seed;
+  uint32_t index_reversed = 0;
+  uint32_t dimension = 0;
+
+  static U64 mix64(U64 k) {
+    k ^= k >> 33;
+    k *= 0xff51afd7ed558ccdULL;
+    k ^= k >> 33;
+    k *= 0xc4ceb9fe1a85ec53ULL;
+    k ^= k >> 33;
+    return k;
+  }
+  static U reverse_bits(U v) {
+    v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
+    v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+    v = ((v >> 4) & 0x0F0F0F0Fu) | ((v & 0x0F0F0F0Fu) << 4);
+    v = ((v >> 8) & 0x00FF00FFu) | ((v & 0x00FF00FFu) << 8);
+    return (v >> 16) | (v << 16);
+  }
+  static U lk_permutation(U x, U seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+  }
+  static U sobol_dim1_reversed(U i) {
+    i ^= (i >> 1) & 0x55555555u;
+    i ^= (i >> 2) & 0x33333333u;
+    i ^= (i >> 4) & 0x0F0F0F0Fu;
+    i ^= (i >> 8) & 0x00FF00FFu;
+    i ^= (i >> 16) & 0x0000FFFFu;
+    return i;
+  }
+  static F to_unit(U v) { return __builtin_convertvector(v >> 8, F) * 0x1p-24f; }
+
+  void next_2d(F& x, F& y) {
+    U64 h = mix64(pixel_seed + uint64_t(dimension++));
+    U lo = __builtin_convertvector(h, U), hi = __builtin_convertvector(h >> 32, U);
+    U h2 = __builtin_convertvector(mix64(h), U);
+    U shuffled = reverse_bits(lk_permutation(U{} + index_reversed, lo));
+    x = to_unit(reverse_bits(lk_permutation(shuffled, hi)));
+    y = to_unit(reverse_bits(lk_permutation(sobol_dim1_reversed(shuffled), h2)));
+  }
+};
+
+}  // namespace caustica::lanes

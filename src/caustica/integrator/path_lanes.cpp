@@ -1,0 +1,312 @@
+// The lane-parallel `path` driver (see path_lanes.h). The scalar code it mirrors is cited beside each
+// step: path.h (path_start, path_shade, path_shadow), light_sample.h (sample_light, kTriangle),
+// material/bsdf.h and diffuse.h (bsdf_eval, bsdf_pdf, bsdf_sample, bsdf_side), sampling.h and ray.h.
+#include "path_lanes.h"
+
+#include "../backend/cpu/embree_accel.h"
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define CAUSTICA_LANES 1
+#else
+#define CAUSTICA_LANES 0
+#endif
+
+namespace caustica {
+
+bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string* why) {
+  auto fail = [&](const std::string& w) {
+    if (why) *why = w;
+    return false;
+  };
+  if (pp.sampler != SamplerType::kSobol) return fail("the independent sampler");
+  for (uint32_t i = 0; i < s.num_lights; ++i) {
+    const Light& l = s.lights[i];
+    if (l.type != LightType::kTriangle) return fail("a light other than a triangle area light");
+    if (l.texture >= 0) return fail("a textured area light");
+  }
+  uint32_t prims = s.num_triangles + s.num_spheres;
+  uint32_t last = ~0u;
+  for (uint32_t p = 0; p < prims; ++p) {
+    uint32_t mi = s.prim_material[p];
+    if (mi == last) continue;
+    last = mi;
+    const Material& m = s.materials[mi];
+    if (m.type != MaterialType::kDiffuse) return fail("a material other than `diffuse`");
+    if (m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0) return fail("a textured material");
+    if (!is_black(m.absorption)) return fail("an absorbing material");
+  }
+  return true;
+}
+
+#if CAUSTICA_LANES
+
+bool path_lanes_available() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+}
+
+}  // namespace caustica
+
+// Everything from here to the pop is compiled for AVX2 (and only called after path_lanes_available()).
+// The scalar headers were included above, so their functions keep the baseline instruction set.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+#include "../base/lanes.h"
+
+namespace caustica {
+namespace {
+
+using namespace lanes;
+
+template <typename Accel>
+void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, const uint32_t* px,
+                const uint32_t* py, int n, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
+  if (n <= 0) return;
+  // path_start per lane (camera ray, filter sample, the sampler's first dimensions).
+  SobolLanes sampler;
+  sampler.pixel_seed = U64{};
+  V3 o{}, d{}, prev_p{};
+  F tmax = splat(kInf);
+  M active = none();
+  {
+    PathState st;
+    for (int i = 0; i < n; ++i) {
+      path_start(s, pp, px[i], py[i], sample_index, st);
+      set(o, i, st.ray.o);
+      set(d, i, st.ray.d);
+      tmax[i] = st.ray.tmax;
+      set(prev_p, i, st.prev_p);
+      sampler.pixel_seed[i] = st.sampler.pixel_seed;
+      active[i] = -1;
+      out[i].weight = st.weight;
+      out[i].pixel = st.pixel;
+      // Every lane draws the same dimensions (they depend on the camera only).
+      sampler.index_reversed = st.sampler.index_reversed;
+      sampler.dimension = st.sampler.dimension;
+    }
+  }
+  V3 beta = splat3(Vec3f(1.f)), L = splat3(Vec3f(0.f));
+  F prev_pdf = splat(1.f);
+  M prev_delta = all();
+
+  // Per-vertex values, gathered lane by lane. They are zeroed once here, not per vertex (zeroing them
+  // every vertex took a quarter of this function's time); a lane that is not active keeps the values
+  // of its last vertex, which are finite and masked out of every result.
+  V3 p{}, ng{}, ns{}, albedo{}, v0{}, v1{}, v2{}, n0{}, n1{}, n2{}, q0{}, q1{}, q2{}, Le{};
+  F b1 = splat(0.f), b2 = splat(0.f);
+  for (uint32_t depth = 1; any(active); ++depth) {
+    // Closest hits, one lane at a time; the hit's point and normals (make_surface_hit) for triangles in
+    // lanes, for spheres per lane; emission reached by the ray (path_shade), per lane (rare).
+    M two_sided = none(), triangle = none();
+    int32_t light[kWidth];
+    for (int i = 0; i < kWidth; ++i) {
+      light[i] = -1;
+      if (!active[i]) continue;
+      Ray r;
+      r.o = get(o, i);
+      r.d = get(d, i);
+      r.tmax = tmax[i];
+      Hit h;
+      accel.intersect(r, h);
+      ++counts.rays;
+      if (!h.valid()) {  // no environment light in the scenes the lanes cover
+        active[i] = 0;
+        continue;
+      }
+      const Material& m = s.materials[s.prim_material[h.prim]];
+      set(albedo, i, m.diffuse);
+      two_sided[i] = (m.flags & kTwoSided) ? -1 : 0;
+      light[i] = s.prim_light[h.prim];
+      if (h.prim < s.num_triangles) {
+        triangle[i] = -1;
+        b1[i] = h.b1;
+        b2[i] = h.b2;
+        const uint32_t* ix = s.indices + 3 * h.prim;
+        set(v0, i, s.positions[ix[0]]);
+        set(v1, i, s.positions[ix[1]]);
+        set(v2, i, s.positions[ix[2]]);
+        if (s.normals) {
+          set(n0, i, s.normals[ix[0]]);
+          set(n1, i, s.normals[ix[1]]);
+          set(n2, i, s.normals[ix[2]]);
+        }
+      } else {
+        SurfaceHit sh = make_surface_hit(s, r, h);
+        set(p, i, sh.p);
+        set(ng, i, sh.ng);
+        set(ns, i, sh.ns);
+      }
+      if (light[i] >= 0) {
+        SurfaceHit sh = make_surface_hit(s, r, h);
+        RGB Li = get(L, i);
+        path_add_emission(s, sh, -r.d, get(prev_p, i), prev_pdf[i], prev_delta[i] != 0, get(beta, i), Li);
+        set(L, i, Li);
+      }
+    }
+    if (depth >= pp.max_depth || !any(active)) break;
+    if (any(triangle)) {  // make_surface_hit for triangles
+      F b0 = 1.f - b1 - b2;
+      V3 tp = v0 * b0 + v1 * b1 + v2 * b2;
+      V3 tng = normalize(cross(v1 - v0, v2 - v0));
+      V3 tns = tng;
+      if (s.normals) {
+        V3 nn = n0 * b0 + n1 * b1 + n2 * b2;
+        V3 nu = normalize(nn);
+        tns = sel(dot(nn, nn) > 0.f, sel(dot(nu, tng) < 0.f, -nu, nu), tng);  // face_forward
+      }
+      p = sel(triangle, tp, p);
+      ng = sel(triangle, tng, ng);
+      ns = sel(triangle, tns, ns);
+    }
+
+    Frame3 frame(ns);
+    V3 wo_world = -d;
+    V3 wo = frame.to_local(wo_world);
+    // bsdf_side: a two-sided surface seen from behind is evaluated as if from the front.
+    M flip = two_sided & (wo.z < 0.f);
+    F side = sel(flip, splat(-1.f), splat(1.f));
+    F wo_z = sel(flip, -wo.z, wo.z);
+    V3 p_front = offset_ray_origin(p, ng, wo_world);
+
+    // Next-event estimation (path_shade; sample_light, kTriangle).
+    F ulx, uly;
+    sampler.next_2d(ulx, uly);
+    if (s.num_lights > 0) {
+      F pmf = splat(1.f);
+      M light_two_sided = none();
+      for (int i = 0; i < kWidth; ++i) {
+        if (!active[i]) continue;
+        Vec2f u(ulx[i], uly[i]);
+        float pm;
+        uint32_t li = s.light_sampler.sample_reuse(u, pm);
+        ulx[i] = u.x;
+        pmf[i] = pm;
+        const Light& l = s.lights[li];
+        Vec3f a, b, c;
+        triangle_vertices(s, l.prim, a, b, c);
+        set(q0, i, a);
+        set(q1, i, b);
+        set(q2, i, c);
+        set(Le, i, l.L);
+        light_two_sided[i] = l.two_sided ? -1 : 0;
+      }
+      F su = vsqrt(ulx);  // square_to_uniform_triangle
+      F bx = 1.f - su, by = uly * su;
+      V3 pl = q0 * (1.f - bx - by) + q1 * bx + q2 * by;
+      V3 e = cross(q1 - q0, q2 - q0);
+      V3 nl = normalize(e);
+      V3 dl = pl - p_front;
+      F d2 = dot(dl, dl);
+      F dist = vsqrt(d2);
+      V3 wi_world = dl / dist;
+      F c = vfabs(dot(nl, wi_world));
+      F light_pdf = d2 / (c * (0.5f * length(e)));  // triangle_area
+      F c_emit = dot(nl, -wi_world);                // area_le
+      M emits = (c_emit > 0.f) | (light_two_sided & (c_emit < 0.f));
+      M ok = active & (d2 != 0.f) & (c != 0.f) & (light_pdf > 0.f) & emits & ~is_black(Le);
+      // bsdf_eval / bsdf_pdf of `diffuse` (with bsdf_side's flip of wi).
+      V3 wi = frame.to_local(wi_world);
+      F wi_z = wi.z * side;
+      ok &= (wo_z > 0.f) & (wi_z > 0.f);
+      V3 f = albedo * splat(kInvPi);
+      ok &= ~is_black(f);
+      F w = power_heuristic(pmf * light_pdf, wi_z * kInvPi);
+      V3 contrib = beta * f * Le * (vfabs(wi.z) * w / (pmf * light_pdf));
+      M shadow = ok & ~is_black(contrib) & finite3(contrib);
+      if (any(shadow)) {
+        V3 so = sel(dot(wi_world, ng) * dot(wo_world, ng) > 0.f, p_front, offset_ray_origin(p, ng, wi_world));
+        M n_zero = (nl.x == 0.f) & (nl.y == 0.f) & (nl.z == 0.f);  // spawn_ray_to
+        V3 target = sel(n_zero, pl, offset_ray_origin(pl, nl, so - pl));
+        V3 sd = target - so;
+        M dist_finite = finite(dist);
+        for (int i = 0; i < kWidth; ++i) {
+          if (!shadow[i]) continue;
+          Ray r;
+          r.o = get(so, i);
+          if (dist_finite[i]) {
+            r.d = get(sd, i);
+            r.tmax = 1.f - 1e-4f;
+          } else {
+            r.d = get(wi_world, i);
+            r.tmax = kInf;
+          }
+          ++counts.shadow_rays;
+          if (!accel.occluded(r)) {  // path_shadow
+            RGB Li = get(L, i);
+            Li += get(contrib, i);
+            set(L, i, Li);
+          }
+        }
+      }
+    }
+
+    // BSDF sampling (path_shade; bsdf_sample, diffuse_sample, square_to_cosine_hemisphere).
+    F u_lobe, u_rr;
+    sampler.next_2d(u_lobe, u_rr);
+    (void)u_lobe;  // `diffuse` has one lobe
+    F ubx, uby;
+    sampler.next_2d(ubx, uby);
+    V3 wl = square_to_cosine_hemisphere(ubx, uby);
+    F pdf = sel(wl.z > 0.f, wl.z * kInvPi, splat(0.f));
+    M ok = active & (wo_z > 0.f) & (pdf > 0.f) & finite3(albedo);
+    wl.z = wl.z * side;
+    V3 wi_world = frame.to_world(wl);
+    ok &= ~(dot(wi_world, ng) * wl.z * dot(ns, ng) < 0.f);
+    beta = sel(ok, beta * albedo, beta);
+    prev_pdf = pdf;
+    prev_delta = none();
+    V3 no = sel(dot(wi_world, ng) * dot(wo_world, ng) > 0.f, p_front, offset_ray_origin(p, ng, wi_world));
+    o = sel(ok, no, o);
+    d = sel(ok, wi_world, d);
+    tmax = splat(kInf);
+    prev_p = o;
+    ok &= ~is_black(beta);
+    if (depth >= pp.rr_depth) {
+      // `diffuse` leaves eta_scale at 1, so q = min(max(beta), 0.95).
+      F q = vminf(max_component(beta), splat(0.95f));
+      ok &= u_rr < q;
+      beta = sel(ok, beta * (1.f / q), beta);
+    }
+    active = ok;
+  }
+  for (int i = 0; i < n; ++i) out[i].L = get(L, i);
+}
+
+}  // namespace
+}  // namespace caustica
+
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+namespace caustica {
+
+template <typename Accel>
+void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, const uint32_t* px,
+                      const uint32_t* py, int n, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
+  trace_avx2(s, accel, pp, px, py, n, sample_index, out, counts);
+}
+
+#else  // no lanes on this target
+
+bool path_lanes_available() { return false; }
+
+template <typename Accel>
+void path_lanes_trace(const SceneView&, const Accel&, const PathParams&, const uint32_t*, const uint32_t*, int,
+                      uint32_t, LaneResult*, LaneCounts&) {}
+
+#endif
+
+template void path_lanes_trace<EmbreeAccel>(const SceneView&, const EmbreeAccel&, const PathParams&,
+                                            const uint32_t*, const uint32_t*, int, uint32_t, LaneResult*,
+                                            LaneCounts&);
+template void path_lanes_trace<BVHAccel>(const SceneView&, const BVHAccel&, const PathParams&, const uint32_t*,
+                                         const uint32_t*, int, uint32_t, LaneResult*, LaneCounts&);
+
+}  // namespace caustica

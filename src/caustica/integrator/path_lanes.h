@@ -1,0 +1,46 @@
+// Lane-parallel path tracing on the CPU: the `path` integrator (path.h) for eight camera paths in
+// lockstep, its per-vertex arithmetic (the Sobol sampler's draws, the shading frame, light sampling,
+// the BSDF's evaluation and sampling, MIS weights, Russian roulette) done as eight-lane AVX2 operations
+// (base/lanes.h). Ray queries stay one ray at a time (rtcIntersect1/rtcOccluded1: bench/RESULTS.md,
+// 2026-12-01, found Embree's packet queries no faster on incoherent rays), and so does the per-lane
+// setup of a hit (make_surface_hit), the camera ray and the light's choice from the alias table.
+//
+// Each lane computes bit for bit what path_start / path_shade / path_shadow compute for the same pixel
+// and sample index (the same IEEE operations in the same order; tests/cpp/test_path_lanes.cpp compares
+// whole images), so images do not depend on whether lanes were used, nor on how pixels were grouped.
+//
+// Coverage grows with the lane-parallel core (docs/architecture.md, "CPU throughput"); for now the lanes
+// cover scenes whose surfaces are all untextured Lambertian (`diffuse`, one- or two-sided), lit only by
+// untextured triangle area lights, rendered with the Sobol sampler. Everything else runs the scalar stages.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "path.h"
+
+namespace caustica {
+
+constexpr int kPathLanes = 8;
+
+// Whether this build and this CPU run the lanes (x86-64 with AVX2, GCC or Clang).
+bool path_lanes_available();
+// Whether the lanes cover this scene and these parameters; if not, `why` (when given) says what they lack.
+bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string* why = nullptr);
+
+struct LaneResult {
+  RGB L{0.f};          // the path's radiance estimate (before the filter weight), as PathState::L
+  float weight = 0.f;  // pixel filter weight, as PathState::weight
+  uint32_t pixel = 0;  // y * width + x
+};
+struct LaneCounts {
+  uint64_t rays = 0;         // closest-hit queries
+  uint64_t shadow_rays = 0;  // occlusion queries
+};
+
+// Traces one camera path for each of the n <= kPathLanes pixels (px[i], py[i]) at sample index
+// sample_index; needs path_lanes_available() and path_lanes_supported(s, pp).
+template <typename Accel>
+void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, const uint32_t* px,
+                      const uint32_t* py, int n, uint32_t sample_index, LaneResult* out, LaneCounts& counts);
+
+}  // namespace caustica
