@@ -128,6 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="wavefront: reuse the first pass's camera-ray hits (needs --no-jitter, a pinhole camera)")
     r.add_argument("--no-jitter", action="store_true",
                    help="path: every sample through the pixel centre (no anti-aliasing)")
+    r.add_argument("--no-lanes", action="store_true",
+                   help="path on the CPU: trace one path at a time instead of eight in lockstep (the same image; "
+                        "for comparisons)")
     r.add_argument("--exposure", type=_float("--exposure"), default=0.0,
                    help="PNG only: scale by 2^exposure before sRGB encoding")
     r.add_argument("--photons", type=_positive_int("--photons"), default=None,
@@ -300,7 +303,7 @@ def cmd_render(a) -> int:
                               strategy_images=a.strategy_images is not None, device=a.device,
                               wavefront=a.wavefront, compaction=not a.no_compaction,
                               sort_materials=a.sort_materials, cache_first_bounce=a.cache_first_bounce,
-                              jitter=not a.no_jitter)
+                              jitter=not a.no_jitter, lanes=not a.no_lanes)
     finally:
         prog.close()
     st = res.stats

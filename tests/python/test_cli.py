@@ -26,6 +26,15 @@ def test_version_and_scenes(caustica_bin):
     assert "cornell " in r.stdout
 
 
+def test_no_lanes_renders_the_same_image(caustica_bin, tmp_path):
+    outs = [str(tmp_path / f"{n}.exr") for n in ("lanes", "nolanes")]
+    base = ["render", "cornell", "--spp", "3", "--width", "36", "--height", "20", "--quiet", "--seed", "4"]
+    for o, extra in zip(outs, ([], ["--no-lanes"])):
+        r = run(caustica_bin, *base, *extra, "-o", o)
+        assert r.returncode == 0, r.stderr
+    assert np.array_equal(caustica.read_image(outs[0]), caustica.read_image(outs[1]))
+
+
 def test_render_writes_each_format(caustica_bin, tmp_path):
     outs = [str(tmp_path / f"img.{e}") for e in ("exr", "pfm", "png")]
     args = ["render", "cornell", "--spp", "2", "--width", "32", "--height", "24", "--quiet"]

@@ -109,10 +109,8 @@ inline V3 square_to_cosine_hemisphere(F ux, F uy) {
   F ox = 2.f * ux - 1.f, oy = 2.f * uy - 1.f;
   M wide = vfabs(ox) > vfabs(oy);
   F num = sel(wide, oy, ox), den = sel(wide, ox, oy);
-  F x = (kPi / 4.f) * (num / den);
-  F x2 = x * x;
-  F s = x * (1.f + x2 * (-1.f / 6.f + x2 * (1.f / 120.f + x2 * (-1.f / 5040.f + x2 * (1.f / 362880.f)))));
-  F c = 1.f + x2 * (-0.5f + x2 * (1.f / 24.f + x2 * (-1.f / 720.f + x2 * (1.f / 40320.f + x2 * (-1.f / 3628800.f)))));
+  F s, c;
+  sincos_quarter_pi_of((kPi / 4.f) * (num / den), s, c);
   F dx = sel(wide, ox * c, oy * s), dy = sel(wide, ox * s, oy * c);
   M centre = (ox == 0.f) & (oy == 0.f);
   dx = sel(centre, splat(0.f), dx);
@@ -126,14 +124,6 @@ struct SobolLanes {
   uint32_t index_reversed = 0;
   uint32_t dimension = 0;
 
-  static U64 mix64(U64 k) {
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdULL;
-    k ^= k >> 33;
-    k *= 0xc4ceb9fe1a85ec53ULL;
-    k ^= k >> 33;
-    return k;
-  }
   static U reverse_bits(U v) {
     v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
     v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
@@ -141,31 +131,15 @@ struct SobolLanes {
     v = ((v >> 8) & 0x00FF00FFu) | ((v & 0x00FF00FFu) << 8);
     return (v >> 16) | (v << 16);
   }
-  static U lk_permutation(U x, U seed) {
-    x ^= x * 0x3d20adeau;
-    x += seed;
-    x *= (seed >> 16) | 1u;
-    x ^= x * 0x05526c56u;
-    x ^= x * 0x53a22864u;
-    return x;
-  }
-  static U sobol_dim1_reversed(U i) {
-    i ^= (i >> 1) & 0x55555555u;
-    i ^= (i >> 2) & 0x33333333u;
-    i ^= (i >> 4) & 0x0F0F0F0Fu;
-    i ^= (i >> 8) & 0x00FF00FFu;
-    i ^= (i >> 16) & 0x0000FFFFu;
-    return i;
-  }
   static F to_unit(U v) { return __builtin_convertvector(v >> 8, F) * 0x1p-24f; }
 
   void next_2d(F& x, F& y) {
-    U64 h = mix64(pixel_seed + uint64_t(dimension++));
+    U64 h = mix64_of(pixel_seed + uint64_t(dimension++));
     U lo = __builtin_convertvector(h, U), hi = __builtin_convertvector(h >> 32, U);
-    U h2 = __builtin_convertvector(mix64(h), U);
-    U shuffled = reverse_bits(lk_permutation(U{} + index_reversed, lo));
-    x = to_unit(reverse_bits(lk_permutation(shuffled, hi)));
-    y = to_unit(reverse_bits(lk_permutation(sobol_dim1_reversed(shuffled), h2)));
+    U h2 = __builtin_convertvector(mix64_of(h), U);
+    U shuffled = reverse_bits(lk_permutation_of(U{} + index_reversed, lo));
+    x = to_unit(reverse_bits(lk_permutation_of(shuffled, hi)));
+    y = to_unit(reverse_bits(lk_permutation_of(sobol_dim1_reversed_of(shuffled), h2)));
   }
 };
 

@@ -27,12 +27,14 @@ CHD float lerpf(float t, float a, float b) { return (1.f - t) * a + t * b; }
 // rounding. It replaces a library call with general range reduction (sincosf
 // was a third of the cosine-hemisphere warp's time in a profile of `cornell`),
 // and runs alike on CPU and GPU. tests/cpp/test_warps.cpp compares with
-// std::sin/std::cos.
-CHD void sincos_quarter_pi(float x, float& s, float& c) {
-  float x2 = x * x;
+// std::sin/std::cos. Written once for float and the CPU's eight-lane vectors (base/lanes.h).
+template <typename F>
+CHD void sincos_quarter_pi_of(F x, F& s, F& c) {
+  F x2 = x * x;
   s = x * (1.f + x2 * (-1.f / 6.f + x2 * (1.f / 120.f + x2 * (-1.f / 5040.f + x2 * (1.f / 362880.f)))));
   c = 1.f + x2 * (-0.5f + x2 * (1.f / 24.f + x2 * (-1.f / 720.f + x2 * (1.f / 40320.f + x2 * (-1.f / 3628800.f)))));
 }
+CHD void sincos_quarter_pi(float x, float& s, float& c) { sincos_quarter_pi_of(x, s, c); }
 
 struct Vec2f {
   float x = 0, y = 0;

@@ -9,12 +9,15 @@
 
 namespace caustica {
 
-// 64-bit finaliser of MurmurHash3 (a bijection with full avalanche).
-CHD uint64_t mix64(uint64_t k) {
+// 64-bit finaliser of MurmurHash3 (a bijection with full avalanche). Written once for any type with
+// uint64_t's operators (uint64_t, and the CPU's eight-lane vectors in base/lanes.h).
+template <typename U64>
+CHD U64 mix64_of(U64 k) {
   k ^= k >> 33; k *= 0xff51afd7ed558ccdULL;
   k ^= k >> 33; k *= 0xc4ceb9fe1a85ec53ULL;
   k ^= k >> 33; return k;
 }
+CHD uint64_t mix64(uint64_t k) { return mix64_of(k); }
 CHD uint64_t hash3(uint64_t a, uint64_t b, uint64_t c) {
   return mix64(a * 0x9E3779B97F4A7C15ULL ^ mix64(b + 0x632BE59BD9B4E019ULL) ^ mix64(c ^ 0x8CB92BA72F3D8DD7ULL));
 }
