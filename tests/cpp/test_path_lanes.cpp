@@ -90,7 +90,7 @@ SceneDesc small_cornell(int w, int h) {
 // The same box with what else the lanes cover: two-sided materials (bsdf_side's flip, seen through the
 // open front's back faces), a diffuse sphere (make_surface_hit's sphere branch), a mesh with per-vertex
 // normals (shading normals unlike the geometric ones), a two-sided emissive triangle, a thin-lens camera
-// (the lens sample's dimensions).
+// (the lens sample's dimensions), and materials whose vertices run the scalar stages in their lanes.
 SceneDesc varied_cornell() {
   SceneDesc d = small_cornell(41, 33);
   for (Material& m : d.materials) m.flags |= kTwoSided;
@@ -101,6 +101,27 @@ SceneDesc varied_cornell() {
   ball.radius = 0.25f;
   ball.material = white;
   d.shapes.push_back(ball);
+  // Materials the lanes hand to the scalar stages: glass with absorption, a rough conductor, a textured
+  // diffuse (a 2x2 checker), each on a small sphere.
+  Material glass = make_dielectric(1.5f);
+  glass.absorption = RGB(0.5f, 0.2f, 0.1f);
+  TextureDesc checker;
+  checker.name = "checker";
+  checker.width = checker.height = 2;
+  checker.rgba = {0.9f, 0.9f, 0.9f, 1.f, 0.1f, 0.1f, 0.1f, 1.f, 0.1f, 0.1f, 0.1f, 1.f, 0.9f, 0.9f, 0.9f, 1.f};
+  d.textures.push_back(checker);
+  Material textured = make_diffuse(RGB(1.f));
+  textured.tex_color = int(d.textures.size()) - 1;
+  const Material others[3] = {glass, make_conductor(RGB(0.2f, 0.9f, 1.1f), RGB(3.9f, 2.4f, 2.2f), RGB(1.f), 0.2f),
+                              textured};
+  for (int k = 0; k < 3; ++k) {
+    ShapeDesc b;
+    b.type = ShapeType::kSphere;
+    b.center = Vec3f(-0.6f + 0.6f * float(k), 0.3f, -0.3f);
+    b.radius = 0.18f;
+    b.material = d.add_material("other" + std::to_string(k), others[k]);
+    d.shapes.push_back(b);
+  }
   // An octahedron with vertex normals along the vertex directions (smooth shading of a coarse solid).
   MeshDesc oct;
   Vec3f c(-0.45f, -0.6f, 0.5f);
@@ -144,9 +165,30 @@ TEST(PathLanes, CoversDiffuseScenesAndSaysWhatOthersLack) {
   EXPECT_FALSE(path_lanes_supported(cornell->view(), pp, &why));
   EXPECT_EQ(why, "the independent sampler");
   pp.sampler = SamplerType::kSobol;
+  // Mirror, glass and a glossy floor beside diffuse walls, a triangle light: covered (those vertices run
+  // the scalar stages in their lanes).
   std::shared_ptr<Scene> spheres = Scene::build(builtin_scene("smallvcm-spheres"));
-  EXPECT_FALSE(path_lanes_supported(spheres->view(), pp, &why));
-  EXPECT_FALSE(why.empty());
+  EXPECT_TRUE(path_lanes_supported(spheres->view(), pp, &why)) << why;
+  std::shared_ptr<Scene> sun = Scene::build(builtin_scene("smallvcm-sun"));
+  EXPECT_FALSE(path_lanes_supported(sun->view(), pp, &why));
+  EXPECT_EQ(why, "a light other than a triangle area light");
+}
+
+TEST(PathLanes, BitIdenticalWithMirrorGlassAndGlossyVerticesInTheirLanes) {
+  if (!path_lanes_available()) GTEST_SKIP() << "this CPU has no AVX2: the lanes do not run here";
+  SceneDesc d = builtin_scene("smallvcm-spheres");
+  d.camera.width = 37;
+  d.camera.height = 30;
+  std::shared_ptr<Scene> sc = Scene::build(d);
+  PathParams pp;
+  pp.seed = 11;
+  pp.max_depth = 12;
+  pp.rr_depth = 3;
+  ASSERT_TRUE(path_lanes_supported(sc->view(), pp));
+  uint64_t rs, rl;
+  Mismatch m = compare(sc->view(), sc->embree(), pp, 5, rs, rl);
+  EXPECT_EQ(m.differing, 0) << m.differing << " of " << m.pixels_compared << " differ; first " << m.first;
+  EXPECT_EQ(rs, rl);
 }
 
 TEST(PathLanes, BitIdenticalToScalarStagesOnCornell) {

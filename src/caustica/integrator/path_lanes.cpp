@@ -12,6 +12,13 @@
 #endif
 
 namespace caustica {
+namespace {
+// Materials whose vertices the lanes shade; a vertex on any other runs the scalar path_shade in its lane.
+bool lane_material(const Material& m) {
+  return m.type == MaterialType::kDiffuse && m.tex_color < 0 && m.tex_roughness < 0 && m.tex_normal < 0 &&
+         is_black(m.absorption);
+}
+}  // namespace
 
 bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string* why) {
   auto fail = [&](const std::string& w) {
@@ -25,17 +32,9 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
     if (l.texture >= 0) return fail("a textured area light");
   }
   uint32_t prims = s.num_triangles + s.num_spheres;
-  uint32_t last = ~0u;
-  for (uint32_t p = 0; p < prims; ++p) {
-    uint32_t mi = s.prim_material[p];
-    if (mi == last) continue;
-    last = mi;
-    const Material& m = s.materials[mi];
-    if (m.type != MaterialType::kDiffuse) return fail("a material other than `diffuse`");
-    if (m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0) return fail("a textured material");
-    if (!is_black(m.absorption)) return fail("an absorbing material");
-  }
-  return true;
+  for (uint32_t p = 0; p < prims; ++p)
+    if (lane_material(s.materials[s.prim_material[p]])) return true;
+  return fail("no untextured `diffuse` surface");
 }
 
 #if CAUSTICA_LANES
@@ -90,7 +89,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
     }
   }
   V3 beta = splat3(Vec3f(1.f)), L = splat3(Vec3f(0.f));
-  F prev_pdf = splat(1.f);
+  F prev_pdf = splat(1.f), eta_scale = splat(1.f);
   M prev_delta = all();
 
   // Per-vertex values, gathered lane by lane. They are zeroed once here, not per vertex (zeroing them
@@ -101,7 +100,8 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
   for (uint32_t depth = 1; any(active); ++depth) {
     // Closest hits, one lane at a time; the hit's point and normals (make_surface_hit) for triangles in
     // lanes, for spheres per lane; emission reached by the ray (path_shade), per lane (rare).
-    M two_sided = none(), triangle = none();
+    // A vertex on any other material is shaded by the scalar path_shade right here (see below).
+    M two_sided = none(), triangle = none(), lane = none();
     int32_t light[kWidth];
     for (int i = 0; i < kWidth; ++i) {
       light[i] = -1;
@@ -118,6 +118,41 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
         continue;
       }
       const Material& m = s.materials[s.prim_material[h.prim]];
+      if (!lane_material(m)) {
+        // The scalar stages for this lane's vertex: the same draws (three dimension pairs, or none when
+        // the path ends here), so the lanes' dimension counter stays shared.
+        PathState st;
+        st.ray = r;
+        st.beta = get(beta, i);
+        st.L = get(L, i);
+        st.prev_pdf = prev_pdf[i];
+        st.prev_delta = prev_delta[i] != 0;
+        st.depth = depth - 1;
+        st.eta_scale = eta_scale[i];
+        st.prev_p = get(prev_p, i);
+        st.sampler.type = SamplerType::kSobol;
+        st.sampler.index_reversed = sampler.index_reversed;
+        st.sampler.dimension = sampler.dimension;
+        st.sampler.pixel_seed = sampler.pixel_seed[i];
+        ShadowRay sr;
+        path_shade(s, pp, st, h, sr);
+        if (sr.active) {
+          ++counts.shadow_rays;
+          path_shadow(st, sr, accel.occluded(sr.ray));
+        }
+        set(o, i, st.ray.o);
+        set(d, i, st.ray.d);
+        tmax[i] = st.ray.tmax;
+        set(beta, i, st.beta);
+        set(L, i, st.L);
+        prev_pdf[i] = st.prev_pdf;
+        prev_delta[i] = st.prev_delta ? -1 : 0;
+        eta_scale[i] = st.eta_scale;
+        set(prev_p, i, st.prev_p);
+        active[i] = st.active ? -1 : 0;
+        continue;
+      }
+      lane[i] = -1;
       set(albedo, i, m.diffuse);
       two_sided[i] = (m.flags & kTwoSided) ? -1 : 0;
       light[i] = s.prim_light[h.prim];
@@ -147,7 +182,11 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
         set(L, i, Li);
       }
     }
-    if (depth >= pp.max_depth || !any(active)) break;
+    if (depth >= pp.max_depth) break;
+    if (!any(lane)) {
+      sampler.dimension += 3;  // the scalar lanes drew u_light, u_lobe_rr and u_bsdf
+      continue;
+    }
     if (any(triangle)) {  // make_surface_hit for triangles
       F b0 = 1.f - b1 - b2;
       V3 tp = v0 * b0 + v1 * b1 + v2 * b2;
@@ -179,7 +218,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
       F pmf = splat(1.f);
       M light_two_sided = none();
       for (int i = 0; i < kWidth; ++i) {
-        if (!active[i]) continue;
+        if (!lane[i]) continue;
         Vec2f u(ulx[i], uly[i]);
         float pm;
         uint32_t li = s.light_sampler.sample_reuse(u, pm);
@@ -207,7 +246,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
       F light_pdf = d2 / (c * (0.5f * length(e)));  // triangle_area
       F c_emit = dot(nl, -wi_world);                // area_le
       M emits = (c_emit > 0.f) | (light_two_sided & (c_emit < 0.f));
-      M ok = active & (d2 != 0.f) & (c != 0.f) & (light_pdf > 0.f) & emits & ~is_black(Le);
+      M ok = lane & (d2 != 0.f) & (c != 0.f) & (light_pdf > 0.f) & emits & ~is_black(Le);
       // bsdf_eval / bsdf_pdf of `diffuse` (with bsdf_side's flip of wi).
       V3 wi = frame.to_local(wi_world);
       F wi_z = wi.z * side;
@@ -252,26 +291,26 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
     sampler.next_2d(ubx, uby);
     V3 wl = square_to_cosine_hemisphere(ubx, uby);
     F pdf = sel(wl.z > 0.f, wl.z * kInvPi, splat(0.f));
-    M ok = active & (wo_z > 0.f) & (pdf > 0.f) & finite3(albedo);
+    M ok = lane & (wo_z > 0.f) & (pdf > 0.f) & finite3(albedo);
     wl.z = wl.z * side;
     V3 wi_world = frame.to_world(wl);
     ok &= ~(dot(wi_world, ng) * wl.z * dot(ns, ng) < 0.f);
     beta = sel(ok, beta * albedo, beta);
-    prev_pdf = pdf;
-    prev_delta = none();
+    prev_pdf = sel(lane, pdf, prev_pdf);
+    prev_delta = prev_delta & ~lane;
     V3 no = sel(dot(wi_world, ng) * dot(wo_world, ng) > 0.f, p_front, offset_ray_origin(p, ng, wi_world));
     o = sel(ok, no, o);
     d = sel(ok, wi_world, d);
-    tmax = splat(kInf);
-    prev_p = o;
+    tmax = sel(lane, splat(kInf), tmax);
+    prev_p = sel(lane, o, prev_p);
     ok &= ~is_black(beta);
     if (depth >= pp.rr_depth) {
-      // `diffuse` leaves eta_scale at 1, so q = min(max(beta), 0.95).
-      F q = vminf(max_component(beta), splat(0.95f));
+      // `diffuse` leaves eta_scale as it is (its eta is 1).
+      F q = vminf(max_component(beta) * eta_scale, splat(0.95f));
       ok &= u_rr < q;
       beta = sel(ok, beta * (1.f / q), beta);
     }
-    active = ok;
+    active = ok | (active & ~lane);
   }
   for (int i = 0; i < n; ++i) out[i].L = get(L, i);
 }
