@@ -36,37 +36,21 @@ Mismatch compare(const SceneView& s, const Accel& accel, const PathParams& pp, i
     for (int y = 0; y < H; ++y) {
       for (int x0 = 0; x0 < W; x0 += kPathLanes) {
         int n = std::min(kPathLanes, W - x0);
-        uint32_t px[kPathLanes], py[kPathLanes];
-        for (int i = 0; i < n; ++i) {
-          px[i] = uint32_t(x0 + i);
-          py[i] = uint32_t(y);
-        }
         LaneResult res[kPathLanes];
         LaneCounts counts;
-        path_lanes_trace(s, accel, pp, px, py, n, uint32_t(pass), res, counts);
+        path_lanes_trace(s, accel, pp, uint32_t(x0), uint32_t(y), n, uint32_t(pass), res, counts);
         rays_lanes += counts.rays + counts.shadow_rays;
         for (int i = 0; i < n; ++i) {
           PathState st;
-          path_start(s, pp, px[i], py[i], uint32_t(pass), st);
-          while (st.active) {
-            Hit hit;
-            accel.intersect(st.ray, hit);
-            ++rays_scalar;
-            ShadowRay sr;
-            path_shade(s, pp, st, hit, sr);
-            if (sr.active) {
-              ++rays_scalar;
-              path_shadow(st, sr, accel.occluded(sr.ray));
-            }
-          }
+          path_trace(s, pp, accel, uint32_t(x0 + i), uint32_t(y), uint32_t(pass), st, rays_scalar, rays_scalar);
           ++m.pixels_compared;
           bool same = std::memcmp(&st.L, &res[i].L, sizeof(RGB)) == 0 &&
                       std::memcmp(&st.weight, &res[i].weight, sizeof(float)) == 0 && st.pixel == res[i].pixel;
           if (!same) {
             if (m.differing == 0) {
               char buf[256];
-              std::snprintf(buf, sizeof buf, "pixel (%u, %u) pass %d: scalar (%.9g, %.9g, %.9g) w %.9g, lanes (%.9g, %.9g, %.9g) w %.9g",
-                            px[i], py[i], pass, st.L.x, st.L.y, st.L.z, st.weight, res[i].L.x, res[i].L.y,
+              std::snprintf(buf, sizeof buf, "pixel (%d, %d) pass %d: scalar (%.9g, %.9g, %.9g) w %.9g, lanes (%.9g, %.9g, %.9g) w %.9g",
+                            x0 + i, y, pass, st.L.x, st.L.y, st.L.z, st.weight, res[i].L.x, res[i].L.y,
                             res[i].L.z, res[i].weight);
               m.first = buf;
             }
@@ -174,36 +158,37 @@ TEST(PathLanes, CoversDiffuseScenesAndSaysWhatOthersLack) {
   EXPECT_EQ(why, "a light other than a triangle area light");
 }
 
+// Renders `passes` sample indices of the scene both ways and expects the same bits everywhere.
+static void expect_bit_identical(const SceneDesc& d, const PathParams& pp, int passes) {
+  std::shared_ptr<Scene> sc = Scene::build(d);
+  std::string why;
+  ASSERT_TRUE(path_lanes_supported(sc->view(), pp, &why)) << why;
+  uint64_t rs, rl;
+  Mismatch m = compare(sc->view(), sc->embree(), pp, passes, rs, rl);
+  EXPECT_EQ(m.differing, 0) << m.differing << " of " << m.pixels_compared << " differ; first " << m.first;
+  EXPECT_EQ(rs, rl);
+  EXPECT_EQ(m.pixels_compared, d.camera.width * d.camera.height * passes);
+}
+
+TEST(PathLanes, BitIdenticalToScalarStagesOnCornell) {
+  if (!path_lanes_available()) GTEST_SKIP() << "this CPU has no AVX2: the lanes do not run here";
+  PathParams pp;
+  pp.max_depth = 8;
+  pp.rr_depth = 5;
+  pp.seed = 7;
+  expect_bit_identical(small_cornell(44, 40), pp, 6);
+}
+
 TEST(PathLanes, BitIdenticalWithMirrorGlassAndGlossyVerticesInTheirLanes) {
   if (!path_lanes_available()) GTEST_SKIP() << "this CPU has no AVX2: the lanes do not run here";
   SceneDesc d = builtin_scene("smallvcm-spheres");
   d.camera.width = 37;
   d.camera.height = 30;
-  std::shared_ptr<Scene> sc = Scene::build(d);
   PathParams pp;
   pp.seed = 11;
   pp.max_depth = 12;
   pp.rr_depth = 3;
-  ASSERT_TRUE(path_lanes_supported(sc->view(), pp));
-  uint64_t rs, rl;
-  Mismatch m = compare(sc->view(), sc->embree(), pp, 5, rs, rl);
-  EXPECT_EQ(m.differing, 0) << m.differing << " of " << m.pixels_compared << " differ; first " << m.first;
-  EXPECT_EQ(rs, rl);
-}
-
-TEST(PathLanes, BitIdenticalToScalarStagesOnCornell) {
-  if (!path_lanes_available()) GTEST_SKIP() << "this CPU has no AVX2: the lanes do not run here";
-  std::shared_ptr<Scene> sc = Scene::build(small_cornell(44, 40));
-  PathParams pp;
-  pp.max_depth = 8;
-  pp.rr_depth = 5;
-  pp.seed = 7;
-  ASSERT_TRUE(path_lanes_supported(sc->view(), pp));
-  uint64_t rs, rl;
-  Mismatch m = compare(sc->view(), sc->embree(), pp, 6, rs, rl);
-  EXPECT_EQ(m.differing, 0) << m.differing << " of " << m.pixels_compared << " differ; first " << m.first;
-  EXPECT_EQ(rs, rl);
-  EXPECT_EQ(m.pixels_compared, 44 * 40 * 6);
+  expect_bit_identical(d, pp, 5);
 }
 
 TEST(PathLanes, BitIdenticalOnTwoSidedSpheresShadingNormalsThinLensAndPortableBvh) {

@@ -178,4 +178,31 @@ CHD void path_shadow(PathState& st, const ShadowRay& sr, bool occluded) {
   if (sr.active && !occluded) st.L += sr.contrib;
 }
 
+// One vertex of a path whose ray has been traced to `hit`: path_shade, then its shadow ray through
+// `accel` (any type with occluded(Ray)). Counts the shadow ray in `shadow_rays`. CPU drivers only.
+template <typename Accel>
+inline void path_vertex(const SceneView& s, const PathParams& pp, const Accel& accel, PathState& st, const Hit& hit,
+                     uint64_t& shadow_rays) {
+  ShadowRay sr;
+  path_shade(s, pp, st, hit, sr);
+  if (sr.active) {
+    ++shadow_rays;
+    path_shadow(st, sr, accel.occluded(sr.ray));
+  }
+}
+
+// A whole camera path, one stage after another (the CPU's scalar driver). Counts closest-hit queries in
+// `rays` and occlusion queries in `shadow_rays`.
+template <typename Accel>
+inline void path_trace(const SceneView& s, const PathParams& pp, const Accel& accel, uint32_t px, uint32_t py,
+                    uint32_t sample_index, PathState& st, uint64_t& rays, uint64_t& shadow_rays) {
+  path_start(s, pp, px, py, sample_index, st);
+  while (st.active) {
+    Hit hit;
+    accel.intersect(st.ray, hit);
+    ++rays;
+    path_vertex(s, pp, accel, st, hit, shadow_rays);
+  }
+}
+
 }  // namespace caustica

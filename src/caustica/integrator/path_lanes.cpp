@@ -62,8 +62,8 @@ namespace {
 using namespace lanes;
 
 template <typename Accel>
-void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, const uint32_t* px,
-                const uint32_t* py, int n, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
+void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x, uint32_t y, int n,
+                uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
   if (n <= 0) return;
   // path_start per lane (camera ray, filter sample, the sampler's first dimensions).
   SobolLanes sampler;
@@ -74,7 +74,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
   {
     PathState st;
     for (int i = 0; i < n; ++i) {
-      path_start(s, pp, px[i], py[i], sample_index, st);
+      path_start(s, pp, x + uint32_t(i), y, sample_index, st);
       set(o, i, st.ray.o);
       set(d, i, st.ray.d);
       tmax[i] = st.ray.tmax;
@@ -134,12 +134,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
         st.sampler.index_reversed = sampler.index_reversed;
         st.sampler.dimension = sampler.dimension;
         st.sampler.pixel_seed = sampler.pixel_seed[i];
-        ShadowRay sr;
-        path_shade(s, pp, st, h, sr);
-        if (sr.active) {
-          ++counts.shadow_rays;
-          path_shadow(st, sr, accel.occluded(sr.ray));
-        }
+        path_vertex(s, pp, accel, st, h, counts.shadow_rays);
         set(o, i, st.ray.o);
         set(d, i, st.ray.d);
         tmax[i] = st.ray.tmax;
@@ -327,9 +322,9 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, co
 namespace caustica {
 
 template <typename Accel>
-void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, const uint32_t* px,
-                      const uint32_t* py, int n, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
-  trace_avx2(s, accel, pp, px, py, n, sample_index, out, counts);
+void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x, uint32_t y, int n,
+                      uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
+  trace_avx2(s, accel, pp, x, y, n, sample_index, out, counts);
 }
 
 #else  // no lanes on this target
@@ -337,15 +332,14 @@ void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& 
 bool path_lanes_available() { return false; }
 
 template <typename Accel>
-void path_lanes_trace(const SceneView&, const Accel&, const PathParams&, const uint32_t*, const uint32_t*, int,
-                      uint32_t, LaneResult*, LaneCounts&) {}
+void path_lanes_trace(const SceneView&, const Accel&, const PathParams&, uint32_t, uint32_t, int, uint32_t,
+                      LaneResult*, LaneCounts&) {}
 
 #endif
 
-template void path_lanes_trace<EmbreeAccel>(const SceneView&, const EmbreeAccel&, const PathParams&,
-                                            const uint32_t*, const uint32_t*, int, uint32_t, LaneResult*,
-                                            LaneCounts&);
-template void path_lanes_trace<BVHAccel>(const SceneView&, const BVHAccel&, const PathParams&, const uint32_t*,
-                                         const uint32_t*, int, uint32_t, LaneResult*, LaneCounts&);
+template void path_lanes_trace<EmbreeAccel>(const SceneView&, const EmbreeAccel&, const PathParams&, uint32_t,
+                                            uint32_t, int, uint32_t, LaneResult*, LaneCounts&);
+template void path_lanes_trace<BVHAccel>(const SceneView&, const BVHAccel&, const PathParams&, uint32_t, uint32_t,
+                                         int, uint32_t, LaneResult*, LaneCounts&);
 
 }  // namespace caustica

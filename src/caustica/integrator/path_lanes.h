@@ -37,10 +37,10 @@ struct LaneCounts {
   uint64_t shadow_rays = 0;  // occlusion queries
 };
 
-// Traces one camera path for each of the n <= kPathLanes pixels (px[i], py[i]) at sample index
-// sample_index; needs path_lanes_available() and path_lanes_supported(s, pp).
+// Traces one camera path for each of the n <= kPathLanes pixels (x, y) ... (x + n - 1, y) at sample index
+// sample_index into out[0 .. n-1]; needs path_lanes_available() and path_lanes_supported(s, pp).
 template <typename Accel>
-void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, const uint32_t* px,
-                      const uint32_t* py, int n, uint32_t sample_index, LaneResult* out, LaneCounts& counts);
+void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x, uint32_t y, int n,
+                      uint32_t sample_index, LaneResult* out, LaneCounts& counts);
 
 }  // namespace caustica

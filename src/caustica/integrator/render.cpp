@@ -221,14 +221,9 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
         for (int y = y0; y < std::min(y0 + T, H); ++y) {
           for (int x = x0; x < std::min(x0 + T, W); x += kPathLanes) {
             int n = std::min(kPathLanes, std::min(x0 + T, W) - x);
-            uint32_t px[kPathLanes], py[kPathLanes];
-            for (int i = 0; i < n; ++i) {
-              px[i] = uint32_t(x + i);
-              py[i] = uint32_t(y);
-            }
             LaneResult res[kPathLanes];
             LaneCounts counts;
-            path_lanes_trace(view, accel, pp, px, py, n, uint32_t(pass), res, counts);
+            path_lanes_trace(view, accel, pp, uint32_t(x), uint32_t(y), n, uint32_t(pass), res, counts);
             rays += counts.rays;
             shadow += counts.shadow_rays;
             samples += uint64_t(n);
@@ -246,18 +241,7 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
       for (int y = y0; y < std::min(y0 + T, H); ++y) {
         for (int x = x0; x < std::min(x0 + T, W); ++x) {
           PathState st;
-          path_start(view, pp, uint32_t(x), uint32_t(y), uint32_t(pass), st);
-          while (st.active) {
-            Hit hit;
-            accel.intersect(st.ray, hit);
-            ++rays;
-            ShadowRay sr;
-            path_shade(view, pp, st, hit, sr);
-            if (sr.active) {
-              ++shadow;
-              path_shadow(st, sr, accel.occluded(sr.ray));
-            }
-          }
+          path_trace(view, pp, accel, uint32_t(x), uint32_t(y), uint32_t(pass), st, rays, shadow);
           ++samples;
           if (!isfinite3(st.L)) {
             ++invalid;
