@@ -25,33 +25,35 @@ struct Mismatch {
   std::string first;
 };
 
-// Renders sample indices [0, passes) of every pixel both ways and compares.
+// Renders sample indices [0, passes) of every pixel both ways and compares. The lanes get the image in
+// tiles of 13 x 7 pixels (partial tiles at the right and bottom edges), as render.cpp hands them its tiles.
 template <typename Accel>
 Mismatch compare(const SceneView& s, const Accel& accel, const PathParams& pp, int passes, uint64_t& rays_scalar,
                  uint64_t& rays_lanes) {
   Mismatch m;
-  const int W = s.camera.width, H = s.camera.height;
+  const int W = s.camera.width, H = s.camera.height, TW = 13, TH = 7;
   rays_scalar = rays_lanes = 0;
+  std::vector<LaneResult> res(TW * TH);
   for (int pass = 0; pass < passes; ++pass) {
-    for (int y = 0; y < H; ++y) {
-      for (int x0 = 0; x0 < W; x0 += kPathLanes) {
-        int n = std::min(kPathLanes, W - x0);
-        LaneResult res[kPathLanes];
+    for (int y0 = 0; y0 < H; y0 += TH) {
+      for (int x0 = 0; x0 < W; x0 += TW) {
+        const int w = std::min(TW, W - x0), h = std::min(TH, H - y0);
         LaneCounts counts;
-        path_lanes_trace(s, accel, pp, uint32_t(x0), uint32_t(y), n, uint32_t(pass), res, counts);
+        path_lanes_trace(s, accel, pp, uint32_t(x0), uint32_t(y0), w, h, uint32_t(pass), res.data(), counts);
         rays_lanes += counts.rays + counts.shadow_rays;
-        for (int i = 0; i < n; ++i) {
+        for (int k = 0; k < w * h; ++k) {
+          const int x = x0 + k % w, y = y0 + k / w;
           PathState st;
-          path_trace(s, pp, accel, uint32_t(x0 + i), uint32_t(y), uint32_t(pass), st, rays_scalar, rays_scalar);
+          path_trace(s, pp, accel, uint32_t(x), uint32_t(y), uint32_t(pass), st, rays_scalar, rays_scalar);
           ++m.pixels_compared;
-          bool same = std::memcmp(&st.L, &res[i].L, sizeof(RGB)) == 0 &&
-                      std::memcmp(&st.weight, &res[i].weight, sizeof(float)) == 0 && st.pixel == res[i].pixel;
+          bool same = std::memcmp(&st.L, &res[k].L, sizeof(RGB)) == 0 &&
+                      std::memcmp(&st.weight, &res[k].weight, sizeof(float)) == 0 && st.pixel == res[k].pixel;
           if (!same) {
             if (m.differing == 0) {
               char buf[256];
               std::snprintf(buf, sizeof buf, "pixel (%d, %d) pass %d: scalar (%.9g, %.9g, %.9g) w %.9g, lanes (%.9g, %.9g, %.9g) w %.9g",
-                            x0 + i, y, pass, st.L.x, st.L.y, st.L.z, st.weight, res[i].L.x, res[i].L.y,
-                            res[i].L.z, res[i].weight);
+                            x, y, pass, st.L.x, st.L.y, st.L.z, st.weight, res[k].L.x, res[k].L.y,
+                            res[k].L.z, res[k].weight);
               m.first = buf;
             }
             ++m.differing;

@@ -118,11 +118,12 @@ inline V3 square_to_cosine_hemisphere(F ux, F uy) {
   return {dx, dy, safe_sqrt(1.f - dx * dx - dy * dy)};
 }
 
-// Sampler::next_2d of sampler.h (kSobol) for eight pixels at one sample index and dimension.
+// Sampler::next_2d of sampler.h (kSobol) for eight pixels at one sample index, each lane at its own
+// dimension.
 struct SobolLanes {
   U64 pixel_seed;
   uint32_t index_reversed = 0;
-  uint32_t dimension = 0;
+  U dimension;
 
   static U reverse_bits(U v) {
     v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
@@ -134,7 +135,8 @@ struct SobolLanes {
   static F to_unit(U v) { return __builtin_convertvector(v >> 8, F) * 0x1p-24f; }
 
   void next_2d(F& x, F& y) {
-    U64 h = mix64_of(pixel_seed + uint64_t(dimension++));
+    U64 h = mix64_of(pixel_seed + __builtin_convertvector(dimension, U64));
+    dimension += 1u;
     U lo = __builtin_convertvector(h, U), hi = __builtin_convertvector(h >> 32, U);
     U h2 = __builtin_convertvector(mix64_of(h), U);
     U shuffled = reverse_bits(lk_permutation_of(U{} + index_reversed, lo));

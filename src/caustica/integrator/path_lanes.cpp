@@ -62,42 +62,57 @@ namespace {
 using namespace lanes;
 
 template <typename Accel>
-void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x, uint32_t y, int n,
-                uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
-  if (n <= 0) return;
-  // path_start per lane (camera ray, filter sample, the sampler's first dimensions).
+void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x0, uint32_t y0, int w,
+                int h, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
+  const int count = w * h;
   SobolLanes sampler;
   sampler.pixel_seed = U64{};
-  V3 o{}, d{}, prev_p{};
-  F tmax = splat(kInf);
-  M active = none();
-  {
+  sampler.dimension = U{};
+  sampler.index_reversed = reverse_bits32(sample_index);
+  V3 o{}, d{}, prev_p{}, beta{}, L{};
+  F tmax = splat(kInf), prev_pdf = splat(1.f), eta_scale = splat(1.f);
+  M active = none(), prev_delta = none();
+  U depth = U{};       // segments traced before the lane's current ray
+  int slot[kWidth];    // the lane's path: its index into out, or -1
+  int next = 0;        // the next pixel to start
+  // A lane whose path has ended hands its result to `out` and starts the next pixel's path (path_start:
+  // camera ray, filter sample, the sampler's first dimensions), so lanes stay busy until pixels run out.
+  auto refill = [&](int i) {
+    if (slot[i] >= 0) out[slot[i]].L = get(L, i);
+    slot[i] = -1;
+    if (next >= count) return;
+    int k = next++;
     PathState st;
-    for (int i = 0; i < n; ++i) {
-      path_start(s, pp, x + uint32_t(i), y, sample_index, st);
-      set(o, i, st.ray.o);
-      set(d, i, st.ray.d);
-      tmax[i] = st.ray.tmax;
-      set(prev_p, i, st.prev_p);
-      sampler.pixel_seed[i] = st.sampler.pixel_seed;
-      active[i] = -1;
-      out[i].weight = st.weight;
-      out[i].pixel = st.pixel;
-      // Every lane draws the same dimensions (they depend on the camera only).
-      sampler.index_reversed = st.sampler.index_reversed;
-      sampler.dimension = st.sampler.dimension;
-    }
+    path_start(s, pp, x0 + uint32_t(k % w), y0 + uint32_t(k / w), sample_index, st);
+    set(o, i, st.ray.o);
+    set(d, i, st.ray.d);
+    tmax[i] = st.ray.tmax;
+    set(prev_p, i, st.prev_p);
+    set(beta, i, st.beta);
+    set(L, i, st.L);
+    prev_pdf[i] = st.prev_pdf;
+    prev_delta[i] = st.prev_delta ? -1 : 0;
+    eta_scale[i] = st.eta_scale;
+    depth[i] = st.depth;
+    sampler.pixel_seed[i] = st.sampler.pixel_seed;
+    sampler.dimension[i] = st.sampler.dimension;
+    active[i] = -1;
+    slot[i] = k;
+    out[k].weight = st.weight;
+    out[k].pixel = st.pixel;
+  };
+  for (int i = 0; i < kWidth; ++i) {
+    slot[i] = -1;
+    refill(i);
   }
-  V3 beta = splat3(Vec3f(1.f)), L = splat3(Vec3f(0.f));
-  F prev_pdf = splat(1.f), eta_scale = splat(1.f);
-  M prev_delta = all();
 
   // Per-vertex values, gathered lane by lane. They are zeroed once here, not per vertex (zeroing them
   // every vertex took a quarter of this function's time); a lane that is not active keeps the values
   // of its last vertex, which are finite and masked out of every result.
   V3 p{}, ng{}, ns{}, albedo{}, v0{}, v1{}, v2{}, n0{}, n1{}, n2{}, q0{}, q1{}, q2{}, Le{};
   F b1 = splat(0.f), b2 = splat(0.f);
-  for (uint32_t depth = 1; any(active); ++depth) {
+  while (any(active)) {
+    depth += 1u;  // the segment about to be traced (idle lanes count too; refill resets them)
     // Closest hits, one lane at a time; the hit's point and normals (make_surface_hit) for triangles in
     // lanes, for spheres per lane; emission reached by the ray (path_shade), per lane (rare).
     // A vertex on any other material is shaded by the scalar path_shade right here (see below).
@@ -119,20 +134,19 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
       }
       const Material& m = s.materials[s.prim_material[h.prim]];
       if (!lane_material(m)) {
-        // The scalar stages for this lane's vertex: the same draws (three dimension pairs, or none when
-        // the path ends here), so the lanes' dimension counter stays shared.
+        // The scalar stages for this lane's vertex, with the lane's own sampler dimension.
         PathState st;
         st.ray = r;
         st.beta = get(beta, i);
         st.L = get(L, i);
         st.prev_pdf = prev_pdf[i];
         st.prev_delta = prev_delta[i] != 0;
-        st.depth = depth - 1;
+        st.depth = depth[i] - 1;
         st.eta_scale = eta_scale[i];
         st.prev_p = get(prev_p, i);
         st.sampler.type = SamplerType::kSobol;
         st.sampler.index_reversed = sampler.index_reversed;
-        st.sampler.dimension = sampler.dimension;
+        st.sampler.dimension = sampler.dimension[i];
         st.sampler.pixel_seed = sampler.pixel_seed[i];
         path_vertex(s, pp, accel, st, h, counts.shadow_rays);
         set(o, i, st.ray.o);
@@ -144,6 +158,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         prev_delta[i] = st.prev_delta ? -1 : 0;
         eta_scale[i] = st.eta_scale;
         set(prev_p, i, st.prev_p);
+        sampler.dimension[i] = st.sampler.dimension;
         active[i] = st.active ? -1 : 0;
         continue;
       }
@@ -177,11 +192,16 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         set(L, i, Li);
       }
     }
-    if (depth >= pp.max_depth) break;
+    // A path at its maximum depth ends after the emission it reached.
+    M at_max = (M)(depth >= pp.max_depth);
+    active &= ~(lane & at_max);
+    lane &= ~at_max;
     if (!any(lane)) {
-      sampler.dimension += 3;  // the scalar lanes drew u_light, u_lobe_rr and u_bsdf
+      for (int i = 0; i < kWidth; ++i)
+        if (!active[i]) refill(i);
       continue;
     }
+    const U dimension_before = sampler.dimension;
     if (any(triangle)) {  // make_surface_hit for triangles
       F b0 = 1.f - b1 - b2;
       V3 tp = v0 * b0 + v1 * b1 + v2 * b2;
@@ -299,15 +319,19 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
     tmax = sel(lane, splat(kInf), tmax);
     prev_p = sel(lane, o, prev_p);
     ok &= ~is_black(beta);
-    if (depth >= pp.rr_depth) {
+    M roulette = (M)(depth >= pp.rr_depth);
+    if (any(roulette & ok)) {
       // `diffuse` leaves eta_scale as it is (its eta is 1).
       F q = vminf(max_component(beta) * eta_scale, splat(0.95f));
-      ok &= u_rr < q;
-      beta = sel(ok, beta * (1.f / q), beta);
+      ok &= ~roulette | (u_rr < q);
+      beta = sel(ok & roulette, beta * (1.f / q), beta);
     }
     active = ok | (active & ~lane);
+    // The lanes' three draws advanced every lane's dimension; the scalar lanes had advanced their own.
+    sampler.dimension = lane ? sampler.dimension : dimension_before;
+    for (int i = 0; i < kWidth; ++i)
+      if (!active[i]) refill(i);
   }
-  for (int i = 0; i < n; ++i) out[i].L = get(L, i);
 }
 
 }  // namespace
@@ -322,9 +346,9 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
 namespace caustica {
 
 template <typename Accel>
-void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x, uint32_t y, int n,
-                      uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
-  trace_avx2(s, accel, pp, x, y, n, sample_index, out, counts);
+void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x0, uint32_t y0, int w,
+                      int h, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
+  if (w > 0 && h > 0) trace_avx2(s, accel, pp, x0, y0, w, h, sample_index, out, counts);
 }
 
 #else  // no lanes on this target
@@ -332,14 +356,14 @@ void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& 
 bool path_lanes_available() { return false; }
 
 template <typename Accel>
-void path_lanes_trace(const SceneView&, const Accel&, const PathParams&, uint32_t, uint32_t, int, uint32_t,
+void path_lanes_trace(const SceneView&, const Accel&, const PathParams&, uint32_t, uint32_t, int, int, uint32_t,
                       LaneResult*, LaneCounts&) {}
 
 #endif
 
 template void path_lanes_trace<EmbreeAccel>(const SceneView&, const EmbreeAccel&, const PathParams&, uint32_t,
-                                            uint32_t, int, uint32_t, LaneResult*, LaneCounts&);
+                                            uint32_t, int, int, uint32_t, LaneResult*, LaneCounts&);
 template void path_lanes_trace<BVHAccel>(const SceneView&, const BVHAccel&, const PathParams&, uint32_t, uint32_t,
-                                         int, uint32_t, LaneResult*, LaneCounts&);
+                                         int, int, uint32_t, LaneResult*, LaneCounts&);
 
 }  // namespace caustica

@@ -2,16 +2,18 @@
 // lockstep, its per-vertex arithmetic (the Sobol sampler's draws, the shading frame, light sampling,
 // the BSDF's evaluation and sampling, MIS weights, Russian roulette) done as eight-lane AVX2 operations
 // (base/lanes.h). Ray queries stay one ray at a time (rtcIntersect1/rtcOccluded1: bench/RESULTS.md,
-// 2026-12-01, found Embree's packet queries no faster on incoherent rays), and so does the per-lane
-// setup of a hit (make_surface_hit), the camera ray and the light's choice from the alias table.
+// 2026-12-01, found Embree's packet queries no faster on incoherent rays), and so do the camera ray, the
+// setup of sphere hits (make_surface_hit), emission at light hits and the light's choice from the alias
+// table. A lane whose path ends starts the next pixel's, so the lanes stay busy.
 //
 // Each lane computes bit for bit what path_start / path_shade / path_shadow compute for the same pixel
 // and sample index (the same IEEE operations in the same order; tests/cpp/test_path_lanes.cpp compares
 // whole images), so images do not depend on whether lanes were used, nor on how pixels were grouped.
 //
 // Coverage grows with the lane-parallel core (docs/architecture.md, "CPU throughput"); for now the lanes
-// cover scenes whose surfaces are all untextured Lambertian (`diffuse`, one- or two-sided), lit only by
-// untextured triangle area lights, rendered with the Sobol sampler. Everything else runs the scalar stages.
+// shade vertices on untextured Lambertian surfaces (`diffuse`, one- or two-sided) lit by untextured
+// triangle area lights, with the Sobol sampler; a vertex on any other material runs the scalar path_shade
+// in its lane. Scenes with other lights, and other samplers, run the scalar stages throughout.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -37,10 +39,11 @@ struct LaneCounts {
   uint64_t shadow_rays = 0;  // occlusion queries
 };
 
-// Traces one camera path for each of the n <= kPathLanes pixels (x, y) ... (x + n - 1, y) at sample index
-// sample_index into out[0 .. n-1]; needs path_lanes_available() and path_lanes_supported(s, pp).
+// Traces one camera path, at sample index sample_index, for each pixel of the w x h rectangle at (x0, y0),
+// into out[0 .. w*h-1] in row-major order; a lane whose path ends starts the next pixel's. Needs
+// path_lanes_available() and path_lanes_supported(s, pp).
 template <typename Accel>
-void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x, uint32_t y, int n,
-                      uint32_t sample_index, LaneResult* out, LaneCounts& counts);
+void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x0, uint32_t y0, int w,
+                      int h, uint32_t sample_index, LaneResult* out, LaneCounts& counts);
 
 }  // namespace caustica

@@ -217,24 +217,20 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
       if (cancel_.load(std::memory_order_relaxed)) break;
       int x0 = (tile % tiles_x) * T, y0 = (tile / tiles_x) * T;
       if (lanes_) {
-        // Up to kPathLanes pixels of a tile row at a time; every pixel's path is the scalar one, bit for bit.
-        for (int y = y0; y < std::min(y0 + T, H); ++y) {
-          for (int x = x0; x < std::min(x0 + T, W); x += kPathLanes) {
-            int n = std::min(kPathLanes, std::min(x0 + T, W) - x);
-            LaneResult res[kPathLanes];
-            LaneCounts counts;
-            path_lanes_trace(view, accel, pp, uint32_t(x), uint32_t(y), n, uint32_t(pass), res, counts);
-            rays += counts.rays;
-            shadow += counts.shadow_rays;
-            samples += uint64_t(n);
-            for (int i = 0; i < n; ++i) {
-              if (!isfinite3(res[i].L)) {
-                ++invalid;
-                continue;
-              }
-              film_.add(res[i].pixel, res[i].L, res[i].weight, (pass & 1) != 0);
-            }
+        // The tile's paths, eight at a time; every pixel's path is the scalar one, bit for bit.
+        const int w = std::min(T, W - x0), h = std::min(T, H - y0);
+        LaneResult res[T * T];
+        LaneCounts counts;
+        path_lanes_trace(view, accel, pp, uint32_t(x0), uint32_t(y0), w, h, uint32_t(pass), res, counts);
+        rays += counts.rays;
+        shadow += counts.shadow_rays;
+        samples += uint64_t(w * h);
+        for (int i = 0; i < w * h; ++i) {
+          if (!isfinite3(res[i].L)) {
+            ++invalid;
+            continue;
           }
+          film_.add(res[i].pixel, res[i].L, res[i].weight, (pass & 1) != 0);
         }
         continue;
       }
