@@ -72,7 +72,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
   V3 o{}, d{}, prev_p{}, beta{}, L{};
   F tmax = splat(kInf), prev_pdf = splat(1.f), eta_scale = splat(1.f);
   M active = none(), prev_delta = none();
-  U depth = U{};       // segments traced before the lane's current ray
+  U depth = U{};       // the lane's path's segments so far (PathState::depth; raised as each ray is traced)
   int slot[kWidth];    // the lane's path: its index into out, or -1
   int next = 0;        // the next pixel to start
   // A lane whose path has ended hands its result to `out` and starts the next pixel's path (path_start:
@@ -112,7 +112,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
   V3 p{}, ng{}, ns{}, albedo{}, v0{}, v1{}, v2{}, n0{}, n1{}, n2{}, q0{}, q1{}, q2{}, Le{};
   F b1 = splat(0.f), b2 = splat(0.f);
   while (any(active)) {
-    depth += 1u;  // the segment about to be traced (idle lanes count too; refill resets them)
+    depth += 1u;  // the segment traced now (idle lanes count too; refill resets them)
     // Closest hits, one lane at a time; the hit's point and normals (make_surface_hit) for triangles in
     // lanes, for spheres per lane; emission reached by the ray (path_shade), per lane (rare).
     // A vertex on any other material is shaded by the scalar path_shade right here (see below).
