@@ -8,8 +8,8 @@
 
 Each integrator renders alone for the same time budget. A polling thread (this one) takes
 snapshots of the image at checkpoint times (geometric by default: 8 per decade from 0.5 s,
-plus the final image); a snapshot is `RenderJob.image()`, a copy taken under the film's
-mutex while the render goes on. Cheap metrics (mse, rmse, relmse, mape: one pass over the
+plus the final image); a snapshot is `RenderJob.snapshot()`, a copy of the image and its counters
+taken under the film's mutex while the render goes on. Cheap metrics (mse, rmse, relmse, mape: one pass over the
 pixels) are computed on the snapshot at once and printed as progress; expensive ones (ssim,
 flip) are computed on the kept snapshots after that integrator's render has ended, so they
 never compete with the render threads. bench/bench_converge_overhead.py measures what is
@@ -351,26 +351,15 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
     return log
 
 
-def _consistent(st: dict, npix: int, t_wall: float) -> dict:
-    """Counters that match a snapshot. The render adds a pass's samples under the film's mutex but
-    stores the pass count and its clock just after releasing it, so a snapshot taken in that gap
-    holds one pass more than stats()["passes"] says. Every integrator adds one sample per pixel
-    per pass: samples // pixels counts the passes in the film; the time is then the snapshot's."""
-    n = st["samples"] // npix if npix else st["passes"]
-    if st["samples"] % max(npix, 1) == 0 and n == st["passes"] + 1:
-        st = dict(st, passes=n, seconds=max(t_wall, st["seconds"]))
-    return st
-
-
 def _run_one(job, integ, times, ref, live, later, progress):
-    npix = ref.shape[0] * ref.shape[1]
     snaps = _Snapshots()
     recs: list[dict] = []
 
     def take(final: bool):
-        img = job.image()  # waits for the pass in flight (the film's mutex), then copies
+        # Waits for the pass in flight (the film's mutex), then copies the image and reads the counters
+        # that match it (stats() read afterwards could already count tiles of the next pass).
+        img, st = job.snapshot()
         t_wall = _time.monotonic() - t0
-        st = _consistent(job.stats(), npix, t_wall)
         same = bool(recs) and recs[-1]["passes"] == st["passes"]
         if not final and (st["passes"] == 0 or same):
             return

@@ -132,3 +132,23 @@ def test_scene_loading_api_surface():
         caustica.load_scene("cornell", camera=3)
     with pytest.raises(caustica.SceneError, match="no camera named 'x'"):
         caustica.load_scene("cornell", camera="x")
+
+
+@pytest.mark.parametrize("lanes", [True, False])
+def test_snapshot_counters_match_its_image(lanes):
+    # RenderJob.snapshot() copies the image and reads the counters under the film's lock, between passes:
+    # samples is always whole passes of pixels, and the image is that of those passes. stats() read after
+    # image() could already count tiles of the next pass (a 16x16 tile of a 32x32 image: 1/4 pass).
+    s = caustica.load_scene("cornell", width=32, height=32)
+    job = caustica._native.RenderJob(s, integrator="path", spp=0, time=1.0, seed=2, lanes=lanes)
+    job.start()
+    snaps = []
+    while not job.wait(0.0):
+        img, st = job.snapshot()
+        assert st["samples"] == st["passes"] * 32 * 32, st
+        snaps.append((st["passes"], img))
+    assert len({p for p, _ in snaps}) >= 3  # snapshots at several pass counts
+    # The image at a pass count is the one a fresh render of that many passes gives.
+    p, img = next((p, i) for p, i in snaps if p > 0)
+    again = caustica.render(s, integrator="path", spp=p, seed=2, lanes=lanes)
+    assert np.array_equal(img, again)

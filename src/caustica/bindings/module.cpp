@@ -140,6 +140,36 @@ const char* filter_name(FilterType f) {
 
 }  // namespace
 
+static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
+  nb::dict d;
+  d["passes"] = s.passes;
+  d["target_passes"] = s.target_passes;
+  d["samples"] = s.samples;
+  d["rays"] = s.rays;
+  d["shadow_rays"] = s.shadow_rays;
+  d["invalid_samples"] = s.invalid_samples;
+  d["seconds"] = s.seconds;
+  d["done"] = s.done;
+  d["cancelled"] = s.cancelled;
+  d["photons"] = s.photons;
+  d["radius"] = s.radius;
+  d["error"] = s.error >= 0.0 ? nb::cast(s.error) : nb::none();
+  d["noise"] = s.noise >= 0.0 ? nb::cast(s.noise) : nb::none();
+  d["target_reached"] = s.target_reached;
+  d["lanes"] = s.lanes;
+  d["device"] = j.device_name();
+  if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {
+    nb::dict st;
+    st["visible_points"] = s.seconds_visible;
+    st["photons"] = s.seconds_photons;
+    st["grid"] = s.seconds_grid;
+    st["gather"] = s.seconds_gather;
+    d["stage_seconds"] = st;
+    d["stored_photons"] = s.stored_photons;
+  }
+  return d;
+}
+
 NB_MODULE(_native, m) {
   nb::exception<InputError>(m, "InputError", PyExc_ValueError);
   nb::exception<SceneError>(m, "SceneError", m.attr("InputError"));
@@ -323,35 +353,16 @@ NB_MODULE(_native, m) {
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())
       .def("cancel", &RenderJob::cancel)
       .def("device_name", &RenderJob::device_name)
-      .def("stats", [](const RenderJob& j) {
-        RenderStats s = j.stats();
-        nb::dict d;
-        d["passes"] = s.passes;
-        d["target_passes"] = s.target_passes;
-        d["samples"] = s.samples;
-        d["rays"] = s.rays;
-        d["shadow_rays"] = s.shadow_rays;
-        d["invalid_samples"] = s.invalid_samples;
-        d["seconds"] = s.seconds;
-        d["done"] = s.done;
-        d["cancelled"] = s.cancelled;
-        d["photons"] = s.photons;
-        d["radius"] = s.radius;
-        d["error"] = s.error >= 0.0 ? nb::cast(s.error) : nb::none();
-        d["noise"] = s.noise >= 0.0 ? nb::cast(s.noise) : nb::none();
-        d["target_reached"] = s.target_reached;
-        d["lanes"] = s.lanes;
-        d["device"] = j.device_name();
-        if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {
-          nb::dict st;
-          st["visible_points"] = s.seconds_visible;
-          st["photons"] = s.seconds_photons;
-          st["grid"] = s.seconds_grid;
-          st["gather"] = s.seconds_gather;
-          d["stage_seconds"] = st;
-          d["stored_photons"] = s.stored_photons;
+      .def("stats", [](const RenderJob& j) { return stats_dict(j, j.stats()); })
+      // The image and the counters that match it, taken together between passes.
+      .def("snapshot", [](const RenderJob& j) {
+        std::vector<float> img;
+        RenderStats s;
+        {
+          nb::gil_scoped_release release;
+          img = j.image(&s);
         }
-        return d;
+        return nb::make_tuple(to_numpy(std::move(img), j.height(), j.width()), stats_dict(j, s));
       })
       .def("image", [](const RenderJob& j) {
         std::vector<float> img;

@@ -307,10 +307,10 @@ void RenderJob::run() {
           else
             render_pass(scene_->embree(), pass);
         });
-        // Under the lock, so a snapshot and the pass count always agree.
+        // Under the lock, so a snapshot and the pass count (and the pass's end time) always agree.
         if (!cancel_.load()) passes_ = pass + 1;
+        seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       }
-      seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (!cancel_.load() && target_met(pass + 1)) {
         target_reached_ = true;
         break;
@@ -388,10 +388,12 @@ RenderStats RenderJob::stats() const {
   return s;
 }
 
-std::vector<float> RenderJob::image() const {
+std::vector<float> RenderJob::image(RenderStats* at_snapshot) const {
   snapshot_waiting_.fetch_add(1);
   std::unique_lock<std::mutex> lock(mutex_);
   snapshot_waiting_.fetch_sub(1);
+  // No pass is in flight while the lock is held, so these counters are those of the film copied here.
+  if (at_snapshot) *at_snapshot = stats();
   if (photon_) return photon_->image(passes_.load());
   if (vcm_) return vcm_->image(passes_.load());
   if (upg_) return upg_->image(passes_.load());

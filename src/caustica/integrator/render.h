@@ -137,7 +137,9 @@ class RenderJob {
   bool wait(double timeout_seconds);  // true when finished
   void cancel() { cancel_.store(true); }
   RenderStats stats() const;
-  std::vector<float> image() const;
+  // The image so far (a copy taken between passes); with at_snapshot, also the counters that match it
+  // (stats() read afterwards may already count tiles of the next pass).
+  std::vector<float> image(RenderStats* at_snapshot = nullptr) const;
   // With RenderOptions::strategy_images: (name, H*W*3 image) per strategy, means over the passes done,
   // each already MIS-weighted (they sum to image() over paths up to the length limit).
   std::vector<std::pair<std::string, std::vector<float>>> strategy_images() const;
