@@ -182,7 +182,7 @@ CHD void path_shadow(PathState& st, const ShadowRay& sr, bool occluded) {
 // `accel` (any type with occluded(Ray)). Counts the shadow ray in `shadow_rays`. CPU drivers only.
 template <typename Accel>
 inline void path_vertex(const SceneView& s, const PathParams& pp, const Accel& accel, PathState& st, const Hit& hit,
-                     uint64_t& shadow_rays) {
+                        uint64_t& shadow_rays) {
   ShadowRay sr;
   path_shade(s, pp, st, hit, sr);
   if (sr.active) {
@@ -195,7 +195,7 @@ inline void path_vertex(const SceneView& s, const PathParams& pp, const Accel& a
 // `rays` and occlusion queries in `shadow_rays`.
 template <typename Accel>
 inline void path_trace(const SceneView& s, const PathParams& pp, const Accel& accel, uint32_t px, uint32_t py,
-                    uint32_t sample_index, PathState& st, uint64_t& rays, uint64_t& shadow_rays) {
+                       uint32_t sample_index, PathState& st, uint64_t& rays, uint64_t& shadow_rays) {
   path_start(s, pp, px, py, sample_index, st);
   while (st.active) {
     Hit hit;

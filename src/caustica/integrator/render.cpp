@@ -10,10 +10,10 @@
 #include <thread>
 
 #include "../backend/cpu/embree_accel.h"
-#include "path_lanes.h"
 #include "../backend/cuda/cuda_render.h"
 #include "../base/error.h"
 #include "path.h"
+#include "path_lanes.h"
 #include "photon_render.h"
 #include "upg_render.h"
 #include "vcm_render.h"
@@ -213,6 +213,15 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
   const int tiles_x = (W + T - 1) / T, tiles_y = (H + T - 1) / T;
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const tbb::blocked_range<int>& r) {
     uint64_t rays = 0, shadow = 0, samples = 0, invalid = 0;
+    // One finished camera path into the film; non-finite estimates are dropped and counted.
+    auto accumulate = [&](uint32_t pixel, RGB L, float weight) {
+      ++samples;
+      if (!isfinite3(L)) {
+        ++invalid;
+        return;
+      }
+      film_.add(pixel, L, weight, (pass & 1) != 0);
+    };
     for (int tile = r.begin(); tile < r.end(); ++tile) {
       if (cancel_.load(std::memory_order_relaxed)) break;
       int x0 = (tile % tiles_x) * T, y0 = (tile / tiles_x) * T;
@@ -224,26 +233,14 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
         path_lanes_trace(view, accel, pp, uint32_t(x0), uint32_t(y0), w, h, uint32_t(pass), res, counts);
         rays += counts.rays;
         shadow += counts.shadow_rays;
-        samples += uint64_t(w * h);
-        for (int i = 0; i < w * h; ++i) {
-          if (!isfinite3(res[i].L)) {
-            ++invalid;
-            continue;
-          }
-          film_.add(res[i].pixel, res[i].L, res[i].weight, (pass & 1) != 0);
-        }
+        for (int i = 0; i < w * h; ++i) accumulate(res[i].pixel, res[i].L, res[i].weight);
         continue;
       }
       for (int y = y0; y < std::min(y0 + T, H); ++y) {
         for (int x = x0; x < std::min(x0 + T, W); ++x) {
           PathState st;
           path_trace(view, pp, accel, uint32_t(x), uint32_t(y), uint32_t(pass), st, rays, shadow);
-          ++samples;
-          if (!isfinite3(st.L)) {
-            ++invalid;
-            continue;
-          }
-          film_.add(st.pixel, st.L, st.weight, (pass & 1) != 0);
+          accumulate(st.pixel, st.L, st.weight);
         }
       }
     }
