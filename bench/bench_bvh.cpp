@@ -7,11 +7,15 @@
 // The ray sets are generated once (fixed seed) and both accelerators trace exactly the same rays, with 1
 // thread and with all threads (tbb::parallel_for over blocks of 1024 rays); each figure is the best of 3.
 // Hits are compared too (count of rays whose hit/miss differs), as a sanity check of the comparison.
+// Where the scene suits the small-scene test (backend/cpu/small_accel.h: at most 64 triangles and 8 spheres,
+// an AVX2 CPU), the same rays go through it too (*_small_mrays; *_small_differ: hit/miss differences from
+// Embree). CLUTTER adds that many random triangles (size ~0.15 of the scene, fixed seed) inside the scene's
+// bounds, to find the size where the small-scene test stops paying off.
 // Where a CUDA device is present (a CUDA build), the same rays are traced there too (*_gpu_mrays: the
 // traversal kernel's time, CUDA events, best of 3; *_gpu_differ: hit/miss differences from Embree).
 //
 // Build: cmake --build build/py --target caustica_bench_bvh   (after `make build`)
-// Run:   ./build/py/caustica_bench_bvh SCENE [WIDTH HEIGHT]
+// Run:   ./build/py/caustica_bench_bvh SCENE [WIDTH HEIGHT [CLUTTER]]
 //        SCENE: a built-in name (cornell, smallvcm-...) or a scene file (e.g. the torus PLY written by
 //        `caustica_bench_load generate DIR N`; files without a camera get the default camera and light).
 // Prints one JSON line; bench/RESULTS.md rows are written by hand from it.
@@ -24,11 +28,12 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include "caustica/backend/cpu/embree_accel.h"
+#include "caustica/backend/cpu/cpu_accel.h"
 #include "caustica/backend/cuda/cuda_render.h"
 #include "caustica/base/error.h"
 #include "caustica/base/rng.h"
@@ -85,7 +90,7 @@ std::vector<Bounds3> primitive_bounds(const Scene& sc) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: caustica_bench_bvh SCENE [WIDTH HEIGHT]\n");
+    std::fprintf(stderr, "usage: caustica_bench_bvh SCENE [WIDTH HEIGHT [CLUTTER]]\n");
     return 2;
   }
   try {
@@ -94,6 +99,29 @@ int main(int argc, char** argv) {
     if (argc >= 4) {
       d.camera.width = std::atoi(argv[2]);
       d.camera.height = std::atoi(argv[3]);
+    }
+    const int clutter = argc >= 5 ? std::atoi(argv[4]) : 0;
+    if (clutter > 0) {
+      std::shared_ptr<Scene> plain = Scene::build(d);
+      const Bounds3 b = plain->view().bounds;
+      const Vec3f ext = b.diagonal();
+      const float size = 0.15f * std::max(ext.x, std::max(ext.y, ext.z));
+      MeshDesc m;
+      m.name = "clutter";
+      PCG32 crng(7, 9);
+      for (int i = 0; i < clutter; ++i) {
+        Vec3f c = b.lo + Vec3f(crng.next_float() * ext.x, crng.next_float() * ext.y, crng.next_float() * ext.z);
+        for (int k = 0; k < 3; ++k) {
+          m.positions.push_back(
+              c + Vec3f(crng.next_float() - 0.5f, crng.next_float() - 0.5f, crng.next_float() - 0.5f) * size);
+          m.indices.push_back(uint32_t(3 * i + k));
+        }
+      }
+      d.meshes.push_back(m);
+      ShapeDesc sd;
+      sd.name = "clutter";
+      sd.mesh = int(d.meshes.size()) - 1;
+      d.shapes.push_back(sd);
     }
     std::shared_ptr<Scene> sc = Scene::build(d);
     const SceneView& v = sc->view();
@@ -109,7 +137,7 @@ int main(int argc, char** argv) {
       bvh_build = std::min(bvh_build, now() - t0);
       nodes = b.nodes.size();
       t0 = now();
-      { EmbreeAccel e(v); }
+      { CpuAccel e(v, CpuAccel::Kind::kEmbree); }
       embree_build = std::min(embree_build, now() - t0);
     }
 
@@ -141,11 +169,13 @@ int main(int argc, char** argv) {
       }
 
     BVHAccel bvh{&v};
+    std::unique_ptr<CpuAccel> small;
+    if (CpuAccel::small_suits(v)) small = std::make_unique<CpuAccel>(v, CpuAccel::Kind::kSmall);
     const int all = int(std::thread::hardware_concurrency());
     const std::vector<CudaDeviceInfo> gpus = cuda_devices();
     std::printf("{\"scene\": \"%s\", \"triangles\": %u, \"spheres\": %u, \"width\": %d, \"height\": %d, "
-                "\"bvh_nodes\": %zu, \"bvh_build_s\": %.4f, \"embree_build_s\": %.4f",
-                name.c_str(), v.num_triangles, v.num_spheres, W, H, nodes, bvh_build, embree_build);
+                "\"bvh_nodes\": %zu, \"bvh_build_s\": %.4f, \"embree_build_s\": %.4f, \"clutter\": %d",
+                name.c_str(), v.num_triangles, v.num_spheres, W, H, nodes, bvh_build, embree_build, clutter);
     if (!gpus.empty()) std::printf(", \"gpu\": \"%s\"", gpus[0].name.c_str());
     const RaySet* sets[3] = {&primary, &diffuse, &shadow};
     const char* names[3] = {"primary", "diffuse", "shadow"};
@@ -155,17 +185,24 @@ int main(int argc, char** argv) {
       std::printf(", \"%s_rays\": %zu", names[k], set.rays.size());
       for (int threads : {1, all}) {
         tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
-        double tb = 1e30, te = 1e30;
-        std::vector<uint8_t> hb, he;
-        for (int rep = 0; rep < 3; ++rep) {
+        double tb = 1e30, te = 1e30, ts = 1e30;
+        std::vector<uint8_t> hb, he, hs;
+        for (int rep = 0; rep < 3; ++rep) {  // alternating, so that the machine's drift hits all alike
           tb = std::min(tb, trace(bvh, set, hb));
           te = std::min(te, trace(sc->embree(), set, he));
+          if (small) ts = std::min(ts, trace(*small, set, hs));
         }
         size_t differ = 0, hits = 0;
         for (size_t i = 0; i < hb.size(); ++i) differ += hb[i] != he[i], hits += he[i];
         if (threads == 1) std::printf(", \"%s_hits\": %zu, \"%s_differ\": %zu", names[k], hits, names[k], differ);
         std::printf(", \"%s_%dt_bvh_mrays\": %.2f, \"%s_%dt_embree_mrays\": %.2f", names[k], threads,
                     double(set.rays.size()) / tb / 1e6, names[k], threads, double(set.rays.size()) / te / 1e6);
+        if (small) {
+          size_t sdiff = 0;
+          for (size_t i = 0; i < hs.size(); ++i) sdiff += hs[i] != he[i];
+          if (threads == 1) std::printf(", \"%s_small_differ\": %zu", names[k], sdiff);
+          std::printf(", \"%s_%dt_small_mrays\": %.2f", names[k], threads, double(set.rays.size()) / ts / 1e6);
+        }
       }
       // The same rays on the GPU (the portable BVH in device memory; kernel time only, best of 3).
       if (!gpus.empty()) {

@@ -182,7 +182,7 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
                              opts.get("photons"), opts.get("radius"), opts.get("alpha"), opts.get("k"))
     if o["sampler"] not in _api.SAMPLERS:
         raise InputError(f"unknown sampler '{o['sampler']}' (allowed: {', '.join(_api.SAMPLERS)})")
-    accel = opts.get("accel") or "embree"
+    accel = opts.get("accel") or "auto"
     if accel not in _api.ACCELS:
         raise InputError(f"unknown accelerator '{accel}' (allowed: {', '.join(_api.ACCELS)})")
     md = opts.get("max_depth")

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "caustica/backend/cpu/embree_accel.h"
+#include "caustica/backend/cpu/cpu_accel.h"
 #include "caustica/integrator/path_lanes.h"
 #include "caustica/scene/builtin/builtin.h"
 #include "caustica/scene/scene.h"
@@ -165,11 +165,15 @@ static void expect_bit_identical(const SceneDesc& d, const PathParams& pp, int p
   std::shared_ptr<Scene> sc = Scene::build(d);
   std::string why;
   ASSERT_TRUE(path_lanes_supported(sc->view(), pp, &why)) << why;
-  uint64_t rs, rl;
-  Mismatch m = compare(sc->view(), sc->embree(), pp, passes, rs, rl);
-  EXPECT_EQ(m.differing, 0) << m.differing << " of " << m.pixels_compared << " differ; first " << m.first;
-  EXPECT_EQ(rs, rl);
-  EXPECT_EQ(m.pixels_compared, d.camera.width * d.camera.height * passes);
+  // Through Embree and through the scene's own choice (the small-scene test, where the CPU has AVX2).
+  for (const CpuAccel* accel : {&sc->embree(), &sc->accel()}) {
+    uint64_t rs, rl;
+    Mismatch m = compare(sc->view(), *accel, pp, passes, rs, rl);
+    EXPECT_EQ(m.differing, 0) << accel->name() << ": " << m.differing << " of " << m.pixels_compared
+                              << " differ; first " << m.first;
+    EXPECT_EQ(rs, rl);
+    EXPECT_EQ(m.pixels_compared, d.camera.width * d.camera.height * passes);
+  }
 }
 
 TEST(PathLanes, BitIdenticalToScalarStagesOnCornell) {
@@ -207,11 +211,13 @@ TEST(PathLanes, BitIdenticalOnTwoSidedSpheresShadingNormalsThinLensAndPortableBv
       pp.max_depth = max_depth;
       std::string why;
       ASSERT_TRUE(path_lanes_supported(v, pp, &why)) << why;
-      uint64_t rs, rl;
-      Mismatch m = compare(v, sc->embree(), pp, 4, rs, rl);
-      EXPECT_EQ(m.differing, 0) << "rr " << rr << " max_depth " << max_depth << ": " << m.differing << " of "
-                                << m.pixels_compared << " differ; first " << m.first;
-      EXPECT_EQ(rs, rl);
+      for (const CpuAccel* accel : {&sc->embree(), &sc->accel()}) {
+        uint64_t rs, rl;
+        Mismatch m = compare(v, *accel, pp, 4, rs, rl);
+        EXPECT_EQ(m.differing, 0) << accel->name() << " rr " << rr << " max_depth " << max_depth << ": "
+                                  << m.differing << " of " << m.pixels_compared << " differ; first " << m.first;
+        EXPECT_EQ(rs, rl);
+      }
     }
   }
   BVHAccel bvh{&v};

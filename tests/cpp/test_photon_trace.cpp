@@ -38,7 +38,7 @@ TEST(PhotonTrace, ConservesPower) {
   const double area = 2 * (2 * 4 + 4 * 6 + 2 * 6);
   const double phi = kPi * Le * area;
   const uint64_t n = 200000;
-  auto photons = PhotonIntegrator::trace_photons(sc->view(), sc->embree(), 1, 0, n, 0xffffffffu, true);
+  auto photons = PhotonIntegrator::trace_photons(sc->view(), sc->accel(), 1, 0, n, 0xffffffffu, true);
   double direct = 0, indirect = 0, indirect2 = 0;
   uint64_t ndirect = 0;
   // Indirect power per photon path: sum of its non-direct photons. Paths are
@@ -67,11 +67,11 @@ TEST(PhotonTrace, ConservesPower) {
 
 TEST(PhotonTrace, DeterministicAcrossThreadCounts) {
   auto sc = Scene::build(closed_box(0.5f, 1.f));
-  auto a = PhotonIntegrator::trace_photons(sc->view(), sc->embree(), 7, 3, 50000, 0xffffffffu, true);
+  auto a = PhotonIntegrator::trace_photons(sc->view(), sc->accel(), 7, 3, 50000, 0xffffffffu, true);
   std::vector<Photon> b;
   {
     tbb::task_arena one(1);
-    one.execute([&] { b = PhotonIntegrator::trace_photons(sc->view(), sc->embree(), 7, 3, 50000, 0xffffffffu, true); });
+    one.execute([&] { b = PhotonIntegrator::trace_photons(sc->view(), sc->accel(), 7, 3, 50000, 0xffffffffu, true); });
   }
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i) {
@@ -84,7 +84,7 @@ namespace {
 // Mean and standard error of the first-hit power per photon path (green channel).
 void direct_power(const SceneDesc& d, uint64_t n, double& mean, double& se) {
   auto sc = Scene::build(d);
-  auto photons = PhotonIntegrator::trace_photons(sc->view(), sc->embree(), 5, 0, n, 1, true);
+  auto photons = PhotonIntegrator::trace_photons(sc->view(), sc->accel(), 5, 0, n, 1, true);
   double s = 0, s2 = 0;
   for (const Photon& p : photons) {  // max_depth 1: only first hits, at most one per path
     s += p.power.y;

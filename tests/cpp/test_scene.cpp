@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "caustica/backend/cpu/embree_accel.h"
+#include "caustica/backend/cpu/cpu_accel.h"
 #include "chi2.h"
 #include "caustica/base/rng.h"
 #include "caustica/base/sampling.h"

@@ -9,7 +9,7 @@
 
 #include "caustica/base/rng.h"
 #include "caustica/base/sampling.h"
-#include "caustica/backend/cpu/embree_accel.h"
+#include "caustica/backend/cpu/cpu_accel.h"
 #include "caustica/geometry/shapes.h"
 
 using namespace caustica;
@@ -86,16 +86,17 @@ TEST(Triangle, WatertightOnSharedEdgesAndVertices) {
   EXPECT_EQ(misses, 0) << "of " << rays.size() << " rays aimed at shared edges and vertices";
 }
 
-// More of the same rays through Embree as caustica configures it (embree_accel.cpp:
+// More of the same rays through Embree as caustica configures it (cpu_accel.cpp:
 // robust mode), for closest-hit and occlusion queries. Embree's faster default mode
 // lets 3161 of these 20000 through (measured by switching the flag off).
-TEST(Triangle, EmbreeWatertightOnSharedEdgesAndVertices) {
-  Mesh m = closed_box(kBoxLo, kBoxHi, 6);
+namespace {
+void expect_watertight(const Mesh& m, CpuAccel::Kind kind) {
   SceneView v;
   v.positions = m.p.data();
   v.indices = m.idx.data();
   v.num_triangles = uint32_t(m.idx.size() / 3);
-  EmbreeAccel accel(v);
+  CpuAccel accel(v, kind);
+  ASSERT_EQ(accel.kind(), kind);
   std::vector<Ray> rays = rays_at_edges_and_vertices(m, 20000);
   int misses = 0, unoccluded = 0;
   for (const Ray& r : rays) {
@@ -105,6 +106,19 @@ TEST(Triangle, EmbreeWatertightOnSharedEdgesAndVertices) {
   }
   EXPECT_EQ(misses, 0) << "of " << rays.size() << " rays aimed at shared edges and vertices";
   EXPECT_EQ(unoccluded, 0) << "of " << rays.size() << " rays aimed at shared edges and vertices";
+}
+}  // namespace
+
+TEST(Triangle, EmbreeWatertightOnSharedEdgesAndVertices) {
+  expect_watertight(closed_box(kBoxLo, kBoxHi, 6), CpuAccel::Kind::kEmbree);
+}
+
+// The same through the small-scene test (small_accel.h), on a box of 48 triangles (it takes at most 64).
+TEST(Triangle, SmallAccelWatertightOnSharedEdgesAndVertices) {
+  if (!SmallAccel::available()) GTEST_SKIP() << "this CPU lacks AVX2, which the small-scene test needs";
+  Mesh m = closed_box(kBoxLo, kBoxHi, 2);
+  ASSERT_EQ(m.idx.size() / 3, 48u);
+  expect_watertight(m, CpuAccel::Kind::kSmall);
 }
 
 // Hit distance and barycentrics against a double-precision Moller-Trumbore on random

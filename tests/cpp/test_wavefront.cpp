@@ -299,7 +299,7 @@ TEST(WavefrontPhoton, CancelledPassChangesNothing) {
     p.photons = 256;
     p.radius = 0.05f;
     return p;
-  }(), true);
+  }(), &sc->accel());
   std::atomic<bool> cancel{false};
   WavefrontPassStats st;
   ASSERT_TRUE(wf->render_pass(0, &cancel, st));

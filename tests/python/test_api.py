@@ -152,3 +152,39 @@ def test_snapshot_counters_match_its_image(lanes):
     p, img = next((p, i) for p, i in snaps if p > 0)
     again = caustica.render(s, integrator="path", spp=p, seed=2, lanes=lanes)
     assert np.array_equal(img, again)
+
+
+def _six_cubes():
+    # 72 triangles: more than the small-scene test takes (64).
+    return caustica.load_scene({"camera": {"position": [0, 0, 12], "target": [0, 0, 0]},
+                                "shapes": [{"type": "cube", "transform": {"translate": [2.5 * i - 6, 0, 0]}}
+                                           for i in range(6)],
+                                "lights": [{"type": "environment", "radiance": 1}]}, width=8, height=8)
+
+
+def test_accelerator_choice():
+    # "auto" takes the small-scene test on scenes of at most 64 triangles where the CPU has AVX2 (the lanes
+    # need AVX2 too, so stats["lanes"] tells), Embree on larger ones; every name is reported as used.
+    s = caustica.load_scene("cornell", width=16, height=16)
+    auto = caustica.render_job(s, spp=1)
+    assert auto.stats["accel"] == ("small" if auto.stats["lanes"] == 8 else "embree")
+    for accel in ("embree", "bvh"):
+        assert caustica.render_job(s, spp=1, accel=accel).stats["accel"] == accel
+    big = _six_cubes()
+    assert caustica.render_job(big, spp=1).stats["accel"] == "embree"
+    with pytest.raises(caustica.InputError, match="--accel small takes scenes of at most 64 triangles and 8 "
+                                                  "spheres on a CPU with AVX2; this one has 72 triangles"):
+        caustica.render_job(big, spp=1, accel="small")
+
+
+def test_small_scene_test_and_embree_estimate_the_same_image():
+    # The two accelerators round hit points differently (by an ulp), so paths part ways now and then; their
+    # images are estimates of the same image: the mean over pixels of the paired difference (8 seeds, one
+    # render each) is within 4 standard errors of 0.
+    s = caustica.load_scene("cornell", width=32, height=32)
+    if caustica.render_job(s, spp=1).stats["accel"] != "small":
+        pytest.skip("this CPU lacks AVX2, which the small-scene test needs")
+    diffs = [caustica.render(s, spp=8, seed=k, accel="small").mean() - caustica.render(s, spp=8, seed=k, accel="embree").mean()
+             for k in range(8)]
+    m, se = np.mean(diffs), np.std(diffs, ddof=1) / np.sqrt(len(diffs))
+    assert abs(m) < 4 * se + 1e-7, (m, se)

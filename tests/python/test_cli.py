@@ -1,5 +1,6 @@
 """The command line: it renders and writes each format, and rejects each kind of bad input
 with one line on stderr, exit status 2, no traceback and no output file."""
+import json
 import os
 import re
 import signal
@@ -33,6 +34,25 @@ def test_no_lanes_renders_the_same_image(caustica_bin, tmp_path):
         r = run(caustica_bin, *base, *extra, "-o", o)
         assert r.returncode == 0, r.stderr
     assert np.array_equal(caustica.read_image(outs[0]), caustica.read_image(outs[1]))
+
+
+def test_accel_small_refuses_a_larger_scene(caustica_bin, tmp_path):
+    scene = tmp_path / "cubes.json"
+    scene.write_text(json.dumps({"camera": {"position": [0, 0, 12], "target": [0, 0, 0]},
+                                 "shapes": [{"type": "cube", "transform": {"translate": [2.5 * i - 6, 0, 0]}}
+                                            for i in range(6)],
+                                 "lights": [{"type": "environment", "radiance": 1}]}))
+    out = tmp_path / "o.exr"
+    r = run(caustica_bin, "render", str(scene), "--spp", "1", "--width", "8", "--height", "8", "--quiet",
+            "--accel", "small", "-o", str(out))
+    assert r.returncode == 2 and "--accel small takes scenes of at most 64 triangles" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not out.exists()
+    r = run(caustica_bin, "render", str(scene), "--spp", "1", "--width", "8", "--height", "8", "--quiet",
+            "--accel", "kd", "-o", str(out))
+    assert r.returncode == 2 and "auto, embree, small, bvh" in r.stderr, r.stderr
+    r = run(caustica_bin, "render", str(scene), "--spp", "1", "--width", "8", "--height", "8", "--quiet",
+            "--accel", "auto", "-o", str(out))
+    assert r.returncode == 0 and out.exists(), r.stderr
 
 
 def test_render_writes_each_format(caustica_bin, tmp_path):

@@ -23,10 +23,12 @@ def cli(*args):
                                       {"accel": "bvh", "sort_materials": True}])
 def test_cpu_wavefront_gives_the_path_tracers_image(switches):
     s = caustica.load_scene("smallvcm-spheres", width=24, height=20)
-    accel = switches.get("accel", "embree")
-    ref = caustica.render(s, spp=2, seed=3, accel=accel)
+    accel = switches.get("accel", "auto")
+    ref = caustica.render_job(s, spp=2, seed=3, accel=accel)
     r = caustica.render_job(s, spp=2, seed=3, wavefront=True, **switches)
-    assert r.stats["device"] == f"cpu (wavefront, {'portable BVH' if accel == 'bvh' else 'embree'})"
+    assert r.stats["accel"] == ref.stats["accel"]
+    assert r.stats["device"] == f"cpu (wavefront, {'portable BVH' if accel == 'bvh' else r.stats['accel']})"
+    ref = ref.image
     assert r.stats["rays"] > 0 and r.stats["shadow_rays"] > 0
     assert np.array_equal(r.image, ref)
 
@@ -57,7 +59,7 @@ def test_cpu_wavefront_photon_mapping_matches_the_photon_integrator(integrator):
     s = caustica.load_scene("smallvcm-spheres", width=24, height=20)
     ref = caustica.render(s, integrator=integrator, spp=3, seed=4)
     r = caustica.render_job(s, integrator=integrator, spp=3, seed=4, wavefront=True)
-    assert r.stats["device"] == "cpu (wavefront, embree)" and r.stats["photons"] == 3 * 24 * 20
+    assert r.stats["device"] == f"cpu (wavefront, {r.stats['accel']})" and r.stats["photons"] == 3 * 24 * 20
     assert r.stats["radius"] > 0
     np.testing.assert_allclose(r.image, ref, rtol=1e-5, atol=1e-9)
 

@@ -158,6 +158,7 @@ static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
   d["target_reached"] = s.target_reached;
   d["lanes"] = s.lanes;
   d["device"] = j.device_name();
+  d["accel"] = j.accel_name();
   if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {
     nb::dict st;
     st["visible_points"] = s.seconds_visible;
@@ -341,7 +342,7 @@ NB_MODULE(_native, m) {
            },
            nb::arg("scene"), nb::arg("integrator") = "path", nb::arg("spp") = 0, nb::arg("time") = 0.0,
            nb::arg("seed") = 0, nb::arg("threads") = 0, nb::arg("max_depth") = -2, nb::arg("rr_depth") = 5,
-           nb::arg("sampler") = "sobol", nb::arg("accel") = "embree", nb::arg("photons") = 0,
+           nb::arg("sampler") = "sobol", nb::arg("accel") = "auto", nb::arg("photons") = 0,
            nb::arg("radius") = 0.f, nb::arg("alpha") = 0.7f, nb::arg("pass_offset") = 0,
            nb::arg("stochastic_hash") = false, nb::arg("k") = 50, nb::arg("target_error") = 0.0,
            nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0, nb::arg("strategy_images") = false,

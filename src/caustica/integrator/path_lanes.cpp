@@ -3,7 +3,7 @@
 // material/bsdf.h and diffuse.h (bsdf_eval, bsdf_pdf, bsdf_sample, bsdf_side), sampling.h and ray.h.
 #include "path_lanes.h"
 
-#include "../backend/cpu/embree_accel.h"
+#include "../backend/cpu/cpu_accel.h"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define CAUSTICA_LANES 1
@@ -361,7 +361,7 @@ void path_lanes_trace(const SceneView&, const Accel&, const PathParams&, uint32_
 
 #endif
 
-template void path_lanes_trace<EmbreeAccel>(const SceneView&, const EmbreeAccel&, const PathParams&, uint32_t,
+template void path_lanes_trace<CpuAccel>(const SceneView&, const CpuAccel&, const PathParams&, uint32_t,
                                             uint32_t, int, int, uint32_t, LaneResult*, LaneCounts&);
 template void path_lanes_trace<BVHAccel>(const SceneView&, const BVHAccel&, const PathParams&, uint32_t, uint32_t,
                                          int, int, uint32_t, LaneResult*, LaneCounts&);

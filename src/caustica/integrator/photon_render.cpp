@@ -78,14 +78,14 @@ float automatic_radius(const Scene& scene) {
     for (int x = 0; x < W; x += std::max(1, W / 32)) {
       Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
       Hit h;
-      if (scene.embree().intersect(r, h)) fp.push_back(h.t * pixel_angle);
+      if (scene.accel().intersect(r, h)) fp.push_back(h.t * pixel_angle);
     }
   if (fp.empty()) return 1e-3f * v.bsphere_radius;
   std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
   return 2.f * fp[fp.size() / 2];
 }
 
-std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const EmbreeAccel& accel, uint64_t seed,
+std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed,
                                                     uint32_t pass, uint64_t count, uint32_t max_depth,
                                                     bool keep_direct, const std::atomic<bool>* cancel) {
   const uint64_t chunk = 4096;
@@ -146,7 +146,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
 
 void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
   const SceneView& v = scene_->view();
-  const EmbreeAccel& accel = scene_->embree();
+  const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
   PathParams pp;
   pp.seed = opt_.seed;
   pp.sampler = opt_.sampler;
@@ -188,7 +188,7 @@ RGB PhotonIntegrator::pm_estimate(const PhotonKdTree& map, uint64_t paths, const
 
 void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
   const SceneView& v = scene_->view();
-  const EmbreeAccel& accel = scene_->embree();
+  const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
   if (global_paths_ == 0) {
     // The maps are built once (two-pass photon mapping): all stored photons in the
     // global map, L S+ D photons in the caustic map, from the same photon paths.
@@ -272,8 +272,8 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   // so path lengths match the path tracer's (exact for first-hit visible points;
   // points behind specular chains may exceed it by the chain's extra segments).
   uint32_t photon_depth = max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1;
-  std::vector<Photon> photons = trace_photons(v, scene_->embree(), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
-                                              photon_depth, false, &cancel);
+  std::vector<Photon> photons = trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass),
+                                              photons_per_pass_, photon_depth, false, &cancel);
   if (cancel.load()) {
     direct_.swap(direct_backup);
     return false;

@@ -22,7 +22,7 @@
 #include <memory>
 #include <vector>
 
-#include "../backend/cpu/embree_accel.h"
+#include "../backend/cpu/cpu_accel.h"
 #include "../photon/kdtree.h"
 #include "../photon/photon.h"
 #include "render.h"
@@ -47,7 +47,7 @@ class PhotonIntegrator {
   uint64_t photons_per_pass() const { return photons_per_pass_; }
   uint64_t photons_traced() const { return traced_; }
   // Traces one pass of photons in deterministic order (also used by tests).
-  static std::vector<Photon> trace_photons(const SceneView& v, const EmbreeAccel& accel, uint64_t seed, uint32_t pass,
+  static std::vector<Photon> trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed, uint32_t pass,
                                            uint64_t count, uint32_t max_depth, bool keep_direct,
                                            const std::atomic<bool>* cancel = nullptr);
 

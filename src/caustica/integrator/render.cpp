@@ -9,7 +9,7 @@
 #include <condition_variable>
 #include <thread>
 
-#include "../backend/cpu/embree_accel.h"
+#include "../backend/cpu/cpu_accel.h"
 #include "../backend/cuda/cuda_render.h"
 #include "../base/error.h"
 #include "path.h"
@@ -93,8 +93,8 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.radius < 0 || !std::isfinite(o.radius)) throw InputError("--radius must be a positive number");
   if (!(o.alpha > 0.f && o.alpha < 1.f)) throw InputError("--alpha must be in (0, 1)");
   if (o.pass_offset < 0) throw InputError("--pass-offset must be a non-negative integer");
-  if (o.accel != "embree" && o.accel != "bvh")
-    throw InputError("unknown accelerator '" + o.accel + "' (allowed: embree, bvh)");
+  if (o.accel != "auto" && o.accel != "embree" && o.accel != "small" && o.accel != "bvh")
+    throw InputError("unknown accelerator '" + o.accel + "' (allowed: auto, embree, small, bvh)");
   if (o.strategy_images && !is_vcm_integrator(o.integrator))
     throw InputError("--strategy-images needs a bidirectional integrator (allowed: light, bdpt, bpm, vcm), got '" +
                      o.integrator + "'");
@@ -139,6 +139,8 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
+  // --accel small on a scene it does not take fails here, not in the render thread.
+  if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
   if (opt_.spp == 0 && opt_.time == 0.0 && !target) opt_.spp = 16;
   if (is_photon_integrator(opt_.integrator) && !uses_wavefront(opt_))
@@ -162,7 +164,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     p.stochastic_hash = opt_.stochastic_hash;
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_photon_wavefront(scene_, p, dev)
-                          : make_cpu_photon_wavefront(scene_, p, opt_.accel == "embree");
+                          : make_cpu_photon_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());
   } else if (uses_wavefront(opt_)) {
     if (opt_.cache_first_bounce && scene_->view().camera.aperture_radius > 0.f)
       throw InputError("--cache-first-bounce: the camera has a lens (aperture radius " +
@@ -174,7 +176,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     wo.cache_first_bounce = opt_.cache_first_bounce;
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_wavefront(scene_, path_params(), wo, dev)
-                          : make_cpu_wavefront(scene_, path_params(), wo, opt_.accel == "embree");
+                          : make_cpu_wavefront(scene_, path_params(), wo, opt_.accel == "bvh" ? nullptr : &cpu_accel());
   }
 }
 
@@ -193,6 +195,14 @@ Film RenderJob::wavefront_film() const {
   Film f(film_.width, film_.height);
   if (!wavefront_->film(f.sum, f.odd)) throw std::logic_error("wavefront_film: not a path-tracer film");
   return f;
+}
+
+const CpuAccel& RenderJob::cpu_accel() const { return scene_->cpu_accel(opt_.accel); }
+
+std::string RenderJob::accel_name() const {
+  if (opt_.accel == "bvh") return "bvh";
+  if (cuda_device_index(opt_.device) >= 0) return "bvh";  // the GPU traverses the portable BVH
+  return cpu_accel().name();
 }
 
 std::string RenderJob::device_name() const {
@@ -302,7 +312,7 @@ void RenderJob::run() {
           } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);
           else
-            render_pass(scene_->embree(), pass);
+            render_pass(cpu_accel(), pass);
         });
         // Under the lock, so a snapshot and the pass count (and the pass's end time) always agree.
         if (!cancel_.load()) passes_ = pass + 1;

@@ -24,7 +24,9 @@ struct RenderOptions {
   int max_depth = -2;     // segments (Mitsuba's count); -1 = unlimited; -2 = the scene's default
   int rr_depth = 5;
   SamplerType sampler = SamplerType::kSobol;
-  std::string accel = "embree";  // "embree" or "bvh" (the portable BVH)
+  // "auto" (the small-scene test for scenes of at most 64 triangles, else Embree: CpuAccel), "embree",
+  // "small" (an InputError for a scene it does not take) or "bvh" (the portable BVH).
+  std::string accel = "auto";
   // Where and how `path` runs: "cpu", or "cuda" / "cuda:N" (the CUDA backend: the wavefront path tracer,
   // integrator/wavefront_path.h, on the portable BVH). `wavefront` runs the same driver on the CPU.
   std::string device = "cpu";
@@ -145,6 +147,9 @@ class RenderJob {
   std::vector<std::pair<std::string, std::vector<float>>> strategy_images() const;
   // "cpu", "cpu (wavefront, embree)", "cuda:0 (NVIDIA H100 ...)": where the passes run.
   std::string device_name() const;
+  // What answers the ray queries: "small" or "embree" (CpuAccel::name()), or "bvh" (the portable BVH: --accel
+  // bvh, and the GPU).
+  std::string accel_name() const;
   int width() const { return film_.width; }
   int height() const { return film_.height; }
 
@@ -165,6 +170,7 @@ class RenderJob {
   std::atomic<double> seconds_{0.0};
   std::atomic<double> error_value_{-1.0}, noise_value_{-1.0};
   std::atomic<bool> target_reached_{false};
+  const CpuAccel& cpu_accel() const;  // the scene's CPU accelerator that opt_.accel names
   bool lanes_ = false;  // render_pass runs the lane-parallel driver (path_lanes.h)
   bool target_met(int64_t passes_done);
   std::thread thread_;

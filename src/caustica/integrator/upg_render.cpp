@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../backend/cpu/embree_accel.h"
+#include "../backend/cpu/cpu_accel.h"
 #include "../photon/hash_grid.h"
 #include "photon_render.h"
 #include "upg.h"
@@ -32,7 +32,7 @@ UpgIntegrator::UpgIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
 
 bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const SceneView& s = scene_->view();
-  const EmbreeAccel& accel = scene_->embree();
+  const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
   const uint32_t n = uint32_t(W_) * uint32_t(H_);
   VcmParams p = vcm_pass_params(opt_, VcmMode::kUpg, max_depth_, pass, n);
   const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../backend/cpu/embree_accel.h"
+#include "../backend/cpu/cpu_accel.h"
 #include "../base/error.h"
 #include "../photon/hash_grid.h"
 #include "photon_render.h"
@@ -77,7 +77,7 @@ float VcmIntegrator::radius(int64_t pass) const {
 // (random streams from (seed, pass, path index), so the result does not depend
 // on the thread count), their vertices concatenated in path order and their
 // camera splats kept per chunk, to be added to the film in chunk order.
-bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAccel& accel, uint32_t n,
+bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const CpuAccel& accel, uint32_t n,
                           bool keep_vertices, const std::atomic<bool>& cancel, LightSubpaths& out) {
   const uint32_t chunk = 1024;
   const uint32_t nchunks = (n + chunk - 1) / chunk;
@@ -144,7 +144,7 @@ bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAc
 
 bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const SceneView& s = scene_->view();
-  const EmbreeAccel& accel = scene_->embree();
+  const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
   const uint32_t n = uint32_t(W_) * uint32_t(H_);
   VcmParams p = vcm_pass_params(opt_, VcmMode(mode_), max_depth_, pass, n);
   const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)

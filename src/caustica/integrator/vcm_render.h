@@ -18,7 +18,7 @@ namespace caustica {
 
 bool is_vcm_integrator(const std::string& name);
 
-class EmbreeAccel;
+class CpuAccel;
 
 // Light subpaths of one pass (stage 1 of vcm and upg).
 struct LightSubpaths {
@@ -28,7 +28,7 @@ struct LightSubpaths {
   uint64_t rays = 0;
 };
 // False if cancelled midway.
-bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const EmbreeAccel& accel, uint32_t n,
+bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const CpuAccel& accel, uint32_t n,
                           bool keep_vertices, const std::atomic<bool>& cancel, LightSubpaths& out);
 // The parameters of pass `pass` (0-based) of vcm and upg, radius not yet set. Light subpaths per pass:
 // RenderOptions::photons, default one per pixel (SmallVCM's pairing); camera path i connects to light

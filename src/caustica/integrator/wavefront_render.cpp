@@ -1,5 +1,6 @@
 #include "wavefront_render.h"
 
+#include "../backend/cpu/cpu_accel.h"
 #include "../backend/cpu/cpu_backend.h"
 #include "wavefront_renderers.h"
 
@@ -7,13 +8,13 @@ namespace caustica {
 
 namespace {
 
-// Owns the CPU backend (the scene's arrays and Embree) for the renderer built over it.
+// Owns the CPU backend (the scene's arrays and its accelerator) for the renderer built over it.
 class CpuWavefront final : public OwningRenderer {
  public:
   template <class Make>
-  CpuWavefront(std::shared_ptr<Scene> scene, bool use_embree, Make make)
-      : scene_(std::move(scene)), backend_(scene_->view(), use_embree ? &scene_->embree() : nullptr) {
-    inner_ = make(backend_, std::string(use_embree ? "cpu (wavefront, embree)" : "cpu (wavefront, portable BVH)"));
+  CpuWavefront(std::shared_ptr<Scene> scene, const CpuAccel* accel, Make make)
+      : scene_(std::move(scene)), backend_(scene_->view(), accel) {
+    inner_ = make(backend_, "cpu (wavefront, " + std::string(accel ? accel->name() : "portable BVH") + ")");
   }
   ~CpuWavefront() override { inner_.reset(); }  // before the backend it refers to
 
@@ -25,16 +26,16 @@ class CpuWavefront final : public OwningRenderer {
 }  // namespace
 
 std::unique_ptr<WavefrontRenderer> make_cpu_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
-                                                      const WavefrontOptions& opt, bool use_embree) {
+                                                      const WavefrontOptions& opt, const CpuAccel* accel) {
   const uint32_t materials = uint32_t(scene->materials.size());
-  return std::make_unique<CpuWavefront>(std::move(scene), use_embree, [&](const CpuBackend& b, std::string name) {
+  return std::make_unique<CpuWavefront>(std::move(scene), accel, [&](const CpuBackend& b, std::string name) {
     return std::make_unique<PathWavefrontRenderer<CpuBackend>>(b, std::move(name), pp, opt, materials);
   });
 }
 
 std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
-                                                             const PhotonWavefrontParams& p, bool use_embree) {
-  return std::make_unique<CpuWavefront>(std::move(scene), use_embree, [&](const CpuBackend& b, std::string name) {
+                                                             const PhotonWavefrontParams& p, const CpuAccel* accel) {
+  return std::make_unique<CpuWavefront>(std::move(scene), accel, [&](const CpuBackend& b, std::string name) {
     return std::make_unique<PhotonWavefrontRenderer<CpuBackend>>(b, std::move(name), p);
   });
 }

@@ -44,9 +44,10 @@ class WavefrontRenderer {
   virtual float initial_radius() const { return 0.f; }  // photon integrators
 };
 
-// The wavefront on the CPU backend: Embree (use_embree) or the portable BVH for ray queries.
+// The wavefront on the CPU backend: `accel` (one of the scene's CPU accelerators) or, where null, the portable
+// BVH for ray queries.
 std::unique_ptr<WavefrontRenderer> make_cpu_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
-                                                      const WavefrontOptions& opt, bool use_embree);
+                                                      const WavefrontOptions& opt, const CpuAccel* accel);
 
 // What the photon wavefront needs beyond the scene (RenderOptions of sppm / pppm, resolved).
 struct PhotonWavefrontParams {
@@ -61,6 +62,6 @@ struct PhotonWavefrontParams {
   bool stochastic_hash = false;
 };
 std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
-                                                             const PhotonWavefrontParams& p, bool use_embree);
+                                                             const PhotonWavefrontParams& p, const CpuAccel* accel);
 
 }  // namespace caustica

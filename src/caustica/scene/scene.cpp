@@ -3,7 +3,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "../backend/cpu/embree_accel.h"
+#include "../backend/cpu/cpu_accel.h"
 #include "../base/error.h"
 #include "../material/fresnel.h"
 
@@ -464,7 +464,8 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   }
   if (!s.lights.empty()) build_alias(power, s.alias_prob, s.alias_index, s.light_pmf);
   s.update_view();
-  s.embree_ = std::make_unique<EmbreeAccel>(s.view_);
+  s.accel_ = std::make_unique<CpuAccel>(s.view_);
+  if (s.accel_->kind() != CpuAccel::Kind::kEmbree) s.embree_ = std::make_unique<CpuAccel>(s.view_, CpuAccel::Kind::kEmbree);
   return sc;
 }
 
@@ -574,6 +575,17 @@ void Scene::update_view() {
   v.bsphere_center = v.bounds.centroid();
   v.bsphere_radius = 0.5f * length(v.bounds.diagonal());
   v.bvh = bvh.view();
+}
+
+const CpuAccel& Scene::cpu_accel(const std::string& accel) const {
+  if (accel == "embree") return embree();
+  if (accel == "small" && accel_->kind() != CpuAccel::Kind::kSmall)
+    throw InputError("--accel small takes scenes of at most " + std::to_string(SmallAccel::kMaxTriangles) +
+                     " triangles and " + std::to_string(CpuAccel::kMaxSmallSpheres) + " spheres on a CPU with AVX2; " +
+                     "this one has " + std::to_string(view_.num_triangles) + " triangles and " +
+                     std::to_string(view_.num_spheres) + " spheres" +
+                     (SmallAccel::available() ? "" : ", and this CPU lacks AVX2"));
+  return *accel_;
 }
 
 void Scene::set_resolution(int width, int height) {

@@ -2,6 +2,7 @@
 // (SceneView) over them for the integrators.
 #pragma once
 #include <memory>
+#include <string>
 #include <vector>
 #include "../geometry/bvh_build.h"
 #include "scene_desc.h"
@@ -9,7 +10,7 @@
 
 namespace caustica {
 
-class EmbreeAccel;
+class CpuAccel;
 
 class Scene {
  public:
@@ -18,7 +19,14 @@ class Scene {
 
   const SceneView& view() const { return view_; }
   const SceneDesc& desc() const { return desc_; }
-  const EmbreeAccel& embree() const { return *embree_; }
+  // The CPU's ray queries (CpuAccel::Kind::kAuto: the small-scene test or Embree, by the scene's size).
+  const CpuAccel& accel() const { return *accel_; }
+  // Embree's ray queries whatever the scene's size (the same object as accel() when that is Embree).
+  const CpuAccel& embree() const { return embree_ ? *embree_ : *accel_; }
+  // The one an `accel` option names: "embree" embree(); "small" accel() where that is the small-scene test
+  // (else an InputError saying why not); "auto" (and "bvh", which the CPU's photon tracers do not take)
+  // accel().
+  const CpuAccel& cpu_accel(const std::string& accel) const;
   // Changes resolution (and the derived camera) without rebuilding geometry.
   void set_resolution(int width, int height);
   void set_filter(FilterType f) { view_.filter = f; }
@@ -43,7 +51,8 @@ class Scene {
   void build_envmap(const TextureView& tex, const Affine& to_world);
   SceneDesc desc_;
   SceneView view_;
-  std::unique_ptr<EmbreeAccel> embree_;
+  std::unique_ptr<CpuAccel> accel_;
+  std::unique_ptr<CpuAccel> embree_;  // only where accel_ is not Embree
 };
 
 Camera make_camera(const CameraDesc& c);

@@ -10,7 +10,7 @@
 
 #include "../../scene/intersect.h"
 #include "../backend.h"
-#include "embree_accel.h"
+#include "cpu_accel.h"
 
 namespace caustica {
 
@@ -32,13 +32,13 @@ class CpuBackend {
 
   // Ray queries with Embree (use_bvh = false) or the portable BVH that the GPU traverses.
   struct Tracer {
-    const EmbreeAccel* embree;
+    const CpuAccel* embree;
     const SceneView* view;
     bool intersect(const Ray& r, Hit& h) const { return embree ? embree->intersect(r, h) : scene_intersect(*view, r, h); }
     bool occluded(const Ray& r) const { return embree ? embree->occluded(r) : scene_occluded(*view, r); }
   };
 
-  CpuBackend(const SceneView& view, const EmbreeAccel* embree) : view_(view), embree_(embree) {}
+  CpuBackend(const SceneView& view, const CpuAccel* embree) : view_(view), embree_(embree) {}
   const SceneView& scene() const { return view_; }
   Tracer tracer() const { return Tracer{embree_, &view_}; }
   void synchronize() const {}
@@ -104,7 +104,7 @@ class CpuBackend {
 
  private:
   SceneView view_;
-  const EmbreeAccel* embree_;
+  const CpuAccel* embree_;
 };
 
 }  // namespace caustica

@@ -1,4 +1,4 @@
-#include "embree_accel.h"
+#include "cpu_accel.h"
 
 #include <cstring>
 #include <stdexcept>
@@ -77,7 +77,19 @@ inline void fill_ray(RTCRay& rr, const Ray& ray) {
 
 }  // namespace
 
-EmbreeAccel::EmbreeAccel(const SceneView& v) : num_triangles_(v.num_triangles), spheres_(v.spheres) {
+bool CpuAccel::small_suits(const SceneView& v) {
+  return SmallAccel::available() && v.num_triangles <= SmallAccel::kMaxTriangles && v.num_spheres <= kMaxSmallSpheres;
+}
+
+CpuAccel::CpuAccel(const SceneView& v, Kind kind) : num_triangles_(v.num_triangles), spheres_(v.spheres) {
+  if (kind == Kind::kSmall && !small_suits(v))
+    throw std::invalid_argument("the small-scene accelerator takes at most " +
+                                std::to_string(SmallAccel::kMaxTriangles) + " triangles and " +
+                                std::to_string(kMaxSmallSpheres) + " spheres, on a CPU with AVX2");
+  if (kind != Kind::kEmbree && small_suits(v)) {
+    small_ = std::make_unique<SmallAccel>(v);
+    return;
+  }
   device_ = rtcNewDevice(nullptr);
   if (!device_) throw std::runtime_error("Embree: could not create a device");
   scene_ = rtcNewScene(device_);
@@ -116,12 +128,13 @@ EmbreeAccel::EmbreeAccel(const SceneView& v) : num_triangles_(v.num_triangles), 
   check(device_, "building the scene");
 }
 
-EmbreeAccel::~EmbreeAccel() {
+CpuAccel::~CpuAccel() {
   if (scene_) rtcReleaseScene(scene_);
   if (device_) rtcReleaseDevice(device_);
 }
 
-bool EmbreeAccel::intersect(const Ray& ray, Hit& hit) const {
+bool CpuAccel::intersect(const Ray& ray, Hit& hit) const {
+  if (small_) return small_->intersect(ray, hit);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRayHit rh;
@@ -145,7 +158,8 @@ bool EmbreeAccel::intersect(const Ray& ray, Hit& hit) const {
   return true;
 }
 
-bool EmbreeAccel::occluded(const Ray& ray) const {
+bool CpuAccel::occluded(const Ray& ray) const {
+  if (small_) return small_->occluded(ray);
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   RTCRay r;
