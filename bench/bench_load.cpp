@@ -10,7 +10,7 @@
 // The mesh: a torus of n x m vertices (positions, unit normals, uvs) and 2 n m triangles, written by this
 // program. `load` times load_scene_desc (parsing, vertex dedup, normals, the default camera and light) and
 // Scene::build (flattening into world-space arrays, the portable BVH and the Embree BVH) separately, then
-// builds one more CpuAccel over the built arrays to time Embree's BVH build alone. Peak memory is
+// builds one more CpuAccel (Kind::kEmbree) over the built arrays to time Embree's BVH build alone. Peak memory is
 // getrusage's ru_maxrss after the load and after the build.
 #include <sys/resource.h>
 
@@ -191,7 +191,7 @@ int main(int argc, char** argv) {
       double t_build = now() - t0;
       double rss_build = peak_mib();
       t0 = now();
-      { CpuAccel again(sc->view()); }
+      { CpuAccel again(sc->view(), CpuAccel::Kind::kEmbree); }
       double t_embree = now() - t0;
       std::printf(
           "{\"file\": \"%s\", \"triangles\": %zu, \"vertices\": %zu, \"load_s\": %.3f, \"build_s\": %.3f, "
