@@ -106,20 +106,22 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
     refill(i);
   }
 
-  // Per-vertex values, gathered lane by lane. They are zeroed once here, not per vertex (zeroing them
-  // every vertex took a quarter of this function's time); a lane that is not active keeps the values
-  // of its last vertex, which are finite and masked out of every result.
-  V3 p{}, ng{}, ns{}, albedo{}, v0{}, v1{}, v2{}, n0{}, n1{}, n2{}, q0{}, q1{}, q2{}, Le{};
-  F b1 = splat(0.f), b2 = splat(0.f);
+  // Per-vertex values, gathered lane by lane into arrays (lanes.h, Staged*) and read as vectors. They are
+  // zeroed once here, not per vertex (zeroing them every vertex took a quarter of this function's time);
+  // a lane that is not active keeps the values of its last vertex, masked out of every result.
+  Staged3 sphere_p, sphere_ng, sphere_ns, albedo_s, v0_s, v1_s, v2_s, n0_s, n1_s, n2_s, q0_s, q1_s, q2_s, Le_s;
+  Staged b1_s, b2_s, ulx_s, pmf_s;
+  StagedMask two_sided_s, triangle_s, lane_s, light_two_sided_s, unoccluded_s;
   while (any(active)) {
     depth += 1u;  // the segment traced now (idle lanes count too; refill resets them)
     // Closest hits, one lane at a time; the hit's point and normals (make_surface_hit) for triangles in
     // lanes, for spheres per lane; emission reached by the ray (path_shade), per lane (rare).
     // A vertex on any other material is shaded by the scalar path_shade right here (see below).
-    M two_sided = none(), triangle = none(), lane = none();
     int32_t light[kWidth];
     for (int i = 0; i < kWidth; ++i) {
       light[i] = -1;
+      lane_s.v[i] = 0;
+      triangle_s.v[i] = 0;
       if (!active[i]) continue;
       Ray r;
       r.o = get(o, i);
@@ -162,28 +164,28 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         active[i] = st.active ? -1 : 0;
         continue;
       }
-      lane[i] = -1;
-      set(albedo, i, m.diffuse);
-      two_sided[i] = (m.flags & kTwoSided) ? -1 : 0;
+      lane_s.v[i] = -1;
+      albedo_s.set(i, m.diffuse);
+      two_sided_s.v[i] = (m.flags & kTwoSided) ? -1 : 0;
       light[i] = s.prim_light[h.prim];
       if (h.prim < s.num_triangles) {
-        triangle[i] = -1;
-        b1[i] = h.b1;
-        b2[i] = h.b2;
+        triangle_s.v[i] = -1;
+        b1_s.v[i] = h.b1;
+        b2_s.v[i] = h.b2;
         const uint32_t* ix = s.indices + 3 * h.prim;
-        set(v0, i, s.positions[ix[0]]);
-        set(v1, i, s.positions[ix[1]]);
-        set(v2, i, s.positions[ix[2]]);
+        v0_s.set(i, s.positions[ix[0]]);
+        v1_s.set(i, s.positions[ix[1]]);
+        v2_s.set(i, s.positions[ix[2]]);
         if (s.normals) {
-          set(n0, i, s.normals[ix[0]]);
-          set(n1, i, s.normals[ix[1]]);
-          set(n2, i, s.normals[ix[2]]);
+          n0_s.set(i, s.normals[ix[0]]);
+          n1_s.set(i, s.normals[ix[1]]);
+          n2_s.set(i, s.normals[ix[2]]);
         }
       } else {
         SurfaceHit sh = make_surface_hit(s, r, h);
-        set(p, i, sh.p);
-        set(ng, i, sh.ng);
-        set(ns, i, sh.ns);
+        sphere_p.set(i, sh.p);
+        sphere_ng.set(i, sh.ng);
+        sphere_ns.set(i, sh.ns);
       }
       if (light[i] >= 0) {
         SurfaceHit sh = make_surface_hit(s, r, h);
@@ -192,6 +194,8 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         set(L, i, Li);
       }
     }
+    M lane = lane_s.load(), triangle = triangle_s.load(), two_sided = two_sided_s.load();
+    const V3 albedo = albedo_s.load();
     // A path at its maximum depth ends after the emission it reached.
     M at_max = (M)(depth >= pp.max_depth);
     active &= ~(lane & at_max);
@@ -202,13 +206,16 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
       continue;
     }
     const U dimension_before = sampler.dimension;
+    V3 p = sphere_p.load(), ng = sphere_ng.load(), ns = sphere_ns.load();
     if (any(triangle)) {  // make_surface_hit for triangles
+      const F b1 = b1_s.load(), b2 = b2_s.load();
+      const V3 v0 = v0_s.load(), v1 = v1_s.load(), v2 = v2_s.load();
       F b0 = 1.f - b1 - b2;
       V3 tp = v0 * b0 + v1 * b1 + v2 * b2;
       V3 tng = normalize(cross(v1 - v0, v2 - v0));
       V3 tns = tng;
       if (s.normals) {
-        V3 nn = n0 * b0 + n1 * b1 + n2 * b2;
+        V3 nn = n0_s.load() * b0 + n1_s.load() * b1 + n2_s.load() * b2;
         V3 nu = normalize(nn);
         tns = sel(dot(nn, nn) > 0.f, sel(dot(nu, tng) < 0.f, -nu, nu), tng);  // face_forward
       }
@@ -230,24 +237,28 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
     F ulx, uly;
     sampler.next_2d(ulx, uly);
     if (s.num_lights > 0) {
-      F pmf = splat(1.f);
-      M light_two_sided = none();
+      *reinterpret_cast<F*>(ulx_s.v) = ulx;
       for (int i = 0; i < kWidth; ++i) {
-        if (!lane[i]) continue;
-        Vec2f u(ulx[i], uly[i]);
+        if (!lane_s.v[i]) continue;
+        Vec2f u(ulx_s.v[i], uly[i]);
         float pm;
         uint32_t li = s.light_sampler.sample_reuse(u, pm);
-        ulx[i] = u.x;
-        pmf[i] = pm;
+        ulx_s.v[i] = u.x;
+        pmf_s.v[i] = pm;
         const Light& l = s.lights[li];
         Vec3f a, b, c;
         triangle_vertices(s, l.prim, a, b, c);
-        set(q0, i, a);
-        set(q1, i, b);
-        set(q2, i, c);
-        set(Le, i, l.L);
-        light_two_sided[i] = l.two_sided ? -1 : 0;
+        q0_s.set(i, a);
+        q1_s.set(i, b);
+        q2_s.set(i, c);
+        Le_s.set(i, l.L);
+        light_two_sided_s.v[i] = l.two_sided ? -1 : 0;
       }
+      ulx = ulx_s.load();
+      // Lanes without a vertex here keep stale (finite) values, masked out below.
+      const F pmf = pmf_s.load();
+      const M light_two_sided = light_two_sided_s.load();
+      const V3 q0 = q0_s.load(), q1 = q1_s.load(), q2 = q2_s.load(), Le = Le_s.load();
       F su = vsqrt(ulx);  // square_to_uniform_triangle
       F bx = 1.f - su, by = uly * su;
       V3 pl = q0 * (1.f - bx - by) + q1 * bx + q2 * by;
@@ -278,6 +289,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         V3 sd = target - so;
         M dist_finite = finite(dist);
         for (int i = 0; i < kWidth; ++i) {
+          unoccluded_s.v[i] = 0;
           if (!shadow[i]) continue;
           Ray r;
           r.o = get(so, i);
@@ -289,12 +301,9 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
             r.tmax = kInf;
           }
           ++counts.shadow_rays;
-          if (!accel.occluded(r)) {  // path_shadow
-            RGB Li = get(L, i);
-            Li += get(contrib, i);
-            set(L, i, Li);
-          }
+          unoccluded_s.v[i] = accel.occluded(r) ? 0 : -1;
         }
+        L = sel(unoccluded_s.load(), L + contrib, L);  // path_shadow
       }
     }
 

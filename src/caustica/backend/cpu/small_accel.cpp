@@ -62,23 +62,29 @@ struct RaySetup {
   float ox, oy, oz;
   bool ok;
   explicit RaySetup(const Ray& r) {
-    float adx = std::fabs(r.d.x), ady = std::fabs(r.d.y), adz = std::fabs(r.d.z);
-    // kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2), without branches.
-    int x_wins = adx > ady, xz = adx > adz, yz = ady > adz;
-    kz = x_wins ? (xz ? 0 : 2) : (yz ? 1 : 2);
-    kx = kz == 2 ? 0 : kz + 1;
-    ky = kx == 2 ? 0 : kx + 1;
-    // The winding is kept by swapping kx and ky for a negative d[kz].
-    int neg = r.d[kz] < 0.f, t = (kx ^ ky) & -neg;
+    // Without branches (a path tracer's rays point anywhere, so branches here would mispredict): the axes
+    // from tables indexed by the three comparisons, the ray's components from arrays (Vec3f's operator[]
+    // compiles to branches).
+    const float d[3] = {r.d.x, r.d.y, r.d.z}, o[3] = {r.o.x, r.o.y, r.o.z};
+    const float adx = std::fabs(d[0]), ady = std::fabs(d[1]), adz = std::fabs(d[2]);
+    // kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2); kx, ky the next axes after it, cyclically.
+    static constexpr int8_t kZ[8] = {2, 1, 2, 1, 2, 2, 0, 0}, kX[8] = {0, 2, 0, 2, 0, 0, 1, 1},
+                            kY[8] = {1, 0, 1, 0, 1, 1, 2, 2};
+    const int c = (adx > ady) << 2 | (adx > adz) << 1 | (ady > adz);
+    kz = kZ[c];
+    kx = kX[c];
+    ky = kY[c];
+    // A negative d[kz] swaps kx and ky (keeps the winding).
+    const int t = (kx ^ ky) & -int(d[kz] < 0.f);
     kx ^= t;
     ky ^= t;
-    ok = !(r.d[kz] == 0.f);
-    sz = 1.f / r.d[kz];
-    sx = r.d[kx] * sz;
-    sy = r.d[ky] * sz;
-    ox = r.o[kx];
-    oy = r.o[ky];
-    oz = r.o[kz];
+    ok = !(d[kz] == 0.f);
+    sz = 1.f / d[kz];
+    sx = d[kx] * sz;
+    sy = d[ky] * sz;
+    ox = o[kx];
+    oy = o[ky];
+    oz = o[kz];
   }
 };
 
