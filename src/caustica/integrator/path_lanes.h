@@ -1,10 +1,11 @@
 // Lane-parallel path tracing on the CPU: the `path` integrator (path.h) for eight camera paths in
 // lockstep, its per-vertex arithmetic (the Sobol sampler's draws, the shading frame, light sampling,
 // the BSDF's evaluation and sampling, MIS weights, Russian roulette) done as eight-lane AVX2 operations
-// (base/lanes.h). Ray queries stay one ray at a time (rtcIntersect1/rtcOccluded1: bench/RESULTS.md,
-// 2026-12-01, found Embree's packet queries no faster on incoherent rays), and so do the camera ray, the
-// setup of sphere hits (make_surface_hit), emission at light hits and the light's choice from the alias
-// table. A lane whose path ends starts the next pixel's, so the lanes stay busy.
+// (base/lanes.h). Ray queries stay one ray at a time, through the CPU accelerator (CpuAccel: Embree's
+// rtcIntersect1/rtcOccluded1, or the small-scene test; bench/RESULTS.md, 2026-12-01, found Embree's
+// packet queries no faster on incoherent rays), and so do the camera ray, the setup of sphere hits
+// (make_surface_hit), emission at light hits and the light's choice from the alias table. A lane whose
+// path ends starts the next pixel's, so the lanes stay busy.
 //
 // Each lane computes bit for bit what path_start / path_shade / path_shadow compute for the same pixel
 // and sample index (the same IEEE operations in the same order; tests/cpp/test_path_lanes.cpp compares
