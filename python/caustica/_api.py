@@ -300,7 +300,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     for a scene it does not take) and "bvh" (the portable BVH the GPU traverses) choose one; images agree
     to within the accelerators' rounding. stats["accel"] names the one used. `lanes` (path on the CPU): trace eight paths in lockstep with
     AVX2 arithmetic where the lane-parallel driver covers the scene (today: untextured `diffuse` surfaces,
-    untextured triangle area lights, the sobol sampler); stats["lanes"] is 8 when it ran, 0 when paths were
+    untextured triangle area lights); stats["lanes"] is 8 when it ran, 0 when paths were
     traced one at a time. The image is bit-identical either way; lanes=False is for comparisons.
     Options left as None come from the scene's integrator defaults (see resolve_options);
     stats["integrator"] names the integrator used."""

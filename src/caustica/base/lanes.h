@@ -139,8 +139,31 @@ inline V3 square_to_cosine_hemisphere(F ux, F uy) {
 }
 
 // Sampler::next_2d of sampler.h (kSobol) for eight pixels at one sample index, each lane at its own
-// dimension.
+// dimension. The lane driver moves a lane's state to and from a scalar Sampler (load_lane, store_lane:
+// a path's start and a vertex that the scalar stages shade), and keeps the state that a scalar vertex
+// left in lanes that did not draw in lanes (Saved, keep).
 struct SobolLanes {
+  void load_lane(int i, const Sampler& s) {
+    pixel_seed[i] = s.pixel_seed;
+    dimension[i] = s.dimension;
+  }
+  void store_lane(int i, Sampler& s) const {
+    s.type = SamplerType::kSobol;
+    s.index_reversed = index_reversed;
+    s.dimension = dimension[i];
+    s.pixel_seed = pixel_seed[i];
+  }
+  void after_scalar_vertex(int i, const Sampler& s) { dimension[i] = s.dimension; }
+  typedef U Saved;
+  Saved save() const { return dimension; }
+  // Lanes outside `drew` get back the state saved before the lanes' draws.
+  void keep(M drew, Saved before) { dimension = drew ? dimension : before; }
+  void init(uint32_t sample_index) {
+    pixel_seed = U64{};
+    dimension = U{};
+    index_reversed = reverse_bits32(sample_index);
+  }
+
   U64 pixel_seed;
   uint32_t index_reversed = 0;
   U dimension;
@@ -162,6 +185,44 @@ struct SobolLanes {
     U shuffled = reverse_bits(lk_permutation_of(U{} + index_reversed, lo));
     x = to_unit(reverse_bits(lk_permutation_of(shuffled, hi)));
     y = to_unit(reverse_bits(lk_permutation_of(sobol_dim1_reversed_of(shuffled), h2)));
+  }
+};
+
+// Sampler::next_2d of sampler.h (kIndependent): eight PCG32 streams (rng.h), one per lane, each draw
+// the scalar next_u32's operations (a 64-bit multiply-add of the state, the xorshift and the rotation).
+struct IndependentLanes {
+  U64 state, inc;
+  U next_u32() {
+    const U64 old = state;
+    state = old * 0x5851f42d4c957f2dULL + inc;
+    const U xorshifted = __builtin_convertvector(((old >> 18u) ^ old) >> 27u, U);
+    const U rot = __builtin_convertvector(old >> 59u, U);
+    return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31u));
+  }
+  static F to_unit(U v) { return __builtin_convertvector(v >> 8, F) * 0x1p-24f; }  // u32_to_unit_float
+  void next_2d(F& x, F& y) {
+    x = to_unit(next_u32());
+    y = to_unit(next_u32());
+  }
+  void load_lane(int i, const Sampler& s) {
+    state[i] = s.rng.state;
+    inc[i] = s.rng.inc;
+  }
+  void store_lane(int i, Sampler& s) const {
+    s.type = SamplerType::kIndependent;
+    s.rng.state = state[i];
+    s.rng.inc = inc[i];
+  }
+  void after_scalar_vertex(int i, const Sampler& s) { state[i] = s.rng.state; }
+  typedef U64 Saved;
+  Saved save() const { return state; }
+  void keep(M drew, Saved before) {
+    typedef int64_t I64 __attribute__((vector_size(8 * kWidth)));
+    state = __builtin_convertvector(drew, I64) ? state : before;
+  }
+  void init(uint32_t) {
+    state = U64{};
+    inc = U64{} + 1u;
   }
 };
 

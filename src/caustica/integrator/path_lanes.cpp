@@ -25,7 +25,6 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
     if (why) *why = w;
     return false;
   };
-  if (pp.sampler != SamplerType::kSobol) return fail("the independent sampler");
   for (uint32_t i = 0; i < s.num_lights; ++i) {
     const Light& l = s.lights[i];
     if (l.type != LightType::kTriangle) return fail("a light other than a triangle area light");
@@ -61,14 +60,12 @@ namespace {
 
 using namespace lanes;
 
-template <typename Accel>
+template <typename SamplerLanes, typename Accel>
 void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x0, uint32_t y0, int w,
                 int h, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
   const int count = w * h;
-  SobolLanes sampler;
-  sampler.pixel_seed = U64{};
-  sampler.dimension = U{};
-  sampler.index_reversed = reverse_bits32(sample_index);
+  SamplerLanes sampler;
+  sampler.init(sample_index);
   V3 o{}, d{}, prev_p{}, beta{}, L{};
   F tmax = splat(kInf), prev_pdf = splat(1.f), eta_scale = splat(1.f);
   M active = none(), prev_delta = none();
@@ -94,8 +91,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
     prev_delta[i] = st.prev_delta ? -1 : 0;
     eta_scale[i] = st.eta_scale;
     depth[i] = st.depth;
-    sampler.pixel_seed[i] = st.sampler.pixel_seed;
-    sampler.dimension[i] = st.sampler.dimension;
+    sampler.load_lane(i, st.sampler);
     active[i] = -1;
     slot[i] = k;
     out[k].weight = st.weight;
@@ -146,10 +142,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         st.depth = depth[i] - 1;
         st.eta_scale = eta_scale[i];
         st.prev_p = get(prev_p, i);
-        st.sampler.type = SamplerType::kSobol;
-        st.sampler.index_reversed = sampler.index_reversed;
-        st.sampler.dimension = sampler.dimension[i];
-        st.sampler.pixel_seed = sampler.pixel_seed[i];
+        sampler.store_lane(i, st.sampler);
         path_vertex(s, pp, accel, st, h, counts.shadow_rays);
         set(o, i, st.ray.o);
         set(d, i, st.ray.d);
@@ -160,7 +153,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         prev_delta[i] = st.prev_delta ? -1 : 0;
         eta_scale[i] = st.eta_scale;
         set(prev_p, i, st.prev_p);
-        sampler.dimension[i] = st.sampler.dimension;
+        sampler.after_scalar_vertex(i, st.sampler);
         active[i] = st.active ? -1 : 0;
         continue;
       }
@@ -205,7 +198,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         if (!active[i]) refill(i);
       continue;
     }
-    const U dimension_before = sampler.dimension;
+    const typename SamplerLanes::Saved sampler_before = sampler.save();
     V3 p = sphere_p.load(), ng = sphere_ng.load(), ns = sphere_ns.load();
     if (any(triangle)) {  // make_surface_hit for triangles
       const F b1 = b1_s.load(), b2 = b2_s.load();
@@ -337,7 +330,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
     }
     active = ok | (active & ~lane);
     // The lanes' three draws advanced every lane's dimension; the scalar lanes had advanced their own.
-    sampler.dimension = lane ? sampler.dimension : dimension_before;
+    sampler.keep(lane, sampler_before);
     for (int i = 0; i < kWidth; ++i)
       if (!active[i]) refill(i);
   }
@@ -357,7 +350,11 @@ namespace caustica {
 template <typename Accel>
 void path_lanes_trace(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x0, uint32_t y0, int w,
                       int h, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
-  if (w > 0 && h > 0) trace_avx2(s, accel, pp, x0, y0, w, h, sample_index, out, counts);
+  if (w <= 0 || h <= 0) return;
+  if (pp.sampler == SamplerType::kIndependent)
+    trace_avx2<IndependentLanes>(s, accel, pp, x0, y0, w, h, sample_index, out, counts);
+  else
+    trace_avx2<SobolLanes>(s, accel, pp, x0, y0, w, h, sample_index, out, counts);
 }
 
 #else  // no lanes on this target

@@ -1,5 +1,5 @@
 // Lane-parallel path tracing on the CPU: the `path` integrator (path.h) for eight camera paths in
-// lockstep, its per-vertex arithmetic (the Sobol sampler's draws, the shading frame, light sampling,
+// lockstep, its per-vertex arithmetic (the sampler's draws, the shading frame, light sampling,
 // the BSDF's evaluation and sampling, MIS weights, Russian roulette) done as eight-lane AVX2 operations
 // (base/lanes.h). Ray queries stay one ray at a time, through the CPU accelerator (CpuAccel: Embree's
 // rtcIntersect1/rtcOccluded1, or the small-scene test; bench/RESULTS.md, 2026-12-01, found Embree's
@@ -13,8 +13,8 @@
 //
 // Coverage grows with the lane-parallel core (docs/architecture.md, "CPU throughput"); for now the lanes
 // shade vertices on untextured Lambertian surfaces (`diffuse`, one- or two-sided) lit by untextured
-// triangle area lights, with the Sobol sampler; a vertex on any other material runs the scalar path_shade
-// in its lane. Scenes with other lights, and other samplers, run the scalar stages throughout.
+// triangle area lights, with either sampler (Sobol, or eight PCG32 streams); a vertex on any other material
+// runs the scalar path_shade in its lane. Scenes with other lights run the scalar stages throughout.
 #pragma once
 #include <cstdint>
 #include <string>
