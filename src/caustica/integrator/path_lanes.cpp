@@ -4,12 +4,7 @@
 #include "path_lanes.h"
 
 #include "../backend/cpu/cpu_accel.h"
-
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define CAUSTICA_LANES 1
-#else
-#define CAUSTICA_LANES 0
-#endif
+#include "../base/avx2.h"
 
 namespace caustica {
 namespace {
@@ -36,23 +31,16 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
   return fail("no untextured `diffuse` surface");
 }
 
-#if CAUSTICA_LANES
+#if CAUSTICA_AVX2_BUILD
 
-bool path_lanes_available() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-}
+bool path_lanes_available() { return cpu_has_avx2(); }
 
 }  // namespace caustica
 
-// Everything from here to the pop is compiled for AVX2 (and only called after path_lanes_available()).
-// The scalar headers were included above, so their functions keep the baseline instruction set.
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx2")
-#endif
+// Everything from here to CAUSTICA_AVX2_END is compiled for AVX2 (and only called after
+// path_lanes_available()). The scalar headers were included above, so their functions keep the baseline
+// instruction set.
+CAUSTICA_AVX2_BEGIN
 #include "../base/lanes.h"
 
 namespace caustica {
@@ -339,11 +327,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
 }  // namespace
 }  // namespace caustica
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
+CAUSTICA_AVX2_END
 
 namespace caustica {
 

@@ -6,13 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "../../base/avx2.h"
 #include "../../geometry/shapes.h"
-
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define CAUSTICA_SMALL_ACCEL 1
-#else
-#define CAUSTICA_SMALL_ACCEL 0
-#endif
 
 namespace caustica {
 
@@ -33,22 +28,15 @@ SmallAccel::SmallAccel(const SceneView& v) : num_triangles_(v.num_triangles), sp
   }
 }
 
-#if CAUSTICA_SMALL_ACCEL
+#if CAUSTICA_AVX2_BUILD
 
-bool SmallAccel::available() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-}
+bool SmallAccel::available() { return cpu_has_avx2(); }
 
 }  // namespace caustica
 
-// From here to the pop, AVX2 (called only after available()); the scalar headers were included above.
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx2")
-#endif
+// From here to CAUSTICA_AVX2_END, AVX2 (called only after available()); the scalar headers were included
+// above.
+CAUSTICA_AVX2_BEGIN
 #include "../../base/lanes.h"
 
 namespace caustica {
@@ -203,13 +191,9 @@ bool SmallAccel::occluded(const Ray& ray) const {
 
 }  // namespace caustica
 
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
+CAUSTICA_AVX2_END
 
-#else  // !CAUSTICA_SMALL_ACCEL
+#else  // !CAUSTICA_AVX2_BUILD
 
 bool SmallAccel::available() { return false; }
 bool SmallAccel::intersect(const Ray&, Hit& hit) const {
