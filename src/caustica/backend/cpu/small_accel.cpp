@@ -21,6 +21,7 @@ SmallAccel::SmallAccel(const SceneView& v) : num_triangles_(v.num_triangles), sp
   for (uint32_t t = 0; t < v.num_triangles; ++t) {
     Block& b = blocks_[t / 8];
     b.prim[t % 8] = int32_t(t);
+    b.valid |= 1 << (t % 8);
     for (int k = 0; k < 3; ++k) {
       Vec3f p = v.positions[v.indices[3 * t + k]];
       for (int a = 0; a < 3; ++a) b.p[k][a][t % 8] = p[a];
@@ -78,49 +79,90 @@ struct RaySetup {
 
 inline F load(const float* p) { return *reinterpret_cast<const F*>(p); }
 inline bool any_lane(M m) { return __builtin_ia32_movmskps256((F)m) != 0; }
+inline int sign_bits(F x) { return __builtin_ia32_movmskps256(x); }
+inline int sign_bits(M m) { return __builtin_ia32_movmskps256((F)m); }
 
-// One block of eight triangles against the ray: hits closer than `tmax` (per lane) in `hit`, with their t
-// and barycentrics. `valid` masks the block's unused lanes.
+// The edge functions of one block of eight triangles for the ray (lines 33-39): the vertices relative to the
+// origin in the permuted axes, sheared, then U, V, W.
+struct Edges {
+  F u, v, w;
+};
+inline Edges edge_functions(const float (*p)[3][8], const RaySetup& r) {
+  // -a = o - p0, -b = o - p1, -c = o - p2, in the permuted axes (line 33, negated: the vertex is then the
+  // subtrahend, which x86 takes from memory, one instruction instead of a load and a subtraction).
+  F akx = r.ox - load(p[0][r.kx]), aky = r.oy - load(p[0][r.ky]), akz = r.oz - load(p[0][r.kz]);
+  F bkx = r.ox - load(p[1][r.kx]), bky = r.oy - load(p[1][r.ky]), bkz = r.oz - load(p[1][r.kz]);
+  F ckx = r.ox - load(p[2][r.kx]), cky = r.oy - load(p[2][r.ky]), ckz = r.oz - load(p[2][r.kz]);
+  // Shear (lines 34-36), giving -ax, -ay, ... exactly (rounding to nearest is symmetric about 0).
+  F ax = akx - r.sx * akz, ay = aky - r.sy * akz;
+  F bx = bkx - r.sx * bkz, by = bky - r.sy * bkz;
+  F cx = ckx - r.sx * ckz, cy = cky - r.sy * ckz;
+  // Edge functions (lines 37-39): products of two negated values, so U, V, W themselves, bit for bit.
+  return {cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax};
+}
+
+// Lanes whose edge functions have mixed signs (they miss, line 45), where some lane's edge function came out
+// exactly 0: those lanes' three edge functions again in double (lines 40-44), then the comparisons of line
+// 45 as written. Rare, so out of line: the common path then keeps nothing alive for it (the inlined version
+// spilled the sheared vertices of every block to the stack).
+[[gnu::noinline]] int mixed_signs_exact(const float (*p)[3][8], const RaySetup& r, int zero, Edges& e) {
+  const F akx = load(p[0][r.kx]) - r.ox, aky = load(p[0][r.ky]) - r.oy, akz = load(p[0][r.kz]) - r.oz;
+  const F bkx = load(p[1][r.kx]) - r.ox, bky = load(p[1][r.ky]) - r.oy, bkz = load(p[1][r.kz]) - r.oz;
+  const F ckx = load(p[2][r.kx]) - r.ox, cky = load(p[2][r.ky]) - r.oy, ckz = load(p[2][r.kz]) - r.oz;
+  const F ax = akx - r.sx * akz, ay = aky - r.sy * akz;
+  const F bx = bkx - r.sx * bkz, by = bky - r.sy * bkz;
+  const F cx = ckx - r.sx * ckz, cy = cky - r.sy * ckz;
+  for (int i = 0; i < kWidth; ++i) {
+    if (!(zero >> i & 1)) continue;
+    e.u[i] = float(double(cx[i]) * double(by[i]) - double(cy[i]) * double(bx[i]));
+    e.v[i] = float(double(ax[i]) * double(cy[i]) - double(ay[i]) * double(cx[i]));
+    e.w[i] = float(double(bx[i]) * double(ay[i]) - double(by[i]) * double(ax[i]));
+  }
+  const F z = splat(0.f);
+  return sign_bits(((e.u < z) | (e.v < z) | (e.w < z)) & ((e.u > z) | (e.v > z) | (e.w > z)));
+}
+
+// Phase 1: the lanes (bits) of the block's triangles that the ray may hit, as far as the edge functions tell
+// (lines 33-45); `valid` holds the bits of the block's used lanes. Where no edge function is 0, "some
+// negative and some positive" is "not all of one sign bit", two XORs; lanes with a NaN may pass here and
+// fail the determinant's finiteness in phase 2, as the scalar test rejects them (a NaN edge function makes
+// det NaN).
+inline int candidates(const float (*p)[3][8], const RaySetup& r, int valid, Edges& e) {
+  e = edge_functions(p, r);
+  const F z = splat(0.f);
+  const int zero = sign_bits((e.u == z) | (e.v == z) | (e.w == z)) & valid;
+  if (zero) {
+    Edges x = e;  // (a copy: e's address taken here would keep e in memory on the common path too)
+    const int mixed = mixed_signs_exact(p, r, zero, x);
+    e = x;
+    return valid & ~mixed;
+  }
+  return valid & ~sign_bits((F)(((U)e.u ^ (U)e.v) | ((U)e.u ^ (U)e.w)));
+}
+
+// Phase 2, for a block with candidates `ok` (bits) and their edge functions: the determinant, the distance
+// and its range (lines 46-56). Hits closer than `tmax` (per lane) in `hit`, with their t and barycentrics.
 struct BlockHits {
   M hit;
   F t, b1, b2;
 };
-inline BlockHits test_block(const float (*p)[3][8], const RaySetup& r, F tmax, M valid) {
-  // a = p0 - o, b = p1 - o, c = p2 - o, in the permuted axes (line 33).
-  F akx = load(p[0][r.kx]) - r.ox, aky = load(p[0][r.ky]) - r.oy, akz = load(p[0][r.kz]) - r.oz;
-  F bkx = load(p[1][r.kx]) - r.ox, bky = load(p[1][r.ky]) - r.oy, bkz = load(p[1][r.kz]) - r.oz;
-  F ckx = load(p[2][r.kx]) - r.ox, cky = load(p[2][r.ky]) - r.oy, ckz = load(p[2][r.kz]) - r.oz;
-  // Shear (lines 34-36).
-  F ax = akx - r.sx * akz, ay = aky - r.sy * akz;
-  F bx = bkx - r.sx * bkz, by = bky - r.sy * bkz;
-  F cx = ckx - r.sx * ckz, cy = cky - r.sy * ckz;
-  // Edge functions (lines 37-39).
-  F u = cx * by - cy * bx;
-  F v = ax * cy - ay * cx;
-  F w = bx * ay - by * ax;
-  // An edge function exactly 0: all three again in double (lines 40-44), lane by lane (rare).
-  M zero = ((u == 0.f) | (v == 0.f) | (w == 0.f)) & valid;
-  if (any_lane(zero)) {
-    for (int i = 0; i < kWidth; ++i) {
-      if (!zero[i]) continue;
-      u[i] = float(double(cx[i]) * double(by[i]) - double(cy[i]) * double(bx[i]));
-      v[i] = float(double(ax[i]) * double(cy[i]) - double(ay[i]) * double(cx[i]));
-      w[i] = float(double(bx[i]) * double(ay[i]) - double(by[i]) * double(ax[i]));
-    }
-  }
-  // Mixed signs miss (line 45).
-  M neg = (u < 0.f) | (v < 0.f) | (w < 0.f), pos = (u > 0.f) | (v > 0.f) | (w > 0.f);
-  M ok = valid & ~(neg & pos);
-  if (!any_lane(ok)) return {ok, F{}, F{}, F{}};
+inline BlockHits finish_block(const float (*p)[3][8], const RaySetup& r, F tmax, int ok_bits, const Edges& e) {
+  const M lane_bit = {1, 2, 4, 8, 16, 32, 64, 128};
+  M ok = ((M{} + ok_bits) & lane_bit) != 0;
+  const F u = e.u, v = e.v, w = e.w;
   // Determinant (lines 46-47).
   F det = u + v + w;
   ok &= (det != 0.f) & finite(det);
   // Scaled distance and its range (lines 48-50).
-  F az = r.sz * akz, bz = r.sz * bkz, cz = r.sz * ckz;
+  F az = r.sz * (load(p[0][r.kz]) - r.oz), bz = r.sz * (load(p[1][r.kz]) - r.oz),
+    cz = r.sz * (load(p[2][r.kz]) - r.oz);
   F tt = u * az + v * bz + w * cz;
   F td = tmax * det;
-  M neg_det = det < 0.f;
-  M out = neg_det ? ((tt >= 0.f) | ~(tt > td)) : ((tt <= 0.f) | ~(tt < td));
+  // Line 50's two cases as one: where det < 0, tt and td with their signs flipped (exact; lanes with det 0 or
+  // NaN are out already).
+  const U sign = (U)det & 0x80000000u;
+  const F ts = (F)((U)tt ^ sign), tds = (F)((U)td ^ sign);
+  M out = (ts <= 0.f) | ~(ts < tds);
   ok &= ~out;
   // Distance and barycentrics (lines 51-56).
   F inv = 1.f / det;
@@ -139,8 +181,11 @@ bool SmallAccel::intersect(const Ray& ray, Hit& hit) const {
     F best_t = splat(ray.tmax), best_b1 = splat(0.f), best_b2 = splat(0.f);
     M best_i = none() - 1;  // -1: none
     for (const Block& blk : blocks_) {
+      Edges e;
+      const int ok = candidates(blk.p, rs, blk.valid, e);
+      if (!ok) continue;
       const M prim = *reinterpret_cast<const M*>(blk.prim);
-      BlockHits h = test_block(blk.p, rs, best_t, prim >= 0);
+      BlockHits h = finish_block(blk.p, rs, best_t, ok, e);
       best_t = sel(h.hit, h.t, best_t);
       best_b1 = sel(h.hit, h.b1, best_b1);
       best_b2 = sel(h.hit, h.b2, best_b2);
@@ -179,8 +224,11 @@ bool SmallAccel::occluded(const Ray& ray) const {
   const RaySetup rs(ray);
   if (rs.ok) {
     const F tmax = splat(ray.tmax);
-    for (const Block& blk : blocks_)
-      if (any_lane(test_block(blk.p, rs, tmax, *reinterpret_cast<const M*>(blk.prim) >= 0).hit)) return true;
+    for (const Block& blk : blocks_) {
+      Edges e;
+      const int ok = candidates(blk.p, rs, blk.valid, e);
+      if (ok && any_lane(finish_block(blk.p, rs, tmax, ok, e).hit)) return true;
+    }
   }
   for (const Sphere& s : spheres_) {
     float t;

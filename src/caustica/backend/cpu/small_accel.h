@@ -27,10 +27,12 @@ class SmallAccel {
   bool occluded(const Ray& ray) const;
 
  private:
-  // Eight triangles' vertices: p[vertex][axis][lane], and their primitive indices (-1: an unused lane).
+  // Eight triangles' vertices: p[vertex][axis][lane], their primitive indices (-1: an unused lane) and a
+  // bit per used lane.
   struct alignas(32) Block {
     float p[3][3][8];
     int32_t prim[8];
+    int valid = 0;
   };
   std::vector<Block> blocks_;
   uint32_t num_triangles_ = 0;
