@@ -2,7 +2,10 @@
 // intersect_triangle (geometry/shapes.h) that it repeats.
 #include "small_accel.h"
 
+#include <array>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -44,6 +47,27 @@ namespace caustica {
 namespace {
 using namespace lanes;
 
+// The axis permutation of intersect_triangle (lines 27-29) for each outcome of its three comparisons of
+// |d| (bit 0: |dx| > |dy|, bit 1: |dx| > |dz|, bit 2: |dy| > |dz|; index bits 3-5) and each sign of d's
+// components (index bits 0-2; that of d[kz] swaps kx and ky): {kx, ky, kz, 3}, also a vpermilps control
+// that moves d[kx], d[ky], d[kz] to lanes 0-2.
+struct Permutation {
+  alignas(16) int32_t k[4];
+};
+constexpr std::array<Permutation, 64> permutations() {
+  std::array<Permutation, 64> t{};
+  for (int c = 0; c < 8; ++c)
+    for (int sign = 0; sign < 8; ++sign) {
+      const bool x_gt_y = c & 1, x_gt_z = c & 2, y_gt_z = c & 4;
+      const int kz = x_gt_y ? (x_gt_z ? 0 : 2) : (y_gt_z ? 1 : 2);
+      int kx = kz == 2 ? 0 : kz + 1, ky = kx == 2 ? 0 : kx + 1;
+      if (sign >> kz & 1) { const int tmp = kx; kx = ky; ky = tmp; }
+      t[c << 3 | sign] = Permutation{{kx, ky, kz, 3}};
+    }
+  return t;
+}
+constexpr std::array<Permutation, 64> kPermutations = permutations();
+
 // The ray's part of intersect_triangle: the axis permutation and shear (lines 27-32).
 struct RaySetup {
   int kx, ky, kz;
@@ -51,29 +75,33 @@ struct RaySetup {
   float ox, oy, oz;
   bool ok;
   explicit RaySetup(const Ray& r) {
-    // Without branches (a path tracer's rays point anywhere, so branches here would mispredict): the axes
-    // from tables indexed by the three comparisons, the ray's components from arrays (Vec3f's operator[]
-    // compiles to branches).
-    const float d[3] = {r.d.x, r.d.y, r.d.z}, o[3] = {r.o.x, r.o.y, r.o.z};
-    const float adx = std::fabs(d[0]), ady = std::fabs(d[1]), adz = std::fabs(d[2]);
-    // kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2); kx, ky the next axes after it, cyclically.
-    static constexpr int8_t kZ[8] = {2, 1, 2, 1, 2, 2, 0, 0}, kX[8] = {0, 2, 0, 2, 0, 0, 1, 1},
-                            kY[8] = {1, 0, 1, 0, 1, 1, 2, 2};
-    const int c = (adx > ady) << 2 | (adx > adz) << 1 | (ady > adz);
-    kz = kZ[c];
-    kx = kX[c];
-    ky = kY[c];
-    // A negative d[kz] swaps kx and ky (keeps the winding).
-    const int t = (kx ^ ky) & -int(d[kz] < 0.f);
-    kx ^= t;
-    ky ^= t;
-    ok = !(d[kz] == 0.f);
-    sz = 1.f / d[kz];
-    sx = d[kx] * sz;
-    sy = d[ky] * sz;
-    ox = o[kx];
-    oy = o[ky];
-    oz = o[kz];
+    // Without branches (a path tracer's rays point anywhere, so branches here would mispredict) and in one
+    // SSE register: the comparisons and signs as bit masks, which index the permutation table, whose entry
+    // then permutes d and o. Line 28 swaps kx and ky where d[kz] < 0, this where d[kz]'s sign bit is set;
+    // the two differ only for -0 and NaN, and a ray whose d[kz] is either hits nothing (d[kz] has the largest
+    // magnitude, so -0 means d = 0; a NaN makes every edge function NaN).
+    typedef float F4 __attribute__((vector_size(16)));
+    typedef int32_t I4 __attribute__((vector_size(16)));
+    static_assert(offsetof(Ray, d) == 12 && offsetof(Ray, tmax) == 24, "Ray: o, d, tmax packed");
+    F4 d, o;  // d.xyz and tmax; o.xyz and d.x (lane 3 unused)
+    std::memcpy(&d, reinterpret_cast<const char*>(&r) + offsetof(Ray, d), sizeof d);
+    std::memcpy(&o, reinterpret_cast<const char*>(&r) + offsetof(Ray, o), sizeof o);
+    const F4 a = (F4)((I4)d & 0x7fffffff);
+    const F4 lhs = __builtin_shufflevector(a, a, 0, 0, 1, 3), rhs = __builtin_shufflevector(a, a, 1, 2, 2, 3);
+    const int c = __builtin_ia32_movmskps((F4)(lhs > rhs)) & 7, sign = __builtin_ia32_movmskps(d) & 7;
+    const Permutation& p = kPermutations[c << 3 | sign];
+    kx = p.k[0];
+    ky = p.k[1];
+    kz = p.k[2];
+    const I4 ctrl = *reinterpret_cast<const I4*>(p.k);
+    const F4 dp = __builtin_ia32_vpermilvarps(d, ctrl), op = __builtin_ia32_vpermilvarps(o, ctrl);
+    ok = !(dp[2] == 0.f);
+    sz = 1.f / dp[2];
+    sx = dp[0] * sz;
+    sy = dp[1] * sz;
+    ox = op[0];
+    oy = op[1];
+    oz = op[2];
   }
 };
 
