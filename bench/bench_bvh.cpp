@@ -7,7 +7,7 @@
 // The ray sets are generated once (fixed seed) and both accelerators trace exactly the same rays, with 1
 // thread and with all threads (tbb::parallel_for over blocks of 1024 rays); each figure is the best of 3.
 // Hits are compared too (count of rays whose hit/miss differs), as a sanity check of the comparison.
-// Where the scene suits the small-scene test (backend/cpu/small_accel.h: at most 64 triangles and 8 spheres,
+// Where the scene suits the small-scene test (backend/cpu/small_accel.h: at most 128 triangles and 8 spheres,
 // an AVX2 CPU), the same rays go through it too (*_small_mrays; *_small_differ: hit/miss differences from
 // Embree). CLUTTER adds that many random triangles (size ~0.15 of the scene, fixed seed) inside the scene's
 // bounds, to find the size where the small-scene test stops paying off.

@@ -295,7 +295,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     material before shading), `cache_first_bounce` (reuse the first pass's camera-ray hits; needs
     jitter=False and a pinhole camera). `jitter=False` (path) traces every sample through the pixel centre.
     stats["device"] says where the passes ran. `accel` (CPU): "auto" (default) tests every triangle of a
-    scene of at most 64 triangles (and 8 spheres), eight at a time with AVX2 ("small": on such scenes that
+    scene of at most 128 triangles (and 8 spheres), eight at a time with AVX2 ("small": on such scenes that
     is faster than Embree's per-query cost), and uses Embree otherwise; "embree", "small" (an InputError
     for a scene it does not take) and "bvh" (the portable BVH the GPU traverses) choose one; images agree
     to within the accelerators' rounding. stats["accel"] names the one used. `lanes` (path on the CPU): trace eight paths in lockstep with

@@ -115,7 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--filter", default=None, help="pixel filter: box, tent or gaussian (default: the scene's)")
     r.add_argument("--sampler", default=None, help="sobol (Owen-scrambled) or independent (default: the scene's, else sobol)")
     r.add_argument("--accel", default="auto",
-                   help="auto (default: small for scenes of at most 64 triangles, else embree), embree, small "
+                   help="auto (default: small for scenes of at most 128 triangles, else embree), embree, small "
                         "(every triangle tested, eight at a time), or bvh (the portable BVH the GPU uses)")
     r.add_argument("--device", default="cpu",
                    help="cpu (default), cuda or cuda:N (path, sppm, pppm: wavefronts on the GPU); "

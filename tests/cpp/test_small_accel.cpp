@@ -118,10 +118,11 @@ TEST(SmallAccel, AgreesWithThePortableBVHOnEveryBuiltInScene) {
 
 TEST(SmallAccel, AgreesWithThePortableBVHOnRandomTriangles) {
   REQUIRE_AVX2();
-  // 1 (a block with seven unused lanes), 9, 63 and 64 (eight full blocks) triangles, some with spheres.
-  for (int n : {1, 9, 63, 64}) {
+  // 1 (a block with seven unused lanes), 9, 63, 64 (eight full blocks), 127 and 128 (sixteen full blocks,
+  // the most it takes) triangles, some with spheres.
+  for (int n : {1, 9, 63, 64, 127, 128}) {
     Soup s = random_soup(n, uint64_t(n));
-    if (n != 64) s.spheres = {Sphere{Vec3f(0.3f, -0.2f, 0.1f), 0.25f}, Sphere{Vec3f(-0.5f, 0.4f, 0.6f), 0.4f}};
+    if (n % 2) s.spheres = {Sphere{Vec3f(0.3f, -0.2f, 0.1f), 0.25f}, Sphere{Vec3f(-0.5f, 0.4f, 0.6f), 0.4f}};
     SceneView v = s.view();
     std::vector<Bounds3> pb;
     for (uint32_t t = 0; t < v.num_triangles; ++t) {
@@ -174,18 +175,19 @@ TEST(SmallAccel, DegenerateRaysAndSegments) {
   EXPECT_FALSE(small.occluded(Ray{o, Vec3f(0.f, std::nanf(""), -1.f), kInf}));  // NaN direction
 }
 
-TEST(CpuAccel, ChoosesTheSmallSceneTestUpTo64TrianglesAnd8Spheres) {
-  Soup s64 = random_soup(64, 1), s65 = random_soup(65, 1), sph = random_soup(10, 2);
+TEST(CpuAccel, ChoosesTheSmallSceneTestUpTo128TrianglesAnd8Spheres) {
+  static_assert(SmallAccel::kMaxTriangles == 128, "this test names the limit");
+  Soup s128 = random_soup(128, 1), s129 = random_soup(129, 1), sph = random_soup(10, 2);
   for (int i = 0; i < 9; ++i) sph.spheres.push_back(Sphere{Vec3f(0.1f * float(i), 0.f, 0.f), 0.05f});
-  const SceneView v64 = s64.view(), v65 = s65.view(), v9 = sph.view();
+  const SceneView v128 = s128.view(), v129 = s129.view(), v9 = sph.view();
   const bool avx2 = SmallAccel::available();
-  EXPECT_EQ(CpuAccel::small_suits(v64), avx2);
-  EXPECT_FALSE(CpuAccel::small_suits(v65));
+  EXPECT_EQ(CpuAccel::small_suits(v128), avx2);
+  EXPECT_FALSE(CpuAccel::small_suits(v129));
   EXPECT_FALSE(CpuAccel::small_suits(v9));
-  EXPECT_EQ(CpuAccel(v64).kind(), avx2 ? CpuAccel::Kind::kSmall : CpuAccel::Kind::kEmbree);
-  EXPECT_STREQ(CpuAccel(v64).name(), avx2 ? "small" : "embree");
-  EXPECT_EQ(CpuAccel(v64, CpuAccel::Kind::kEmbree).kind(), CpuAccel::Kind::kEmbree);
-  EXPECT_EQ(CpuAccel(v65).kind(), CpuAccel::Kind::kEmbree);
-  EXPECT_THROW(CpuAccel(v65, CpuAccel::Kind::kSmall), std::invalid_argument);
-  EXPECT_THROW(SmallAccel{v65}, std::invalid_argument);
+  EXPECT_EQ(CpuAccel(v128).kind(), avx2 ? CpuAccel::Kind::kSmall : CpuAccel::Kind::kEmbree);
+  EXPECT_STREQ(CpuAccel(v128).name(), avx2 ? "small" : "embree");
+  EXPECT_EQ(CpuAccel(v128, CpuAccel::Kind::kEmbree).kind(), CpuAccel::Kind::kEmbree);
+  EXPECT_EQ(CpuAccel(v129).kind(), CpuAccel::Kind::kEmbree);
+  EXPECT_THROW(CpuAccel(v129, CpuAccel::Kind::kSmall), std::invalid_argument);
+  EXPECT_THROW(SmallAccel{v129}, std::invalid_argument);
 }

@@ -154,26 +154,26 @@ def test_snapshot_counters_match_its_image(lanes):
     assert np.array_equal(img, again)
 
 
-def _six_cubes():
-    # 72 triangles: more than the small-scene test takes (64).
-    return caustica.load_scene({"camera": {"position": [0, 0, 12], "target": [0, 0, 0]},
-                                "shapes": [{"type": "cube", "transform": {"translate": [2.5 * i - 6, 0, 0]}}
-                                           for i in range(6)],
+def _eleven_cubes():
+    # 132 triangles: more than the small-scene test takes (128).
+    return caustica.load_scene({"camera": {"position": [0, 0, 30], "target": [0, 0, 0]},
+                                "shapes": [{"type": "cube", "transform": {"translate": [2.5 * i - 12.5, 0, 0]}}
+                                           for i in range(11)],
                                 "lights": [{"type": "environment", "radiance": 1}]}, width=8, height=8)
 
 
 def test_accelerator_choice():
-    # "auto" takes the small-scene test on scenes of at most 64 triangles where the CPU has AVX2 (the lanes
+    # "auto" takes the small-scene test on scenes of at most 128 triangles where the CPU has AVX2 (the lanes
     # need AVX2 too, so stats["lanes"] tells), Embree on larger ones; every name is reported as used.
     s = caustica.load_scene("cornell", width=16, height=16)
     auto = caustica.render_job(s, spp=1)
     assert auto.stats["accel"] == ("small" if auto.stats["lanes"] == 8 else "embree")
     for accel in ("embree", "bvh"):
         assert caustica.render_job(s, spp=1, accel=accel).stats["accel"] == accel
-    big = _six_cubes()
+    big = _eleven_cubes()
     assert caustica.render_job(big, spp=1).stats["accel"] == "embree"
-    with pytest.raises(caustica.InputError, match="--accel small takes scenes of at most 64 triangles and 8 "
-                                                  "spheres on a CPU with AVX2; this one has 72 triangles"):
+    with pytest.raises(caustica.InputError, match="--accel small takes scenes of at most 128 triangles and 8 "
+                                                  "spheres on a CPU with AVX2; this one has 132 triangles"):
         caustica.render_job(big, spp=1, accel="small")
 
 

@@ -38,14 +38,14 @@ def test_no_lanes_renders_the_same_image(caustica_bin, tmp_path):
 
 def test_accel_small_refuses_a_larger_scene(caustica_bin, tmp_path):
     scene = tmp_path / "cubes.json"
-    scene.write_text(json.dumps({"camera": {"position": [0, 0, 12], "target": [0, 0, 0]},
-                                 "shapes": [{"type": "cube", "transform": {"translate": [2.5 * i - 6, 0, 0]}}
-                                            for i in range(6)],
+    scene.write_text(json.dumps({"camera": {"position": [0, 0, 30], "target": [0, 0, 0]},
+                                 "shapes": [{"type": "cube", "transform": {"translate": [2.5 * i - 12.5, 0, 0]}}
+                                            for i in range(11)],
                                  "lights": [{"type": "environment", "radiance": 1}]}))
     out = tmp_path / "o.exr"
     r = run(caustica_bin, "render", str(scene), "--spp", "1", "--width", "8", "--height", "8", "--quiet",
             "--accel", "small", "-o", str(out))
-    assert r.returncode == 2 and "--accel small takes scenes of at most 64 triangles" in r.stderr, r.stderr
+    assert r.returncode == 2 and "--accel small takes scenes of at most 128 triangles" in r.stderr, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not out.exists()
     r = run(caustica_bin, "render", str(scene), "--spp", "1", "--width", "8", "--height", "8", "--quiet",
             "--accel", "kd", "-o", str(out))

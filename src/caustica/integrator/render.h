@@ -24,7 +24,7 @@ struct RenderOptions {
   int max_depth = -2;     // segments (Mitsuba's count); -1 = unlimited; -2 = the scene's default
   int rr_depth = 5;
   SamplerType sampler = SamplerType::kSobol;
-  // "auto" (the small-scene test for scenes of at most 64 triangles, else Embree: CpuAccel), "embree",
+  // "auto" (the small-scene test for scenes of at most 128 triangles, else Embree: CpuAccel), "embree",
   // "small" (an InputError for a scene it does not take) or "bvh" (the portable BVH).
   std::string accel = "auto";
   // Where and how `path` runs: "cpu", or "cuda" / "cuda:N" (the CUDA backend: the wavefront path tracer,
