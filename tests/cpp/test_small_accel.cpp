@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -98,6 +99,48 @@ void expect_agreement(const SceneView& v, const SmallAccel& small, const char* w
   }
   EXPECT_GT(hits, n / 10) << what;
   EXPECT_LT(ties, n / 100) << what;  // ties (shared edges, coplanar faces) are rare on random rays
+
+  // Eight rays at once (intersect8, occluded8, whose ray set-up runs in lanes) answer as one at a time, bit
+  // for bit, for the lanes asked (a random mask), and leave the others' hits alone. Among the rays: axis-
+  // aligned ones with +0 and -0 components (the set-up's choice of axes and its sign rule), a zero and a
+  // NaN direction.
+  for (int k = 0; k < n / 8; ++k) {
+    RayLanes rl;
+    for (int i = 0; i < 8; ++i) {
+      Ray r;
+      r.o = lo + Vec3f(rng.next_float() * ext.x, rng.next_float() * ext.y, rng.next_float() * ext.z);
+      r.d = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
+      const uint32_t kind = rng.next_u32() % 16;
+      if (kind == 0) r.d = Vec3f(0.f, 0.f, rng.next_float() < 0.5f ? 1.f : -1.f);
+      if (kind == 1) r.d = Vec3f(-0.f, rng.next_float() < 0.5f ? 1.f : -1.f, -0.f);
+      if (kind == 2) r.d = Vec3f(rng.next_float() < 0.5f ? 1.f : -1.f, 0.f, -0.f);
+      if (kind == 3) r.d = Vec3f(0.f);
+      if (kind == 4) r.d = Vec3f(std::nanf(""), 0.5f, 0.5f);
+      if (kind == 5) r.d.x = -0.f;
+      r.tmax = kind == 6 ? 0.5f * length(ext) * rng.next_float() : kInf;
+      rl.ox[i] = r.o.x, rl.oy[i] = r.o.y, rl.oz[i] = r.o.z;
+      rl.dx[i] = r.d.x, rl.dy[i] = r.d.y, rl.dz[i] = r.d.z;
+      rl.tmax[i] = r.tmax;
+    }
+    const int mask = int(rng.next_u32() & 0xff);
+    Hit hits[8];
+    for (Hit& h : hits) h = Hit{-1.f, 12345u, -1.f, -1.f};  // a sentinel for the lanes not asked
+    small.intersect8(rl, mask, hits);
+    const int occluded = small.occluded8(rl, mask);
+    for (int i = 0; i < 8; ++i) {
+      if (!(mask >> i & 1)) {
+        EXPECT_EQ(hits[i].prim, 12345u) << what << " batch " << k << " lane " << i;
+        EXPECT_FALSE(occluded >> i & 1) << what << " batch " << k << " lane " << i;
+        continue;
+      }
+      Hit one;
+      const bool a = small.intersect(rl.ray(i), one);
+      ASSERT_EQ(hits[i].valid(), a) << what << " batch " << k << " lane " << i;
+      EXPECT_EQ(hits[i].prim, one.prim) << what << " batch " << k << " lane " << i;
+      EXPECT_EQ(std::memcmp(&hits[i], &one, sizeof one), 0) << what << " batch " << k << " lane " << i;
+      EXPECT_EQ(bool(occluded >> i & 1), small.occluded(rl.ray(i))) << what << " batch " << k << " lane " << i;
+    }
+  }
 }
 
 }  // namespace
@@ -190,4 +233,43 @@ TEST(CpuAccel, ChoosesTheSmallSceneTestUpTo128TrianglesAnd8Spheres) {
   EXPECT_EQ(CpuAccel(v129).kind(), CpuAccel::Kind::kEmbree);
   EXPECT_THROW(CpuAccel(v129, CpuAccel::Kind::kSmall), std::invalid_argument);
   EXPECT_THROW(SmallAccel{v129}, std::invalid_argument);
+}
+
+// Embree's and the portable BVH's intersect8 / occluded8 (one ray at a time underneath) answer as their
+// single-ray queries, bit for bit, for the lanes asked.
+TEST(CpuAccel, EightRaysAtOnceThroughEmbreeAndThePortableBVH) {
+  auto sc = Scene::build(builtin_scene("smallvcm-spheres"));
+  const SceneView& v = sc->view();
+  const CpuAccel& embree = sc->embree();
+  const BVHAccel bvh{&v};
+  PCG32 rng(11, 3);
+  const Vec3f lo = v.bounds.lo, ext = v.bounds.diagonal();
+  for (int k = 0; k < 500; ++k) {
+    RayLanes rl;
+    for (int i = 0; i < 8; ++i) {
+      const Vec3f o = lo + Vec3f(rng.next_float() * ext.x, rng.next_float() * ext.y, rng.next_float() * ext.z);
+      const Vec3f d = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
+      rl.ox[i] = o.x, rl.oy[i] = o.y, rl.oz[i] = o.z;
+      rl.dx[i] = d.x, rl.dy[i] = d.y, rl.dz[i] = d.z;
+      rl.tmax[i] = i % 3 == 0 ? 0.3f * length(ext) : kInf;
+    }
+    const int mask = int(rng.next_u32() & 0xff);
+    Hit he[8], hb[8];
+    embree.intersect8(rl, mask, he);
+    bvh.intersect8(rl, mask, hb);
+    const int oe = embree.occluded8(rl, mask), ob = bvh.occluded8(rl, mask);
+    for (int i = 0; i < 8; ++i) {
+      if (!(mask >> i & 1)) {
+        EXPECT_FALSE((oe | ob) >> i & 1);
+        continue;
+      }
+      Hit one_e, one_b;
+      EXPECT_EQ(embree.intersect(rl.ray(i), one_e), he[i].valid());
+      EXPECT_EQ(bvh.intersect(rl.ray(i), one_b), hb[i].valid());
+      EXPECT_EQ(std::memcmp(&he[i], &one_e, sizeof(Hit)), 0) << "batch " << k << " lane " << i;
+      EXPECT_EQ(std::memcmp(&hb[i], &one_b, sizeof(Hit)), 0) << "batch " << k << " lane " << i;
+      EXPECT_EQ(bool(oe >> i & 1), embree.occluded(rl.ray(i)));
+      EXPECT_EQ(bool(ob >> i & 1), bvh.occluded(rl.ray(i)));
+    }
+  }
 }

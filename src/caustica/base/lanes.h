@@ -31,6 +31,8 @@ inline M none() { return M{}; }
 inline M all() { return M{} - 1; }
 inline F sel(M m, F a, F b) { return m ? a : b; }
 inline bool any(M m) { return __builtin_ia32_movmskps256((F)m) != 0; }  // any lane's sign bit (masks: -1 or 0)
+// The mask of the lanes whose bit (lane i: bit i) is set in `bits`.
+inline M mask_of_bits(int bits) { return ((M{} + bits) & M{1, 2, 4, 8, 16, 32, 64, 128}) != 0; }
 inline F vfabs(F a) { return (F)((U)a & 0x7fffffffu); }
 // std::copysign(1.f, x), including the sign of -0.
 inline F sign_of(F x) { return (F)((U)splat(1.f) | ((U)x & 0x80000000u)); }

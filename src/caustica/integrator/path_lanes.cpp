@@ -48,6 +48,16 @@ namespace {
 
 using namespace lanes;
 
+inline void store_lanes(RayLanes& r, const V3& o, const V3& d, F tmax) {
+  *reinterpret_cast<F*>(r.ox) = o.x;
+  *reinterpret_cast<F*>(r.oy) = o.y;
+  *reinterpret_cast<F*>(r.oz) = o.z;
+  *reinterpret_cast<F*>(r.dx) = d.x;
+  *reinterpret_cast<F*>(r.dy) = d.y;
+  *reinterpret_cast<F*>(r.dz) = d.z;
+  *reinterpret_cast<F*>(r.tmax) = tmax;
+}
+
 template <typename SamplerLanes, typename Accel>
 void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, uint32_t x0, uint32_t y0, int w,
                 int h, uint32_t sample_index, LaneResult* out, LaneCounts& counts) {
@@ -95,25 +105,27 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
   // a lane that is not active keeps the values of its last vertex, masked out of every result.
   Staged3 sphere_p, sphere_ng, sphere_ns, albedo_s, v0_s, v1_s, v2_s, n0_s, n1_s, n2_s, q0_s, q1_s, q2_s, Le_s;
   Staged b1_s, b2_s, ulx_s, pmf_s;
-  StagedMask two_sided_s, triangle_s, lane_s, light_two_sided_s, unoccluded_s;
+  StagedMask two_sided_s, triangle_s, lane_s, light_two_sided_s;
   while (any(active)) {
     depth += 1u;  // the segment traced now (idle lanes count too; refill resets them)
-    // Closest hits, one lane at a time; the hit's point and normals (make_surface_hit) for triangles in
-    // lanes, for spheres per lane; emission reached by the ray (path_shade), per lane (rare).
+    // Closest hits, the active lanes' rays in one call; then lane by lane: the hit's point and normals
+    // (make_surface_hit) for triangles in lanes, for spheres per lane; emission reached by the ray
+    // (path_shade), per lane (rare).
     // A vertex on any other material is shaded by the scalar path_shade right here (see below).
     int32_t light[kWidth];
+    RayLanes rays;  // the active lanes' rays, queried together (the rays' set-up runs in lanes)
+    store_lanes(rays, o, d, tmax);
+    Hit hits[kWidth];
+    const int asked = __builtin_ia32_movmskps256((F)active);
+    accel.intersect8(rays, asked, hits);
+    counts.rays += uint64_t(__builtin_popcount(asked));
     for (int i = 0; i < kWidth; ++i) {
       light[i] = -1;
       lane_s.v[i] = 0;
       triangle_s.v[i] = 0;
       if (!active[i]) continue;
-      Ray r;
-      r.o = get(o, i);
-      r.d = get(d, i);
-      r.tmax = tmax[i];
-      Hit h;
-      accel.intersect(r, h);
-      ++counts.rays;
+      const Ray r = rays.ray(i);
+      const Hit& h = hits[i];
       if (!h.valid()) {  // no environment light in the scenes the lanes cover
         active[i] = 0;
         continue;
@@ -269,22 +281,13 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         V3 target = sel(n_zero, pl, offset_ray_origin(pl, nl, so - pl));
         V3 sd = target - so;
         M dist_finite = finite(dist);
-        for (int i = 0; i < kWidth; ++i) {
-          unoccluded_s.v[i] = 0;
-          if (!shadow[i]) continue;
-          Ray r;
-          r.o = get(so, i);
-          if (dist_finite[i]) {
-            r.d = get(sd, i);
-            r.tmax = 1.f - 1e-4f;
-          } else {
-            r.d = get(wi_world, i);
-            r.tmax = kInf;
-          }
-          ++counts.shadow_rays;
-          unoccluded_s.v[i] = accel.occluded(r) ? 0 : -1;
-        }
-        L = sel(unoccluded_s.load(), L + contrib, L);  // path_shadow
+        // spawn_ray_to's segment, or the direction to a light at infinity.
+        RayLanes srays;
+        store_lanes(srays, so, sel(dist_finite, sd, wi_world), sel(dist_finite, splat(1.f - 1e-4f), splat(kInf)));
+        const int asked_shadow = __builtin_ia32_movmskps256((F)shadow);
+        counts.shadow_rays += uint64_t(__builtin_popcount(asked_shadow));
+        const int occluded = accel.occluded8(srays, asked_shadow);
+        L = sel(shadow & ~mask_of_bits(occluded), L + contrib, L);  // path_shadow
       }
     }
 

@@ -1,11 +1,12 @@
 // Lane-parallel path tracing on the CPU: the `path` integrator (path.h) for eight camera paths in
 // lockstep, its per-vertex arithmetic (the sampler's draws, the shading frame, light sampling,
 // the BSDF's evaluation and sampling, MIS weights, Russian roulette) done as eight-lane AVX2 operations
-// (base/lanes.h). Ray queries stay one ray at a time, through the CPU accelerator (CpuAccel: Embree's
-// rtcIntersect1/rtcOccluded1, or the small-scene test; bench/RESULTS.md, 2026-12-01, found Embree's
-// packet queries no faster on incoherent rays), and so do the camera ray, the setup of sphere hits
-// (make_surface_hit), emission at light hits and the light's choice from the alias table. A lane whose
-// path ends starts the next pixel's, so the lanes stay busy.
+// (base/lanes.h). Ray queries go to the CPU accelerator eight at a time (CpuAccel::intersect8 and
+// occluded8: the small-scene test sets the eight rays up in lanes, then tests each ray against its
+// triangles; Embree answers them one by one with rtcIntersect1/rtcOccluded1, bench/RESULTS.md, 2026-12-01,
+// having found its packet queries no faster on incoherent rays). One lane at a time stay the camera ray,
+// the setup of sphere hits (make_surface_hit), emission at light hits and the light's choice from the
+// alias table. A lane whose path ends starts the next pixel's, so the lanes stay busy.
 //
 // Each lane computes bit for bit what path_start / path_shade / path_shadow compute for the same pixel
 // and sample index (the same IEEE operations in the same order; tests/cpp/test_path_lanes.cpp compares

@@ -168,6 +168,32 @@ bool CpuAccel::occluded(const Ray& ray) const {
   return r.tfar < 0.f;
 }
 
+void CpuAccel::intersect8(const RayLanes& rays, int mask, Hit hits[8]) const {
+  if (small_) return small_->intersect8(rays, mask, hits);
+  for (int i = 0; i < 8; ++i)
+    if (mask >> i & 1) intersect(rays.ray(i), hits[i]);
+}
+
+int CpuAccel::occluded8(const RayLanes& rays, int mask) const {
+  if (small_) return small_->occluded8(rays, mask);
+  int occ = 0;
+  for (int i = 0; i < 8; ++i)
+    if ((mask >> i & 1) && occluded(rays.ray(i))) occ |= 1 << i;
+  return occ;
+}
+
+void BVHAccel::intersect8(const RayLanes& rays, int mask, Hit hits[8]) const {
+  for (int i = 0; i < 8; ++i)
+    if (mask >> i & 1) intersect(rays.ray(i), hits[i]);
+}
+
+int BVHAccel::occluded8(const RayLanes& rays, int mask) const {
+  int occ = 0;
+  for (int i = 0; i < 8; ++i)
+    if ((mask >> i & 1) && occluded(rays.ray(i))) occ |= 1 << i;
+  return occ;
+}
+
 bool BVHAccel::intersect(const Ray& ray, Hit& hit) const {
   return scene_intersect(*view, ray, hit);
 }

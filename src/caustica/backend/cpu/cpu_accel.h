@@ -38,6 +38,10 @@ class CpuAccel {
   bool intersect(const Ray& ray, Hit& hit) const;
   // Any hit in (0, ray.tmax).
   bool occluded(const Ray& ray) const;
+  // The rays of the lanes whose bit is set in `mask`: hits[i] for each (SmallAccel::intersect8; Embree
+  // one ray at a time), and the bits of the occluded ones.
+  void intersect8(const RayLanes& rays, int mask, Hit hits[8]) const;
+  int occluded8(const RayLanes& rays, int mask) const;
 
  private:
   std::unique_ptr<SmallAccel> small_;
@@ -53,6 +57,8 @@ struct BVHAccel {
   const SceneView* view;
   bool intersect(const Ray& ray, Hit& hit) const;
   bool occluded(const Ray& ray) const;
+  void intersect8(const RayLanes& rays, int mask, Hit hits[8]) const;
+  int occluded8(const RayLanes& rays, int mask) const;
 };
 
 }  // namespace caustica

@@ -74,6 +74,7 @@ struct RaySetup {
   float sx, sy, sz;
   float ox, oy, oz;
   bool ok;
+  RaySetup() = default;
   explicit RaySetup(const Ray& r) {
     // Without branches (a path tracer's rays point anywhere, so branches here would mispredict) and in one
     // SSE register: the comparisons and signs as bit masks, which index the permutation table, whose entry
@@ -106,6 +107,54 @@ struct RaySetup {
 };
 
 inline F load(const float* p) { return *reinterpret_cast<const F*>(p); }
+
+// RaySetup for eight rays at once, lane for lane the same values (the same choices, the same IEEE
+// operations).
+struct RaySetups {
+  alignas(32) int32_t kx[8], ky[8], kz[8];
+  alignas(32) float sx[8], sy[8], sz[8], ox[8], oy[8], oz[8];
+  int ok;  // bit per lane
+  explicit RaySetups(const RayLanes& r) {
+    const F dx = load(r.dx), dy = load(r.dy), dz = load(r.dz);
+    const F ax = vfabs(dx), ay = vfabs(dy), az = vfabs(dz);
+    // kz = |dx| > |dy| ? (|dx| > |dz| ? 0 : 2) : (|dy| > |dz| ? 1 : 2) (line 27)
+    const M x_gt_y = ax > ay, kz0 = x_gt_y & (ax > az), kz1 = ~x_gt_y & (ay > az);
+    const M kz_v = kz0 ? M{} : (kz1 ? M{} + 1 : M{} + 2);
+    const F dkz = kz0 ? dx : (kz1 ? dy : dz);
+    // kx, ky: the next axes after kz, cyclically; swapped where d[kz]'s sign bit is set (RaySetup's rule).
+    const M kx_n = kz0 ? M{} + 1 : (kz1 ? M{} + 2 : M{}), ky_n = kz0 ? M{} + 2 : (kz1 ? M{} : M{} + 1);
+    const M swap = (M)dkz >> 31;
+    const M kx_v = swap ? ky_n : kx_n, ky_v = swap ? kx_n : ky_n;
+    const F ox_a = load(r.ox), oy_a = load(r.oy), oz_a = load(r.oz);
+    auto pick = [](M k, F x, F y, F z) { return k == 0 ? x : (k == 1 ? y : z); };
+    const F szv = 1.f / dkz;
+    *reinterpret_cast<M*>(kx) = kx_v;
+    *reinterpret_cast<M*>(ky) = ky_v;
+    *reinterpret_cast<M*>(kz) = kz_v;
+    *reinterpret_cast<F*>(sz) = szv;
+    *reinterpret_cast<F*>(sx) = pick(kx_v, dx, dy, dz) * szv;
+    *reinterpret_cast<F*>(sy) = pick(ky_v, dx, dy, dz) * szv;
+    *reinterpret_cast<F*>(ox) = pick(kx_v, ox_a, oy_a, oz_a);
+    *reinterpret_cast<F*>(oy) = pick(ky_v, ox_a, oy_a, oz_a);
+    *reinterpret_cast<F*>(oz) = kz0 ? ox_a : (kz1 ? oy_a : oz_a);
+    ok = ~__builtin_ia32_movmskps256((F)(dkz == 0.f)) & 0xff;
+  }
+  RaySetup lane(int i) const {
+    RaySetup s;
+    s.kx = kx[i];
+    s.ky = ky[i];
+    s.kz = kz[i];
+    s.sx = sx[i];
+    s.sy = sy[i];
+    s.sz = sz[i];
+    s.ox = ox[i];
+    s.oy = oy[i];
+    s.oz = oz[i];
+    s.ok = ok >> i & 1;
+    return s;
+  }
+};
+
 inline bool any_lane(M m) { return __builtin_ia32_movmskps256((F)m) != 0; }
 inline int sign_bits(F x) { return __builtin_ia32_movmskps256(x); }
 inline int sign_bits(M m) { return __builtin_ia32_movmskps256((F)m); }
@@ -175,8 +224,7 @@ struct BlockHits {
   F t, b1, b2;
 };
 inline BlockHits finish_block(const float (*p)[3][8], const RaySetup& r, F tmax, int ok_bits, const Edges& e) {
-  const M lane_bit = {1, 2, 4, 8, 16, 32, 64, 128};
-  M ok = ((M{} + ok_bits) & lane_bit) != 0;
+  M ok = mask_of_bits(ok_bits);
   const F u = e.u, v = e.v, w = e.w;
   // Determinant (lines 46-47).
   F det = u + v + w;
@@ -199,44 +247,54 @@ inline BlockHits finish_block(const float (*p)[3][8], const RaySetup& r, F tmax,
   return {ok, th, v * inv, w * inv};
 }
 
+// The triangles' closest hit (into hit, left as it is when none is closer than tmax).
+inline void closest_triangle(const std::vector<SmallAccel::Block>& blocks, const RaySetup& rs, float tmax,
+                             Hit& hit) {
+  F best_t = splat(tmax), best_b1 = splat(0.f), best_b2 = splat(0.f);
+  M best_i = none() - 1;  // -1: none
+  for (const SmallAccel::Block& blk : blocks) {
+    Edges e;
+    const int ok = candidates(blk.p, rs, blk.valid, e);
+    if (!ok) continue;
+    const M prim = *reinterpret_cast<const M*>(blk.prim);
+    BlockHits h = finish_block(blk.p, rs, best_t, ok, e);
+    best_t = sel(h.hit, h.t, best_t);
+    best_b1 = sel(h.hit, h.b1, best_b1);
+    best_b2 = sel(h.hit, h.b2, best_b2);
+    best_i = h.hit ? prim : best_i;
+  }
+  // The closest of the eight lanes' hits; at equal t, the lowest primitive index.
+  F m = vminf(best_t, __builtin_shufflevector(best_t, best_t, 4, 5, 6, 7, 0, 1, 2, 3));
+  m = vminf(m, __builtin_shufflevector(m, m, 2, 3, 0, 1, 6, 7, 4, 5));
+  m = vminf(m, __builtin_shufflevector(m, m, 1, 0, 3, 2, 5, 4, 7, 6));
+  int closest = __builtin_ia32_movmskps256((F)((best_t == m) & (best_i >= 0)));
+  if (!closest) return;
+  int lane = __builtin_ctz(closest);
+  for (int c = closest & (closest - 1); c; c &= c - 1) {  // equal distances (rare)
+    int i = __builtin_ctz(c);
+    if (best_i[i] < best_i[lane]) lane = i;
+  }
+  hit.t = best_t[lane];
+  hit.prim = uint32_t(best_i[lane]);
+  hit.b1 = best_b1[lane];
+  hit.b2 = best_b2[lane];
+}
+
+inline bool any_triangle(const std::vector<SmallAccel::Block>& blocks, const RaySetup& rs, float tmax_s) {
+  const F tmax = splat(tmax_s);
+  for (const SmallAccel::Block& blk : blocks) {
+    Edges e;
+    const int ok = candidates(blk.p, rs, blk.valid, e);
+    if (ok && any_lane(finish_block(blk.p, rs, tmax, ok, e).hit)) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
-bool SmallAccel::intersect(const Ray& ray, Hit& hit) const {
-  hit = Hit();
-  Ray r = ray;
-  const RaySetup rs(ray);
-  if (rs.ok) {
-    F best_t = splat(ray.tmax), best_b1 = splat(0.f), best_b2 = splat(0.f);
-    M best_i = none() - 1;  // -1: none
-    for (const Block& blk : blocks_) {
-      Edges e;
-      const int ok = candidates(blk.p, rs, blk.valid, e);
-      if (!ok) continue;
-      const M prim = *reinterpret_cast<const M*>(blk.prim);
-      BlockHits h = finish_block(blk.p, rs, best_t, ok, e);
-      best_t = sel(h.hit, h.t, best_t);
-      best_b1 = sel(h.hit, h.b1, best_b1);
-      best_b2 = sel(h.hit, h.b2, best_b2);
-      best_i = h.hit ? prim : best_i;
-    }
-    // The closest of the eight lanes' hits; at equal t, the lowest primitive index.
-    F m = vminf(best_t, __builtin_shufflevector(best_t, best_t, 4, 5, 6, 7, 0, 1, 2, 3));
-    m = vminf(m, __builtin_shufflevector(m, m, 2, 3, 0, 1, 6, 7, 4, 5));
-    m = vminf(m, __builtin_shufflevector(m, m, 1, 0, 3, 2, 5, 4, 7, 6));
-    int closest = __builtin_ia32_movmskps256((F)((best_t == m) & (best_i >= 0)));
-    int lane = closest ? __builtin_ctz(closest) : -1;
-    for (int c = closest & (closest - 1); c; c &= c - 1) {  // equal distances (rare)
-      int i = __builtin_ctz(c);
-      if (best_i[i] < best_i[lane]) lane = i;
-    }
-    if (lane >= 0) {
-      hit.t = best_t[lane];
-      hit.prim = uint32_t(best_i[lane]);
-      hit.b1 = best_b1[lane];
-      hit.b2 = best_b2[lane];
-      r.tmax = hit.t;
-    }
-  }
+// The spheres after the triangles: a closer sphere replaces the triangles' hit.
+void SmallAccel::closest_sphere(Ray r, Hit& hit) const {
+  if (hit.valid()) r.tmax = hit.t;
   for (uint32_t i = 0; i < spheres_.size(); ++i) {
     float t;
     if (!intersect_sphere(r, spheres_[i], t)) continue;
@@ -245,24 +303,50 @@ bool SmallAccel::intersect(const Ray& ray, Hit& hit) const {
     hit.prim = num_triangles_ + i;
     hit.b1 = hit.b2 = 0.f;
   }
-  return hit.valid();
 }
 
-bool SmallAccel::occluded(const Ray& ray) const {
-  const RaySetup rs(ray);
-  if (rs.ok) {
-    const F tmax = splat(ray.tmax);
-    for (const Block& blk : blocks_) {
-      Edges e;
-      const int ok = candidates(blk.p, rs, blk.valid, e);
-      if (ok && any_lane(finish_block(blk.p, rs, tmax, ok, e).hit)) return true;
-    }
-  }
+bool SmallAccel::any_sphere(const Ray& ray) const {
   for (const Sphere& s : spheres_) {
     float t;
     if (intersect_sphere(ray, s, t)) return true;
   }
   return false;
+}
+
+bool SmallAccel::intersect(const Ray& ray, Hit& hit) const {
+  hit = Hit();
+  const RaySetup rs(ray);
+  if (rs.ok) closest_triangle(blocks_, rs, ray.tmax, hit);
+  if (!spheres_.empty()) closest_sphere(ray, hit);
+  return hit.valid();
+}
+
+bool SmallAccel::occluded(const Ray& ray) const {
+  const RaySetup rs(ray);
+  if (rs.ok && any_triangle(blocks_, rs, ray.tmax)) return true;
+  return !spheres_.empty() && any_sphere(ray);
+}
+
+void SmallAccel::intersect8(const RayLanes& rays, int mask, Hit hits[8]) const {
+  const RaySetups rs(rays);
+  for (int m = mask; m; m &= m - 1) {
+    const int i = __builtin_ctz(m);
+    hits[i] = Hit();
+    if (rs.ok >> i & 1) closest_triangle(blocks_, rs.lane(i), rays.tmax[i], hits[i]);
+    if (!spheres_.empty()) closest_sphere(rays.ray(i), hits[i]);
+  }
+}
+
+int SmallAccel::occluded8(const RayLanes& rays, int mask) const {
+  const RaySetups rs(rays);
+  int occluded = 0;
+  for (int m = mask; m; m &= m - 1) {
+    const int i = __builtin_ctz(m);
+    if (((rs.ok >> i & 1) && any_triangle(blocks_, rs.lane(i), rays.tmax[i])) ||
+        (!spheres_.empty() && any_sphere(rays.ray(i))))
+      occluded |= 1 << i;
+  }
+  return occluded;
 }
 
 }  // namespace caustica
@@ -277,6 +361,11 @@ bool SmallAccel::intersect(const Ray&, Hit& hit) const {
   return false;
 }
 bool SmallAccel::occluded(const Ray&) const { return false; }
+void SmallAccel::intersect8(const RayLanes&, int mask, Hit hits[8]) const {
+  for (int i = 0; i < 8; ++i)
+    if (mask >> i & 1) hits[i] = Hit();
+}
+int SmallAccel::occluded8(const RayLanes&, int) const { return 0; }
 
 }  // namespace caustica
 
