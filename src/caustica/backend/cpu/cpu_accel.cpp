@@ -168,31 +168,33 @@ bool CpuAccel::occluded(const Ray& ray) const {
   return r.tfar < 0.f;
 }
 
+namespace {
+// intersect8 / occluded8 as single-ray queries, one lane after another (Embree, the portable BVH).
+template <typename Accel>
+void intersect_each(const Accel& a, const RayLanes& rays, int mask, Hit hits[8]) {
+  for (int i = 0; i < 8; ++i)
+    if (mask >> i & 1) a.intersect(rays.ray(i), hits[i]);
+}
+template <typename Accel>
+int occluded_each(const Accel& a, const RayLanes& rays, int mask) {
+  int occ = 0;
+  for (int i = 0; i < 8; ++i)
+    if ((mask >> i & 1) && a.occluded(rays.ray(i))) occ |= 1 << i;
+  return occ;
+}
+}  // namespace
+
 void CpuAccel::intersect8(const RayLanes& rays, int mask, Hit hits[8]) const {
   if (small_) return small_->intersect8(rays, mask, hits);
-  for (int i = 0; i < 8; ++i)
-    if (mask >> i & 1) intersect(rays.ray(i), hits[i]);
+  intersect_each(*this, rays, mask, hits);
 }
-
 int CpuAccel::occluded8(const RayLanes& rays, int mask) const {
-  if (small_) return small_->occluded8(rays, mask);
-  int occ = 0;
-  for (int i = 0; i < 8; ++i)
-    if ((mask >> i & 1) && occluded(rays.ray(i))) occ |= 1 << i;
-  return occ;
+  return small_ ? small_->occluded8(rays, mask) : occluded_each(*this, rays, mask);
 }
-
 void BVHAccel::intersect8(const RayLanes& rays, int mask, Hit hits[8]) const {
-  for (int i = 0; i < 8; ++i)
-    if (mask >> i & 1) intersect(rays.ray(i), hits[i]);
+  intersect_each(*this, rays, mask, hits);
 }
-
-int BVHAccel::occluded8(const RayLanes& rays, int mask) const {
-  int occ = 0;
-  for (int i = 0; i < 8; ++i)
-    if ((mask >> i & 1) && occluded(rays.ray(i))) occ |= 1 << i;
-  return occ;
-}
+int BVHAccel::occluded8(const RayLanes& rays, int mask) const { return occluded_each(*this, rays, mask); }
 
 bool BVHAccel::intersect(const Ray& ray, Hit& hit) const {
   return scene_intersect(*view, ray, hit);
