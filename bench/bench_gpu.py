@@ -13,6 +13,8 @@
                 build, gather) at 1920x1080 visible points and PHOTONS photon paths per pass on `cornell` and
                 `smallvcm-spheres`; the grid build time per million stored photons; also with stochastic
                 hashing (Hachisuka & Jensen 2010).
+  bdpt, vcm     ms per pass and rays/s (camera, light, visibility rays together) at 1920x1080 on
+                `smallvcm-spheres`, one light subpath per pixel (wavefront_vcm.h).
 
 Targets (issue 7, H100): >= 1e9 rays/s for the path tracer on cornell at 1080p; a complete SPPM pass
 (1M photons, 1080p visible points) under 16.7 ms.
@@ -150,6 +152,20 @@ def bench_sppm(scene, a, label: str) -> list[dict]:
     return rows
 
 
+def bench_bidirectional(scene, a, label: str) -> list[dict]:
+    rows = []
+    for integrator in ("bdpt", "vcm"):
+        kw = dict(integrator=integrator, spp=a.bidir_spp, seed=1, max_depth=8, device=a.device)
+        if a.device == "cpu":
+            kw["wavefront"] = True
+        caustica.render_job(scene, **dict(kw, spp=1))
+        st = best_of(a.repeats, lambda: caustica.render_job(scene, **kw).stats)
+        rows.append({"scene": label, "integrator": integrator, "passes": st["passes"], "seconds": st["seconds"],
+                     "ms_per_pass": 1e3 * st["seconds"] / st["passes"], "rays_per_s": st["rays"] / st["seconds"],
+                     "device": st["device"]})
+    return rows
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--device", default="cuda", help="cuda (default), cuda:N, or cpu (the CPU wavefront)")
@@ -157,6 +173,7 @@ def main() -> int:
     ap.add_argument("--height", type=int, default=1080)
     ap.add_argument("--spp", type=int, default=16, help="passes per render (path: samples per pixel)")
     ap.add_argument("--photons", type=int, default=1_000_000, help="sppm: photon paths per pass")
+    ap.add_argument("--bidir-spp", type=int, default=4, help="bdpt, vcm: passes per render")
     ap.add_argument("--triangles", type=int, default=1_000_000, help="the torus scene's triangle count")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--no-results", action="store_true", help="do not append to bench/RESULTS.md")
@@ -177,6 +194,8 @@ def main() -> int:
         sppm_rows = []
         for name in ("cornell", "smallvcm-spheres"):
             sppm_rows += bench_sppm(caustica.load_scene(name, width=a.width, height=a.height), a, name)
+        bidir_rows = bench_bidirectional(caustica.load_scene("smallvcm-spheres", width=a.width, height=a.height), a,
+                                         "smallvcm-spheres")
     device = path_rows[0]["device"]
     print(f"# {device}, {a.width}x{a.height}")
     for r in path_rows:
@@ -187,6 +206,8 @@ def main() -> int:
               f"{r['photons_per_s'] / 1e6:8.2f} M photons/s  stages ms: visible {r['ms_visible_points']:.2f}, "
               f"photons {r['ms_photons']:.2f}, grid {r['ms_grid']:.2f} ({r['grid_ms_per_million']:.2f} per M), "
               f"gather {r['ms_gather']:.2f}")
+    for r in bidir_rows:
+        print(f"{r['integrator']:5s} {r['scene']:18s} {r['ms_per_pass']:8.2f} ms/pass {r['rays_per_s'] / 1e6:10.1f} M rays/s")
     if not a.no_results:
         cmd = "python bench/bench_gpu.py " + " ".join(sys.argv[1:])
         host = machine()
@@ -204,6 +225,9 @@ def main() -> int:
             lines.append(f"| {r['scene']} | {'yes' if r['stochastic_hash'] else 'no'} | {r['ms_per_pass']:.2f} | "
                          f"{r['photons_per_s'] / 1e6:.2f} M | {r['ms_visible_points']:.2f} | {r['ms_photons']:.2f} | "
                          f"{r['ms_grid']:.2f} ({r['grid_ms_per_million']:.2f}) | {r['ms_gather']:.2f} |\n")
+        lines.append("\n| bidirectional | scene | ms/pass | rays/s |\n|---|---|---|---|\n")
+        for r in bidir_rows:
+            lines.append(f"| {r['integrator']} | {r['scene']} | {r['ms_per_pass']:.2f} | {r['rays_per_s'] / 1e6:.1f} M |\n")
         with open(RESULTS, "a") as f:
             f.writelines(lines)
         print(f"appended to {os.path.relpath(RESULTS, ROOT)}")

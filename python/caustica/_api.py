@@ -70,7 +70,7 @@ def devices() -> list[dict]:
     for d in cuda_status()[0]:
         out.append({"name": f"cuda:{d['index']}",
                     "description": f"{d['name']}, {d['memory'] / 2**30:.0f} GiB, compute capability "
-                                   f"{d['compute_capability']}, {d['multiprocessors']} SMs (wavefront path tracer)"})
+                                   f"{d['compute_capability']}, {d['multiprocessors']} SMs (wavefront drivers)"})
     return out
 
 
@@ -288,9 +288,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     `strategy_images` (light, bdpt, bpm, vcm): RenderResult.strategies maps "k{k}_s{s}_t{t}" (the
     connection strategy with s light and t camera vertices of paths of k <= 7 segments) and "merge_t{t}"
     (merges at camera vertex t) to MIS-weighted (H, W, 3) images that sum to the image over those paths.
-    `device`: "cpu" (default), "cuda" or "cuda:N" (integrator path: the wavefront path tracer on the GPU,
-    traversing the portable BVH); a device that devices() does not list is an InputError saying why.
-    `wavefront` (path): run the GPU's wavefront driver on the CPU. The wavefront driver's switches:
+    `device`: "cpu" (default), "cuda" or "cuda:N" (integrators path, sppm, pppm, light, bdpt, bpm, vcm: the
+    wavefront drivers on the GPU, traversing the portable BVH); a device that devices() does not list is an
+    InputError saying why. `wavefront` (those integrators): run the GPU's wavefront driver on the CPU
+    (strategy_images stays with the CPU driver). The wavefront path tracer's switches:
     `compaction` (stream compaction of finished paths, default on), `sort_materials` (sort each queue by
     material before shading), `cache_first_bounce` (reuse the first pass's camera-ray hits; needs
     jitter=False and a pinhole camera). `jitter=False` (path) traces every sample through the pixel centre.

@@ -1,5 +1,6 @@
-"""The wavefront path tracer (integrator/wavefront_path.h) from Python and the command line: on the CPU
-(`--wavefront`) it is the CUDA backend's driver code, and must give the path tracer's image bit for bit;
+"""The wavefront drivers (integrator/wavefront_path.h, wavefront_photon.h, wavefront_vcm.h) from Python and
+the command line: on the CPU (`--wavefront`) they are the CUDA backend's driver code, and must give the path
+tracer's and the bidirectional integrators' images bit for bit (the photon integrators' to rounding);
 on a GPU (`--device cuda`) the image must agree with the CPU's within standard errors. GPU tests are
 skipped, saying why, where there is no usable CUDA device."""
 import subprocess
@@ -42,7 +43,10 @@ def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
     for args, msg in ((["--wavefront", "--cache-first-bounce"], "--cache-first-bounce needs --no-jitter"),
                       (["--sort-materials"], "--sort-materials applies to the wavefront path tracer"),
                       (["--no-compaction"], "--no-compaction applies to the wavefront path tracer"),
-                      (["--wavefront", "--integrator", "bdpt"], "--wavefront runs path, sppm and pppm"),
+                      (["--wavefront", "--integrator", "upg"],
+                       "--wavefront runs path, sppm, pppm, light, bdpt, bpm and vcm"),
+                      (["--wavefront", "--integrator", "bdpt", "--strategy-images", str(tmp_path)],
+                       "--strategy-images runs on the CPU driver only"),
                       (["--wavefront", "--integrator", "sppm", "--sort-materials"],
                        "--sort-materials applies to the wavefront path tracer"),
                       (["--no-jitter", "--integrator", "bdpt"], "--no-jitter applies to integrator 'path'")):
@@ -62,6 +66,29 @@ def test_cpu_wavefront_photon_mapping_matches_the_photon_integrator(integrator):
     assert r.stats["device"] == f"cpu (wavefront, {r.stats['accel']})" and r.stats["photons"] == 3 * 24 * 20
     assert r.stats["radius"] > 0
     np.testing.assert_allclose(r.image, ref, rtol=1e-5, atol=1e-9)
+
+
+@pytest.mark.parametrize("integrator", ["light", "bdpt", "bpm", "vcm"])
+def test_cpu_wavefront_bidirectional_gives_the_cpu_drivers_image(integrator):
+    # The same stage functions in the same order per path and per pixel: bit for bit (wavefront_vcm.h).
+    s = caustica.load_scene("smallvcm-spheres", width=24, height=20)
+    ref = caustica.render_job(s, integrator=integrator, spp=2, seed=8)
+    r = caustica.render_job(s, integrator=integrator, spp=2, seed=8, wavefront=True)
+    assert r.stats["device"] == f"cpu (wavefront, {r.stats['accel']})"
+    for key in ("photons", "rays", "radius"):
+        assert r.stats[key] == ref.stats[key], key
+    assert r.image.sum() > 0
+    assert np.array_equal(r.image, ref.image)
+
+
+@needs_gpu
+@pytest.mark.parametrize("integrator", ["light", "bdpt", "bpm", "vcm"])
+def test_gpu_bidirectional_matches_the_cpu_per_region(integrator):
+    s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
+    m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112))
+    m_gpu, se_gpu = seeded_regions(s, integrator, 8, range(200, 212), device="cuda")
+    z = np.abs(m_cpu - m_gpu) / np.sqrt(se_cpu ** 2 + se_gpu ** 2)
+    assert z.max() < 4.0, np.round(z, 1)
 
 
 @needs_gpu

@@ -101,12 +101,15 @@ void RenderJob::validate(const RenderOptions& o) {
   bool cuda = cuda_device_index(o.device) >= 0;
   if (o.device != "cpu" && !cuda)
     throw InputError("unknown device '" + o.device + "' (allowed: cpu, cuda, cuda:N)");
-  const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "pppm";
+  const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "pppm" ||
+                                    is_vcm_integrator(o.integrator);
   if (cuda && !wavefront_integrator)
     throw InputError("integrator '" + o.integrator + "' does not run on the CUDA backend yet (allowed with " +
-                     "--device cuda: path, sppm, pppm)");
+                     "--device cuda: path, sppm, pppm, light, bdpt, bpm, vcm)");
   if (o.wavefront && !wavefront_integrator)
-    throw InputError("--wavefront runs path, sppm and pppm, got '" + o.integrator + "'");
+    throw InputError("--wavefront runs path, sppm, pppm, light, bdpt, bpm and vcm, got '" + o.integrator + "'");
+  if (uses_wavefront(o) && o.strategy_images)
+    throw InputError("--strategy-images runs on the CPU driver only (not with --wavefront or --device cuda)");
   if (uses_wavefront(o) && is_photon_integrator(o.integrator) && o.photons > 0x7fffffff)
     throw InputError("--photons: at most 2147483647 photon paths per pass on the wavefront, got " +
                      std::to_string(o.photons));
@@ -145,12 +148,23 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (opt_.spp == 0 && opt_.time == 0.0 && !target) opt_.spp = 16;
   if (is_photon_integrator(opt_.integrator) && !uses_wavefront(opt_))
     photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
-  if (is_vcm_integrator(opt_.integrator)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
+  if (is_vcm_integrator(opt_.integrator) && !uses_wavefront(opt_)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
   if (opt_.integrator == "upg") upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
   if (uses_wavefront(opt_)) stage_totals_ = std::make_unique<WavefrontPassStats>();
   lanes_ = opt_.lanes && opt_.integrator == "path" && !uses_wavefront(opt_) && path_lanes_available() &&
            path_lanes_supported(scene_->view(), path_params());
-  if (uses_wavefront(opt_) && opt_.integrator != "path") {
+  if (uses_wavefront(opt_) && is_vcm_integrator(opt_.integrator)) {
+    const SceneView& v = scene_->view();
+    const uint32_t pixels = uint32_t(v.camera.width) * uint32_t(v.camera.height);
+    VcmWavefrontParams p;
+    p.base = vcm_pass_params(opt_, vcm_mode(opt_.integrator), path_params().max_depth, 0, pixels);
+    p.light_paths = vcm_light_paths(opt_, pixels);
+    p.radius = vcm_initial_radius(*scene_, opt_);
+    p.alpha = opt_.alpha;
+    int dev = cuda_device_index(opt_.device);
+    wavefront_ = dev >= 0 ? make_cuda_vcm_wavefront(scene_, p, dev)
+                          : make_cpu_vcm_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());
+  } else if (uses_wavefront(opt_) && opt_.integrator != "path") {
     PhotonWavefrontParams p;
     p.pppm = opt_.integrator == "pppm";
     p.seed = opt_.seed;

@@ -17,13 +17,14 @@ namespace caustica {
 
 bool is_vcm_integrator(const std::string& n) { return n == "light" || n == "bdpt" || n == "bpm" || n == "vcm"; }
 
+VcmMode vcm_mode(const std::string& n) {
+  return n == "light" ? VcmMode::kLight : n == "bdpt" ? VcmMode::kBpt : n == "bpm" ? VcmMode::kBpm : VcmMode::kVcm;
+}
+
 VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt)
     : scene_(std::move(scene)), opt_(opt) {
   const SceneView& v = scene_->view();
-  mode_ = int(opt.integrator == "light"  ? VcmMode::kLight
-              : opt.integrator == "bdpt" ? VcmMode::kBpt
-              : opt.integrator == "bpm"  ? VcmMode::kBpm
-                                         : VcmMode::kVcm);
+  mode_ = int(vcm_mode(opt.integrator));
   int md = opt.max_depth == -2 ? scene_->desc().max_depth : opt.max_depth;
   max_depth_ = md < 0 ? 0xffffffffu : uint32_t(md);
   W_ = v.camera.width;
@@ -34,8 +35,7 @@ VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   // Every eye vertex merges here (not only one visible point per pixel), so the
   // merge cost grows with r^2; at twice the footprint vcm lost to SmallVCM on
   // smallvcm-point, at one footprint it won (bench/RESULTS.md, bidirectional).
-  r0_ = opt.radius;
-  if (!(r0_ > 0.f)) r0_ = 0.5f * automatic_radius(*scene_);
+  r0_ = vcm_initial_radius(*scene_, opt);
   if (opt.strategy_images) {
     for (uint32_t k = 1; k <= kStrategyMaxLength; ++k)
       for (uint32_t s = 0; s <= k; ++s)
@@ -69,8 +69,14 @@ std::vector<std::pair<std::string, std::vector<float>>> VcmIntegrator::strategy_
   return out;
 }
 
-float VcmIntegrator::radius(int64_t pass) const {
-  return float(double(r0_) * std::pow(double(pass + 1), 0.5 * (double(opt_.alpha) - 1.0)));
+float VcmIntegrator::radius(int64_t pass) const { return vcm_radius(r0_, opt_.alpha, pass); }
+
+float vcm_radius(float r0, float alpha, int64_t pass) {
+  return float(double(r0) * std::pow(double(pass + 1), 0.5 * (double(alpha) - 1.0)));
+}
+
+float vcm_initial_radius(const Scene& scene, const RenderOptions& opt) {
+  return opt.radius > 0.f ? opt.radius : 0.5f * automatic_radius(scene);
 }
 
 // Stage 1 of vcm and upg: n light subpaths traced in fixed chunks of 1024

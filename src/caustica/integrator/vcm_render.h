@@ -17,6 +17,7 @@
 namespace caustica {
 
 bool is_vcm_integrator(const std::string& name);
+VcmMode vcm_mode(const std::string& name);  // of a bidirectional integrator's name
 
 class CpuAccel;
 
@@ -35,6 +36,10 @@ bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const CpuAccel
 // subpath i mod n_light (n_VC = 1), merges, gathers and light tracing use all of them (N_VM = n_light).
 VcmParams vcm_pass_params(const RenderOptions& opt, VcmMode mode, uint32_t max_depth, int64_t pass, uint32_t pixels);
 uint32_t vcm_light_paths(const RenderOptions& opt, uint32_t pixels);  // light subpaths per pass
+// The merge radius of pass `pass` (0-based): r_1 (pass + 1)^((alpha - 1) / 2) (Georgiev et al. 2012, Sec. 5).
+float vcm_radius(float r0, float alpha, int64_t pass);
+// r_1: RenderOptions::radius, else half the photon integrators' automatic radius (see the constructor).
+float vcm_initial_radius(const Scene& scene, const RenderOptions& opt);
 // Last stage of vcm and upg: adds a finished pass to `sum` (3 per pixel): the camera estimates, then the
 // light-tracing splats in chunk order (so images do not depend on the thread count); on_splat, if given,
 // sees each splat's finite value at each pixel it reaches.

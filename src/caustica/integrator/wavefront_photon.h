@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "../backend/backend.h"
+#include "../backend/backend_algorithms.h"
 #include "../photon/trace.h"
 #include "path.h"
 #include "sppm.h"
@@ -74,11 +75,7 @@ class BackendPhotonGrid {
     }
     // Table: the smallest power of two >= 2n (at most half the slots occupied).
     uint32_t table = 1;
-    int bits = 0;
-    while (uint64_t(table) < 2 * uint64_t(n)) {
-      table <<= 1;
-      ++bits;
-    }
+    while (uint64_t(table) < 2 * uint64_t(n)) table <<= 1;
     const uint32_t mask = table - 1;
     if (compact_.size() < n) compact_.resize(n);
     if (keys_.size() < n) keys_.resize(n);
@@ -93,16 +90,11 @@ class BackendPhotonGrid {
       keys[i] = grid_slot(g.cell_of(decode_position(compact[i].q, g.quant)), mask);
       values[i] = i;
     });
-    b.sort_pairs(keys, values, n, bits > 0 ? bits : 1, tmp_k_, tmp_v_);
+    b.sort_pairs(keys, values, n, key_bits_for(table), tmp_k_, tmp_v_);
     CompactPhoton* sorted = sorted_.data();
     uint32_t* cell_start = cell_start_.data();
     b.parallel_for(n, CAUSTICA_KERNEL(uint32_t j) { sorted[j] = compact[values[j]]; });
-    // cell_start[s] = the first position j with slot[j] >= s: each s written by exactly one j.
-    b.parallel_for(n + 1, CAUSTICA_KERNEL(uint32_t j) {
-      int64_t prev = j == 0 ? -1 : int64_t(keys[j - 1]);
-      int64_t cur = j == n ? int64_t(table) : int64_t(keys[j]);
-      for (int64_t s = prev + 1; s <= cur; ++s) cell_start[s] = j;
-    });
+    write_run_starts(b, keys, n, table, cell_start);  // cell_start[s]: the first position with slot >= s
     view_ = shape_;
     view_.photons = sorted;
     view_.cell_start = cell_start;
@@ -111,6 +103,9 @@ class BackendPhotonGrid {
   }
 
   const PhotonGridView& view() const { return view_; }
+  // Without stochastic hashing: each record's index in build()'s input, in the grid's order (the view has
+  // no ids; integrators that keep more per photon reorder their records by these).
+  const uint32_t* ids() const { return values_.data(); }
 
   // Stochastic hashing (hash_grid.h): the photons sorted by (cell, index), one kept per cell, chosen
   // uniformly by a hash of (seed, cell), its power multiplied by the cell's photon count.
@@ -375,16 +370,7 @@ class WavefrontPhoton {
 
   // Grows the photon array keeping its contents (public: nvcc's device lambdas may not live in private
   // member functions).
-  void reserve_photons(size_t n) {
-    if (photons_.size() >= n) return;
-    size_t cap = photons_.size() ? photons_.size() : size_t(p_.photons) * 2 + 1024;
-    while (cap < n) cap *= 2;
-    Buffer<Photon> bigger(cap);
-    const Photon* from = photons_.data();
-    Photon* to = bigger.data();
-    b_.parallel_for(uint32_t(photons_.size()), CAUSTICA_KERNEL(uint32_t i) { to[i] = from[i]; });
-    std::swap(photons_, bigger);
-  }
+  void reserve_photons(size_t n) { reserve_keep(b_, photons_, n, photons_.size(), size_t(p_.photons) * 2 + 1024); }
 
  private:
   const B& b_;

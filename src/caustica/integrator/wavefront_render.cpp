@@ -40,4 +40,11 @@ std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Sce
   });
 }
 
+std::unique_ptr<WavefrontRenderer> make_cpu_vcm_wavefront(std::shared_ptr<Scene> scene, const VcmWavefrontParams& p,
+                                                          const CpuAccel* accel) {
+  return std::make_unique<CpuWavefront>(std::move(scene), accel, [&](const CpuBackend& b, std::string name) {
+    return std::make_unique<VcmWavefrontRenderer<CpuBackend>>(b, std::move(name), p);
+  });
+}
+
 }  // namespace caustica

@@ -9,6 +9,7 @@
 
 #include "../scene/scene.h"
 #include "path.h"
+#include "vcm.h"
 
 namespace caustica {
 
@@ -25,7 +26,8 @@ struct WavefrontPassStats {
   uint64_t stored_photons = 0;  // photons in the grid's input (before stochastic hashing)
 };
 
-// A render on a backend, pass by pass: the path tracer (wavefront_path.h) or sppm/pppm (wavefront_photon.h).
+// A render on a backend, pass by pass: the path tracer (wavefront_path.h), sppm/pppm (wavefront_photon.h)
+// or light/bdpt/bpm/vcm (wavefront_vcm.h).
 class WavefrontRenderer {
  public:
   virtual ~WavefrontRenderer() = default;
@@ -63,5 +65,16 @@ struct PhotonWavefrontParams {
 };
 std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
                                                              const PhotonWavefrontParams& p, const CpuAccel* accel);
+
+// What the bidirectional wavefront needs beyond the scene (RenderOptions of light / bdpt / bpm / vcm,
+// resolved as the CPU driver resolves them: vcm_render.h).
+struct VcmWavefrontParams {
+  VcmParams base;              // mode, depths, seed, sampler, n_light; pass and radius are set per pass
+  uint32_t light_paths = 0;    // light subpaths per pass (exact; base.n_light is its float)
+  float radius = 0.f;          // r_1 (resolved: > 0)
+  float alpha = 0.75f;         // radius schedule r_i = r_1 i^((alpha - 1) / 2)
+};
+std::unique_ptr<WavefrontRenderer> make_cpu_vcm_wavefront(std::shared_ptr<Scene> scene, const VcmWavefrontParams& p,
+                                                          const CpuAccel* accel);
 
 }  // namespace caustica

@@ -1,5 +1,5 @@
-// The WavefrontRenderer handles (wavefront_render.h) over any backend: the path tracer and the photon
-// integrators, turning their device statistics into images the way the CPU drivers do. Included by the
+// The WavefrontRenderer handles (wavefront_render.h) over any backend: the path tracer, the photon
+// integrators and the bidirectional ones, turning their device statistics into images the way the CPU drivers do. Included by the
 // CPU backend's factory (wavefront_render.cpp) and the CUDA backend's (backend/cuda/cuda_render.cu).
 #pragma once
 #include <string>
@@ -8,6 +8,7 @@
 #include "render.h"
 #include "wavefront_path.h"
 #include "wavefront_photon.h"
+#include "wavefront_vcm.h"
 
 namespace caustica {
 
@@ -61,6 +62,24 @@ class PhotonWavefrontRenderer final : public WavefrontRenderer {
   PhotonWavefrontParams p_;
   std::string name_;
   size_t pixels_;
+};
+
+template <class B>
+class VcmWavefrontRenderer final : public WavefrontRenderer {
+ public:
+  VcmWavefrontRenderer(const B& b, std::string name, const VcmWavefrontParams& p)
+      : wf_(b, p), r0_(p.radius), name_(std::move(name)) {}
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    return wf_.render_pass(pass, cancel, stats);
+  }
+  std::vector<float> image(int64_t passes) const override { return wf_.image(passes); }
+  std::string device_name() const override { return name_; }
+  float initial_radius() const override { return r0_; }
+
+ private:
+  WavefrontVcm<B> wf_;
+  float r0_;
+  std::string name_;
 };
 
 // A renderer that owns a backend (and what the backend needs) and forwards every call to the renderer built

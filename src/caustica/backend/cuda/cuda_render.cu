@@ -1,6 +1,7 @@
 // The CUDA backend: the backend primitives (CUB scan; sort and reduce are templates in cuda_backend.cuh),
-// the scene in device memory, the device list, and the wavefront path tracer and photon integrators
-// (integrator/wavefront_path.h, wavefront_photon.h) instantiated on CudaBackend.
+// the scene in device memory, the device list, and the wavefront path tracer, photon integrators and
+// bidirectional integrators (integrator/wavefront_path.h, wavefront_photon.h, wavefront_vcm.h)
+// instantiated on CudaBackend.
 #include <map>
 
 #include "../../base/error.h"
@@ -189,6 +190,13 @@ std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Sc
                                                               const PhotonWavefrontParams& p, int device) {
   return std::make_unique<CudaWavefront>(std::move(scene), device, [&](const CudaBackend& b, std::string name) {
     return std::make_unique<PhotonWavefrontRenderer<CudaBackend>>(b, std::move(name), p);
+  });
+}
+
+std::unique_ptr<WavefrontRenderer> make_cuda_vcm_wavefront(std::shared_ptr<Scene> scene, const VcmWavefrontParams& p,
+                                                           int device) {
+  return std::make_unique<CudaWavefront>(std::move(scene), device, [&](const CudaBackend& b, std::string name) {
+    return std::make_unique<VcmWavefrontRenderer<CudaBackend>>(b, std::move(name), p);
   });
 }
 

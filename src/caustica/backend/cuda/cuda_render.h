@@ -33,6 +33,10 @@ std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene> sc
 std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Scene> scene,
                                                               const PhotonWavefrontParams& p, int device);
 
+// light / bdpt / bpm / vcm on CUDA device `device` (integrator/wavefront_vcm.h).
+std::unique_ptr<WavefrontRenderer> make_cuda_vcm_wavefront(std::shared_ptr<Scene> scene, const VcmWavefrontParams& p,
+                                                           int device);
+
 // Ray queries on CUDA device `device` over the portable BVH, for the accelerator tests and bench_bvh:
 // closest hits of `rays` (any_hit false) or occlusion (any_hit true: hits[i].prim != ~0u marks an occluded
 // ray), copied back to `hits`. Returns the seconds of one traversal kernel, the best of `repeats` (CUDA

@@ -27,6 +27,10 @@ std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Sc
   no_cuda();
 }
 
+std::unique_ptr<WavefrontRenderer> make_cuda_vcm_wavefront(std::shared_ptr<Scene>, const VcmWavefrontParams&, int) {
+  no_cuda();
+}
+
 double cuda_trace_rays(const Scene&, const std::vector<Ray>&, bool, std::vector<Hit>&, int, int) { no_cuda(); }
 
 }  // namespace caustica

@@ -1,0 +1,46 @@
+// Small algorithms over the backend interface (backend.h) that more than one wavefront driver needs.
+#pragma once
+#include <cstdint>
+#include <type_traits>
+#include <utility>
+
+#include "backend.h"
+
+namespace caustica {
+
+// The bits a radix sort needs for keys in [0, n): at least 1.
+inline int key_bits_for(uint64_t n) {
+  int bits = 1;
+  while (bits < 64 && (uint64_t(1) << bits) < n) ++bits;
+  return bits;
+}
+
+// Run starts of sorted keys: start[s] = the first position j < n with keys[j] >= s, for every s in
+// [0, table] (start[table] = n; keys < table). Each s is written by exactly one thread (the position
+// where the keys step past it), so no counting and no atomics: the same array as counting keys per value
+// and taking an exclusive prefix sum.
+template <class B>
+void write_run_starts(const B& b, const uint32_t* keys, uint32_t n, uint32_t table, uint32_t* start) {
+  b.parallel_for(n + 1, CAUSTICA_KERNEL(uint32_t j) {
+    int64_t prev = j == 0 ? -1 : int64_t(keys[j - 1]);
+    int64_t cur = j == n ? int64_t(table) : int64_t(keys[j]);
+    for (int64_t s = prev + 1; s <= cur; ++s) start[s] = j;
+  });
+}
+
+// Grows `buf` (a backend Buffer) to hold at least `need` elements, keeping its first `used` ones: doubles
+// from `first` (or the current size) until it fits.
+template <class B, class Buf>
+void reserve_keep(const B& b, Buf& buf, size_t need, size_t used, size_t first) {
+  if (buf.size() >= need) return;
+  using T = std::remove_const_t<std::remove_reference_t<decltype(*buf.data())>>;
+  size_t cap = buf.size() ? buf.size() : (first ? first : 1);
+  while (cap < need) cap *= 2;
+  Buf bigger(cap);
+  const T* from = buf.data();
+  T* to = bigger.data();
+  b.parallel_for(uint32_t(used), CAUSTICA_KERNEL(uint32_t i) { to[i] = from[i]; });
+  std::swap(buf, bigger);
+}
+
+}  // namespace caustica
