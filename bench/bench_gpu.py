@@ -13,7 +13,7 @@
                 build, gather) at 1920x1080 visible points and PHOTONS photon paths per pass on `cornell` and
                 `smallvcm-spheres`; the grid build time per million stored photons; also with stochastic
                 hashing (Hachisuka & Jensen 2010).
-  bdpt, vcm     ms per pass and rays/s (camera, light, visibility rays together) at 1920x1080 on
+  bdpt, vcm, upg  ms per pass and rays/s (camera, light, visibility and trial rays together) at 1920x1080 on
                 `smallvcm-spheres`, one light subpath per pixel (wavefront_vcm.h).
 
 Targets (issue 7, H100): >= 1e9 rays/s for the path tracer on cornell at 1080p; a complete SPPM pass
@@ -154,7 +154,7 @@ def bench_sppm(scene, a, label: str) -> list[dict]:
 
 def bench_bidirectional(scene, a, label: str) -> list[dict]:
     rows = []
-    for integrator in ("bdpt", "vcm"):
+    for integrator in ("bdpt", "vcm", "upg"):
         kw = dict(integrator=integrator, spp=a.bidir_spp, seed=1, max_depth=8, device=a.device)
         if a.device == "cpu":
             kw["wavefront"] = True
@@ -173,7 +173,7 @@ def main() -> int:
     ap.add_argument("--height", type=int, default=1080)
     ap.add_argument("--spp", type=int, default=16, help="passes per render (path: samples per pixel)")
     ap.add_argument("--photons", type=int, default=1_000_000, help="sppm: photon paths per pass")
-    ap.add_argument("--bidir-spp", type=int, default=4, help="bdpt, vcm: passes per render")
+    ap.add_argument("--bidir-spp", type=int, default=4, help="bdpt, vcm, upg: passes per render")
     ap.add_argument("--triangles", type=int, default=1_000_000, help="the torus scene's triangle count")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--no-results", action="store_true", help="do not append to bench/RESULTS.md")

@@ -174,7 +174,7 @@ TEST(Wavefront, OptionsAreCheckedWithOneLineErrors) {
   o.sort_materials = true;
   EXPECT_THROW(make_job(sc, o), InputError);  // not a wavefront render
   o = path_options(1, 0);
-  o.integrator = "upg";
+  o.integrator = "pm";
   o.wavefront = true;
   EXPECT_THROW(make_job(sc, o), InputError);  // not on the wavefront
   o.integrator = "sppm";
@@ -312,9 +312,9 @@ TEST(WavefrontPhoton, CancelledPassChangesNothing) {
   EXPECT_EQ(two.size(), before.size());
 }
 
-// light, bdpt, bpm and vcm on the CPU backend (integrator/wavefront_vcm.h) run the CPU driver's stage
-// functions in the same order per path, keep light vertices and splats in its path order, build the same
-// merge grid and add each pixel's terms in its order: the images are the CPU driver's bit for bit. Scenes
+// light, bdpt, bpm, vcm and upg on the CPU backend (integrator/wavefront_vcm.h) run the CPU drivers' stage
+// functions in the same order per path, keep light vertices and splats in their path order, build the same
+// grid and add each pixel's terms in their order: the images are the CPU drivers' bit for bit. Scenes
 // with an area light, a point light inside glass, a sun, an environment; the box filter and the gaussian
 // (splats reach several pixels); one light subpath per pixel and fewer (camera path i connects to light
 // subpath i mod n), depth limits.
@@ -335,7 +335,7 @@ TEST(WavefrontVcm, CpuBackendMatchesTheCpuDriverBitForBit) {
     d.filter = c.filter;
     auto sc = Scene::build(d);
     sc->set_resolution(30, 22);
-    for (const char* integrator : {"light", "bdpt", "bpm", "vcm"}) {
+    for (const char* integrator : {"light", "bdpt", "bpm", "vcm", "upg"}) {
       RenderOptions o;
       o.integrator = integrator;
       o.spp = 3;
@@ -409,17 +409,17 @@ TEST(WavefrontVcm, RefusesWhatOnlyTheCpuDriverDoes) {
   o.strategy_images = true;
   EXPECT_THROW(make_job(sc, o), InputError);
   o.strategy_images = false;
-  o.integrator = "upg";
+  o.integrator = "ppm";
   EXPECT_THROW(make_job(sc, o), InputError);
 }
 
-// On a GPU: light, bdpt, bpm and vcm agree with the CPU wavefront per region (independent seeds, 4
+// On a GPU: light, bdpt, bpm, vcm and upg agree with the CPU wavefront per region (independent seeds, 4
 // standard errors).
 TEST(Cuda, BidirectionalMatchesTheCpuPerRegion) {
   std::string why;
   if (cuda_devices(&why).empty()) GTEST_SKIP() << "no CUDA device: " << why;
   auto sc = small_scene("smallvcm-spheres", 32, 32);
-  for (const char* integrator : {"light", "bdpt", "bpm", "vcm"}) {
+  for (const char* integrator : {"light", "bdpt", "bpm", "vcm", "upg"}) {
     RenderOptions o = photon_options(integrator, 8, 0);
     o.accel = "bvh";
     o.wavefront = true;

@@ -43,8 +43,8 @@ def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
     for args, msg in ((["--wavefront", "--cache-first-bounce"], "--cache-first-bounce needs --no-jitter"),
                       (["--sort-materials"], "--sort-materials applies to the wavefront path tracer"),
                       (["--no-compaction"], "--no-compaction applies to the wavefront path tracer"),
-                      (["--wavefront", "--integrator", "upg"],
-                       "--wavefront runs path, sppm, pppm, light, bdpt, bpm and vcm"),
+                      (["--wavefront", "--integrator", "ppm"],
+                       "--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm and upg"),
                       (["--wavefront", "--integrator", "bdpt", "--strategy-images", str(tmp_path)],
                        "--strategy-images runs on the CPU driver only"),
                       (["--wavefront", "--integrator", "sppm", "--sort-materials"],
@@ -68,7 +68,7 @@ def test_cpu_wavefront_photon_mapping_matches_the_photon_integrator(integrator):
     np.testing.assert_allclose(r.image, ref, rtol=1e-5, atol=1e-9)
 
 
-@pytest.mark.parametrize("integrator", ["light", "bdpt", "bpm", "vcm"])
+@pytest.mark.parametrize("integrator", ["light", "bdpt", "bpm", "vcm", "upg"])
 def test_cpu_wavefront_bidirectional_gives_the_cpu_drivers_image(integrator):
     # The same stage functions in the same order per path and per pixel: bit for bit (wavefront_vcm.h).
     s = caustica.load_scene("smallvcm-spheres", width=24, height=20)
@@ -82,7 +82,7 @@ def test_cpu_wavefront_bidirectional_gives_the_cpu_drivers_image(integrator):
 
 
 @needs_gpu
-@pytest.mark.parametrize("integrator", ["light", "bdpt", "bpm", "vcm"])
+@pytest.mark.parametrize("integrator", ["light", "bdpt", "bpm", "vcm", "upg"])
 def test_gpu_bidirectional_matches_the_cpu_per_region(integrator):
     s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
     m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112))

@@ -102,12 +102,12 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.device != "cpu" && !cuda)
     throw InputError("unknown device '" + o.device + "' (allowed: cpu, cuda, cuda:N)");
   const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "pppm" ||
-                                    is_vcm_integrator(o.integrator);
+                                    is_vcm_integrator(o.integrator) || o.integrator == "upg";
   if (cuda && !wavefront_integrator)
     throw InputError("integrator '" + o.integrator + "' does not run on the CUDA backend yet (allowed with " +
-                     "--device cuda: path, sppm, pppm, light, bdpt, bpm, vcm)");
+                     "--device cuda: path, sppm, pppm, light, bdpt, bpm, vcm, upg)");
   if (o.wavefront && !wavefront_integrator)
-    throw InputError("--wavefront runs path, sppm, pppm, light, bdpt, bpm and vcm, got '" + o.integrator + "'");
+    throw InputError("--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm and upg, got '" + o.integrator + "'");
   if (uses_wavefront(o) && o.strategy_images)
     throw InputError("--strategy-images runs on the CPU driver only (not with --wavefront or --device cuda)");
   if (uses_wavefront(o) && is_photon_integrator(o.integrator) && o.photons > 0x7fffffff)
@@ -149,11 +149,11 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (is_photon_integrator(opt_.integrator) && !uses_wavefront(opt_))
     photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator) && !uses_wavefront(opt_)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
-  if (opt_.integrator == "upg") upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
+  if (opt_.integrator == "upg" && !uses_wavefront(opt_)) upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
   if (uses_wavefront(opt_)) stage_totals_ = std::make_unique<WavefrontPassStats>();
   lanes_ = opt_.lanes && opt_.integrator == "path" && !uses_wavefront(opt_) && path_lanes_available() &&
            path_lanes_supported(scene_->view(), path_params());
-  if (uses_wavefront(opt_) && is_vcm_integrator(opt_.integrator)) {
+  if (uses_wavefront(opt_) && (is_vcm_integrator(opt_.integrator) || opt_.integrator == "upg")) {
     const SceneView& v = scene_->view();
     const uint32_t pixels = uint32_t(v.camera.width) * uint32_t(v.camera.height);
     VcmWavefrontParams p;

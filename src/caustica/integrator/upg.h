@@ -225,11 +225,62 @@ CHD bool upg_in_disc(const VcmParams& p, Vec3f eye, Vec3f photon) {
   return length_sq(eye - photon) < p.radius * p.radius;
 }
 
+// The hash grid holds quantized positions: a gather queries radius r plus this slack (above the quantization
+// error of a grid over `bounds`) and makes the exact test upg_in_disc on full-precision positions.
+CHD float upg_query_slack(const Bounds3& bounds, float r) {
+  Vec3f ext = bounds.hi - bounds.lo;
+  float e = ext.x > ext.y ? ext.x : ext.y;
+  e = e > ext.z ? e : ext.z;
+  float a = 0.05f * r, b = 2.f * e / 65535.f;
+  return a > b ? a : b;
+}
+
 // The trial random stream of (pass, pixel, eye vertex, photon).
 CHD PCG32 upg_trial_rng(const VcmParams& p, uint32_t pixel, uint32_t eye_length, uint32_t photon) {
   return PCG32(hash3(p.seed ^ 0x7570670000000000ull, (uint64_t(p.pass) << 32) | pixel,
                      (uint64_t(eye_length) << 32) | photon),
                mix64(p.seed + 0x9e3779b97f4a7c15ull * (uint64_t(pixel) + 1)));
+}
+
+struct UpgGatherCounts {
+  uint32_t rays = 0;    // connection visibility rays
+  uint32_t trials = 0;  // trial rays for 1/P
+  uint32_t capped = 0;  // gathers whose trials reached the cap
+};
+
+// The gather at eye hit `st` (z_t) from the previous non-delta eye vertex `prev` (z_{t-1}): every light
+// vertex of `grid` (queried with radius `query_r`, reporting indices into `verts`) inside the disc,
+// connected to prev with its trial estimate of 1/P, added to st.L in the grid's order. `tracer` answers
+// intersect(Ray, Hit&) and occluded(Ray). Shared by the CPU driver and the wavefront.
+template <class Tracer>
+CHD UpgGatherCounts upg_gather_all(const SceneView& s, const VcmParams& p, const VcmPathState& prev,
+                                   VcmPathState& st, const PhotonGridView& grid, float query_r,
+                                   const VcmLightVertex* verts, uint32_t pixel, const Tracer& tracer) {
+  UpgGatherCounts c;
+  if (grid.num_photons == 0) return c;
+  grid.query_indexed(st.sh.p, query_r, [&](uint32_t id, const Photon&) {
+    const VcmLightVertex& v = verts[id];
+    if (!upg_in_disc(p, st.sh.p, v.sh.p)) return;
+    PCG32 rng = upg_trial_rng(p, pixel, prev.length, id);
+    UpgGather g;
+    upg_gather(s, p, prev, v, rng.next_float(), g);
+    if (!g.active) return;
+    ++c.rays;
+    if (tracer.occluded(g.conn.ray)) return;
+    uint32_t cast = 0;
+    float inv_p = upg_inv_p(p, prev, v.sh.p, rng, cast, [&](const Ray& tr) {
+      Hit th;
+      tracer.intersect(tr, th);
+      return upg_trial_lands(s, p, tr, th, v.sh.p);
+    });
+    c.trials += cast;
+    if (!(inv_p > 0.f)) {
+      ++c.capped;
+      return;
+    }
+    st.L += g.conn.contrib * inv_p;
+  });
+  return c;
 }
 
 }  // namespace caustica

@@ -26,8 +26,7 @@ UpgIntegrator::UpgIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   // The gathering radius is fixed (no shrinking: the estimator is unbiased for any r).
   // Default: one median pixel footprint of first hits, as vcm (docs/integrators.md: on the
   // SmallVCM scenes twice that cost 1.6-2.9x more time for the same variance).
-  r_ = opt.radius;
-  if (!(r_ > 0.f)) r_ = 0.5f * automatic_radius(*scene_);
+  r_ = vcm_initial_radius(*scene_, opt);
 }
 
 bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
@@ -51,11 +50,8 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   // made on the full-precision vertex positions.
   PhotonHashGrid grid;
   PhotonGridView gv;
-  float slack = 0.f;
+  const float slack = upg_query_slack(s.bounds, r_);
   if (!verts.empty()) {
-    Vec3f ext = s.bounds.hi - s.bounds.lo;
-    float e = std::max(ext.x, std::max(ext.y, ext.z));
-    slack = std::max(0.05f * r_, 2.f * e / 65535.f);
     std::vector<Photon> ph(verts.size());
     for (size_t k = 0; k < verts.size(); ++k) {
       ph[k].p = verts[k].sh.p;
@@ -70,7 +66,6 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   std::vector<RGB> pass_L(n, RGB(0.f));
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
     uint64_t nrays = 0, ntrials = 0, ncapped = 0;
-    std::vector<uint32_t> found;
     for (int y = r.begin(); y < r.end(); ++y) {
       if (cancel.load(std::memory_order_relaxed)) break;
       for (int x = 0; x < W_; ++x) {
@@ -83,35 +78,13 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
           accel.intersect(st.ray, hit);
           ++nrays;
           vcm_camera_hit(s, p, st, hit);
-          // Gather at this eye hit z_t (whatever its material) from z_{t-1} = prev.
-          if (have_prev && hit.valid() && gv.num_photons > 0) {
-            found.clear();
-            gv.query_indexed(st.sh.p, r_ + slack, [&](uint32_t id, const Photon&) {
-              if (upg_in_disc(p, st.sh.p, verts[id].sh.p)) found.push_back(id);
-            });
-            std::sort(found.begin(), found.end());  // a fixed order for the sum
-            for (uint32_t id : found) {
-              const VcmLightVertex& v = verts[id];
-              PCG32 rng = upg_trial_rng(p, pix, prev.length, id);
-              UpgGather g;
-              upg_gather(s, p, prev, v, rng.next_float(), g);
-              if (!g.active) continue;
-              ++nrays;
-              if (accel.occluded(g.conn.ray)) continue;
-              uint32_t cast = 0;
-              auto lands = [&](const Ray& tr) {
-                Hit th;
-                accel.intersect(tr, th);
-                return upg_trial_lands(s, p, tr, th, v.sh.p);
-              };
-              float inv_p = upg_inv_p(p, prev, v.sh.p, rng, cast, lands);
-              ntrials += cast;
-              if (!(inv_p > 0.f)) {
-                ++ncapped;
-                continue;
-              }
-              st.L += g.conn.contrib * inv_p;
-            }
+          // Gather at this eye hit z_t (whatever its material) from z_{t-1} = prev, in the grid's order
+          // (a fixed order: the grid and its query are deterministic; the wavefront driver sums the same way).
+          if (have_prev && hit.valid()) {
+            UpgGatherCounts c = upg_gather_all(s, p, prev, st, gv, r_ + slack, verts.data(), pix, accel);
+            nrays += c.rays;
+            ntrials += c.trials;
+            ncapped += c.capped;
           }
           if (!st.active) break;
           VcmShadow sr;

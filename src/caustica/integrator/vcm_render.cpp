@@ -18,7 +18,11 @@ namespace caustica {
 bool is_vcm_integrator(const std::string& n) { return n == "light" || n == "bdpt" || n == "bpm" || n == "vcm"; }
 
 VcmMode vcm_mode(const std::string& n) {
-  return n == "light" ? VcmMode::kLight : n == "bdpt" ? VcmMode::kBpt : n == "bpm" ? VcmMode::kBpm : VcmMode::kVcm;
+  return n == "light" ? VcmMode::kLight
+         : n == "bdpt" ? VcmMode::kBpt
+         : n == "bpm"  ? VcmMode::kBpm
+         : n == "upg"  ? VcmMode::kUpg
+                       : VcmMode::kVcm;
 }
 
 VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt)

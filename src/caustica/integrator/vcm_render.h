@@ -17,7 +17,7 @@
 namespace caustica {
 
 bool is_vcm_integrator(const std::string& name);
-VcmMode vcm_mode(const std::string& name);  // of a bidirectional integrator's name
+VcmMode vcm_mode(const std::string& name);  // of a bidirectional integrator's name, or upg's
 
 class CpuAccel;
 

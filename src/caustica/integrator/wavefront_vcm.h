@@ -1,8 +1,9 @@
 // Light tracing, bidirectional path tracing, bidirectional photon mapping and vertex connection and
 // merging (vcm.h: Veach 1997 Ch. 10; Georgiev, Krivanek, Davidovic & Slusallek 2012; Georgiev's
-// "Implementing VCM" report for the MIS quantities) as wavefronts over the backend interface
-// (backend/backend.h). The stage functions are the CPU driver's (vcm_render.cpp); this file only orders
-// them into passes over queues, so the CPU backend reproduces the CPU driver bit for bit
+// "Implementing VCM" report for the MIS quantities), and unbiased photon gathering combined with BDPT
+// (upg.h: Qin, Sun, Hou, Guo & Zhou 2015), as wavefronts over the backend interface (backend/backend.h).
+// The stage functions are the CPU drivers' (vcm_render.cpp, upg_render.cpp); this file only orders them
+// into passes over queues, so the CPU backend reproduces the CPU drivers bit for bit
 // (tests/cpp/test_wavefront.cpp). One pass:
 //   light subpaths  one segment per stage over a queue of paths (vcm_light_start, then per depth:
 //                   intersect; vcm_light_hit, vcm_light_to_camera with its visibility ray,
@@ -12,11 +13,14 @@
 //                   the path's vertex range comes from the run starts of the sorted keys
 //   merge grid      bpm, vcm: the photon hash grid (wavefront_photon.h's BackendPhotonGrid, the
 //                   construction of hash_grid.h) over the vertices, cells of 2r, and the merge records
-//                   (VcmMergeVertex) in the grid's order
+//                   (VcmMergeVertex) in the grid's order; upg: cells of 2(r + slack), reporting vertex
+//                   indices
 //   camera subpaths one per pixel, one segment per stage: intersect; then vcm_camera_hit, next-event
 //                   estimation, the connections to every vertex of light subpath (pixel mod n_light) and
 //                   the merges, each visibility ray traced in the same thread (the CPU driver's order of
-//                   additions to the path's radiance), vcm_camera_continue; compaction
+//                   additions to the path's radiance), vcm_camera_continue; compaction. upg gathers at
+//                   each eye hit from the previous non-delta eye vertex first (upg_gather_all: trial rays
+//                   in the same thread), then connects as bdpt
 //   accumulation    each splat's pixels (vcm_splat_pixels) listed by a prefix sum of their counts, stably
 //                   sorted by pixel; one thread per pixel adds its camera estimate, then its splats in
 //                   path order, in double precision: per pixel the CPU driver's sequence of additions,
@@ -29,6 +33,7 @@
 
 #include "../backend/backend.h"
 #include "../backend/backend_algorithms.h"
+#include "upg.h"
 #include "vcm.h"
 #include "vcm_render.h"
 #include "wavefront_photon.h"
@@ -57,6 +62,10 @@ class WavefrontVcm {
     scan_.resize(q);
     flags2_.resize(q);
     scan2_.resize(q);
+    if (p_.base.mode == VcmMode::kUpg) {
+      prev_.resize(n_);
+      have_prev_.resize(n_);
+    }
     staged_verts_.resize(nl);
     staged_splats_.resize(nl);
     start_.resize(size_t(nl) + 1);
@@ -75,7 +84,8 @@ class WavefrontVcm {
     const auto tracer = b_.tracer();
     VcmParams p = p_.base;
     p.pass = pass;
-    vcm_set_radius(p, vcm_radius(p_.radius, p_.alpha, int64_t(pass)));
+    const bool upg = p.mode == VcmMode::kUpg;  // a fixed radius: the gather is unbiased for any r
+    vcm_set_radius(p, upg ? p_.radius : vcm_radius(p_.radius, p_.alpha, int64_t(pass)));
     stats = WavefrontPassStats();
     auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
     const uint32_t nl = p_.light_paths;
@@ -137,9 +147,11 @@ class WavefrontVcm {
     if (keep) write_run_starts(b_, vkeys_.data(), nverts, nl, start_.data());
     stats.photons = nl;
 
-    // 2. The hash grid of light vertices for merging (cells of 2r), the merge records in the grid's order.
+    // 2. The hash grid of light vertices for merging (cells of 2r), the merge records in the grid's order;
+    // for upg's gathers, cells of 2(r + slack) and the grid reports vertex indices.
     PhotonGridView gv;
-    if (p.merges() && nverts > 0) {
+    const float query_r = p.radius + upg_query_slack(s.bounds, p.radius);
+    if ((p.merges() || upg) && nverts > 0) {
       if (photons_.size() < nverts) photons_.resize(nverts);
       if (merge_verts_.size() < nverts) merge_verts_.resize(nverts);
       Photon* ph = photons_.data();
@@ -151,11 +163,15 @@ class WavefrontVcm {
         x.power = verts[k].beta;
         ph[k] = x;
       });
-      grid_.build(b_, ph, nverts, s.bounds, 2.f * p.radius, false, 0);
+      grid_.build(b_, ph, nverts, s.bounds, 2.f * (upg ? query_r : p.radius), false, 0);
       gv = grid_.view();
       const uint32_t* ids = grid_.ids();
-      VcmMergeVertex* mv = merge_verts_.data();
-      b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t j) { mv[j] = vcm_merge_vertex(verts[ids[j]]); });
+      if (upg) {
+        gv.ids = ids;
+      } else {
+        VcmMergeVertex* mv = merge_verts_.data();
+        b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t j) { mv[j] = vcm_merge_vertex(verts[ids[j]]); });
+      }
     }
     if (cancelled()) return false;
 
@@ -163,10 +179,12 @@ class WavefrontVcm {
     {
       VcmPathState* paths = cam_.data();
       uint32_t* queue = queue_.data();
+      uint32_t* have_prev = have_prev_.data();
       const uint32_t W = uint32_t(s.camera.width);
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
         vcm_camera_start(s, p, i % W, i / W, paths[i]);
         queue[i] = i;
+        if (upg) have_prev[i] = 0;
       });
     }
     len = n_;
@@ -179,12 +197,20 @@ class WavefrontVcm {
       const VcmLightVertex* verts = verts_.data();
       const uint32_t* start = start_.data();
       const VcmMergeVertex* mv = merge_verts_.data();
+      VcmPathState* prev = prev_.data();
+      uint32_t* have_prev = have_prev_.data();
       stats.rays += intersect_queue(paths, queue, len, depth == 0);
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
-        VcmPathState& st = paths[queue[k]];
+        const uint32_t i = queue[k];
+        VcmPathState& st = paths[i];
         uint32_t r = 0;
         if (st.active) {
-          vcm_camera_hit(s, p, st, hits[queue[k]]);
+          vcm_camera_hit(s, p, st, hits[i]);
+          // upg: the gather at this eye hit from the previous non-delta eye vertex (upg_render.cpp's order).
+          if (upg && have_prev[i] && hits[i].valid()) {
+            UpgGatherCounts c = upg_gather_all(s, p, prev[i], st, gv, query_r, verts, st.pixel, tracer);
+            r += c.rays + c.trials;
+          }
           if (st.active) {
             VcmShadow sr;
             vcm_camera_nee(s, p, st, sr);
@@ -203,6 +229,10 @@ class WavefrontVcm {
               }
             }
             if (st.vertex_valid && p.merges()) vcm_camera_merge(s, p, st, gv, mv);
+            if (upg) {
+              have_prev[i] = st.vertex_valid ? 1u : 0u;
+              if (st.vertex_valid) prev[i] = st;
+            }
             vcm_camera_continue(p, st);
           }
         }
@@ -351,7 +381,8 @@ class WavefrontVcm {
   Buffer<VcmLightVertex> staged_verts_, verts_in_, verts_;
   Buffer<VcmSplat> staged_splats_, splats_in_, splats_;
   Buffer<uint32_t> vkeys_, skeys_, start_, values_, tmp_k_, tmp_v_;
-  Buffer<uint32_t> counts_, offsets_, pixel_keys_, pixel_start_;
+  Buffer<uint32_t> counts_, offsets_, pixel_keys_, pixel_start_, have_prev_;
+  Buffer<VcmPathState> prev_;  // upg: each camera path's previous non-delta vertex
   Buffer<RGB> contrib_;
   Buffer<Photon> photons_;
   Buffer<VcmMergeVertex> merge_verts_;
