@@ -82,18 +82,8 @@ def test_cpu_wavefront_bidirectional_gives_the_cpu_drivers_image(integrator):
 
 
 @needs_gpu
-@pytest.mark.parametrize("integrator", ["light", "bdpt", "bpm", "vcm", "upg"])
-def test_gpu_bidirectional_matches_the_cpu_per_region(integrator):
-    s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
-    m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112))
-    m_gpu, se_gpu = seeded_regions(s, integrator, 8, range(200, 212), device="cuda")
-    z = np.abs(m_cpu - m_gpu) / np.sqrt(se_cpu ** 2 + se_gpu ** 2)
-    assert z.max() < 4.0, np.round(z, 1)
-
-
-@needs_gpu
-@pytest.mark.parametrize("integrator", ["sppm", "pppm"])
-def test_gpu_photon_mapping_matches_the_cpu_per_region(integrator):
+@pytest.mark.parametrize("integrator", ["sppm", "pppm", "light", "bdpt", "bpm", "vcm", "upg"])
+def test_gpu_photon_and_bidirectional_integrators_match_the_cpu_per_region(integrator):
     s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
     m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112))
     m_gpu, se_gpu = seeded_regions(s, integrator, 8, range(200, 212), device="cuda")

@@ -43,4 +43,21 @@ void reserve_keep(const B& b, Buf& buf, size_t need, size_t used, size_t first) 
   std::swap(buf, bigger);
 }
 
+// Stream compaction of a queue of path indices to the paths still active (flags, exclusive prefix sum,
+// scatter: Harris, Sengupta & Owens 2007): queue2 receives them in queue order, then the two swap. Returns
+// their number. `paths[i].active` says whether path i goes on.
+template <class B, class T, class Buf>
+uint32_t compact_queue(const B& b, const T* paths, Buf& queue, Buf& queue2, uint32_t* flags, uint32_t* scan,
+                       uint32_t len) {
+  const uint32_t* q = queue.data();
+  b.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[q[k]].active ? 1u : 0u; });
+  const uint32_t active = b.exclusive_scan(flags, scan, len);
+  uint32_t* next = queue2.data();
+  b.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+    if (flags[k]) next[scan[k]] = q[k];
+  });
+  std::swap(queue, queue2);
+  return active;
+}
+
 }  // namespace caustica

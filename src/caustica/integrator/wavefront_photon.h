@@ -305,15 +305,7 @@ class WavefrontPhoton {
         });
       }
       count += stored;
-      // Stream compaction of the paths still going.
-      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
-      const uint32_t active = b_.exclusive_scan(flags, scan, len);
-      uint32_t* next = queue2_.data();
-      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
-        if (flags[k]) next[scan[k]] = queue[k];
-      });
-      std::swap(queue_, queue2_);
-      len = active;
+      len = compact_queue(b_, paths, queue_, queue2_, flags, scan, len);  // the paths still going
     }
     stats.photons = P;
     stats.stored_photons = count;

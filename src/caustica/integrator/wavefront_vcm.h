@@ -309,16 +309,7 @@ class WavefrontVcm {
 
   // Stream compaction of the queue to the paths still active; returns their number.
   uint32_t compact(const VcmPathState* paths, uint32_t len) {
-    uint32_t* queue = queue_.data();
-    uint32_t *flags = flags_.data(), *scan = scan_.data();
-    b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
-    const uint32_t active = b_.exclusive_scan(flags, scan, len);
-    uint32_t* next = queue2_.data();
-    b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
-      if (flags[k]) next[scan[k]] = queue[k];
-    });
-    std::swap(queue_, queue2_);
-    return active;
+    return compact_queue(b_, paths, queue_, queue2_, flags_.data(), scan_.data(), len);
   }
 
   void accumulate(const SceneView& s, const VcmParams& p, uint32_t nsplats) {
