@@ -320,9 +320,9 @@ TEST(WavefrontPhoton, CancelledPassChangesNothing) {
 // light, bdpt, bpm, vcm and upg on the CPU backend (integrator/wavefront_vcm.h) run the CPU drivers' stage
 // functions in the same order per path, keep light vertices and splats in their path order, build the same
 // grid and add each pixel's terms in their order: the images are the CPU drivers' bit for bit. Scenes
-// with an area light, a point light inside glass, a sun, an environment; the box filter and the gaussian
-// (splats reach several pixels); one light subpath per pixel and fewer (camera path i connects to light
-// subpath i mod n), depth limits.
+// with an area light, a point light inside glass, a sun, an environment, a point light; the box, tent and
+// gaussian filters (splats reach several pixels); one light subpath per pixel, fewer (camera path i connects
+// to light subpath i mod n) and more; depth limits.
 TEST(WavefrontVcm, CpuBackendMatchesTheCpuDriverBitForBit) {
   struct Case {
     const char* scene;
@@ -334,7 +334,8 @@ TEST(WavefrontVcm, CpuBackendMatchesTheCpuDriverBitForBit) {
                         {"smallvcm-spheres", FilterType::kGaussian, 0, -1},
                         {"point-in-glass", FilterType::kBox, 97, 8},
                         {"smallvcm-sun", FilterType::kTent, 0, 4},
-                        {"smallvcm-env", FilterType::kBox, 300, 10}};
+                        {"smallvcm-env", FilterType::kBox, 300, 10},
+                        {"smallvcm-point", FilterType::kBox, 2000, -1}};  // more light subpaths than pixels
   for (const Case& c : cases) {
     SceneDesc d = builtin_scene(c.scene);
     d.filter = c.filter;
