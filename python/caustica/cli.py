@@ -416,6 +416,9 @@ def main(argv=None) -> int:
     except (UsageError, _api.InputError) as e:
         print(f"caustica: error: {e}", file=sys.stderr)
         return EXIT_USAGE
+    except (MemoryError, RuntimeError) as e:  # from the native render (out of memory, a device error)
+        print(f"caustica: error: the render failed: {e or type(e).__name__}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("caustica: interrupted", file=sys.stderr)
         return 130

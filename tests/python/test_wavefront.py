@@ -3,6 +3,7 @@ the command line: on the CPU (`--wavefront`) they are the CUDA backend's driver 
 tracer's and the bidirectional integrators' images bit for bit (the photon integrators' to rounding);
 on a GPU (`--device cuda`) the image must agree with the CPU's within standard errors. GPU tests are
 skipped, saying why, where there is no usable CUDA device."""
+import os
 import subprocess
 import sys
 
@@ -79,6 +80,26 @@ def test_cpu_wavefront_bidirectional_gives_the_cpu_drivers_image(integrator):
         assert r.stats[key] == ref.stats[key], key
     assert r.image.sum() > 0
     assert np.array_equal(r.image, ref.image)
+
+
+def _refuses_huge_allocations():
+    """Whether a 0.86 TB allocation fails at once here (heuristic or strict overcommit, under 512 GiB)."""
+    try:
+        with open("/proc/sys/vm/overcommit_memory") as f:
+            mode = int(f.read())
+    except (OSError, ValueError):
+        return False
+    return mode in (0, 2) and os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") < 512 * 2 ** 30
+
+
+@pytest.mark.skipif(not _refuses_huge_allocations(), reason="this machine could grant a 0.86 TB allocation")
+def test_too_many_light_subpaths_for_memory_is_a_one_line_error(tmp_path):
+    out = tmp_path / "x.exr"
+    r = cli("render", "cornell", "--integrator", "bdpt", "--wavefront", "--photons", "2000000000", "--spp", "1",
+            "--width", "8", "--height", "8", "--quiet", "-o", str(out))
+    assert r.returncode == 2, r.stderr
+    assert "not enough memory for this render" in r.stderr and "--photons 2000000000" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not out.exists()
 
 
 @needs_gpu

@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <new>
+#include <stdexcept>
 #include <thread>
 
 #include "../backend/cpu/cpu_accel.h"
@@ -146,6 +148,27 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
   if (opt_.spp == 0 && opt_.time == 0.0 && !target) opt_.spp = 16;
+  // The buffers of the wavefront drivers (and the CPU photon integrators' per-pixel state) are allocated
+  // here, sized by the resolution and the photons / light subpaths per pass: too large a request is an
+  // input error naming them, not a crash.
+  auto too_large = [&] {
+    const SceneView& v = scene_->view();
+    return InputError("not enough memory for this render (" + opt_.integrator + " at " +
+                      std::to_string(v.camera.width) + "x" + std::to_string(v.camera.height) +
+                      (opt_.photons > 0 ? ", --photons " + std::to_string(opt_.photons) : std::string()) + " on " +
+                      opt_.device + "): lower --photons or the resolution");
+  };
+  try {
+    make_integrator();
+  } catch (const std::bad_alloc&) {
+    throw too_large();
+  } catch (const std::length_error&) {
+    throw too_large();
+  }
+}
+
+// The integrator's state (buffers sized by the resolution and the photons / light subpaths per pass).
+void RenderJob::make_integrator() {
   if (is_photon_integrator(opt_.integrator) && !uses_wavefront(opt_))
     photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator) && !uses_wavefront(opt_)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);

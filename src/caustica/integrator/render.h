@@ -157,6 +157,7 @@ class RenderJob {
   template <typename Accel>
   void render_pass(const Accel& accel, int64_t pass);
   PathParams path_params() const;
+  void make_integrator();  // the constructor's: photon_, vcm_, upg_ or wavefront_ for opt_
   Film wavefront_film() const;
   std::shared_ptr<Scene> scene_;
   RenderOptions opt_;

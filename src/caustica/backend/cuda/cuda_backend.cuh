@@ -9,6 +9,7 @@
 #include <cuda_runtime.h>
 
 #include <cstdint>
+#include <new>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -45,10 +46,17 @@ class DeviceBuffer {
     std::swap(n_, o.n_);
     std::swap(cap_, o.cap_);
   }
+  // Throws std::bad_alloc when the device has not enough memory (RenderJob reports that as an input error).
   void resize(size_t n) {
     if (n > cap_) {
       release();
-      CAUSTICA_CUDA_CHECK(cudaMalloc(reinterpret_cast<void**>(&p_), sizeof(T) * n));
+      cudaError_t e = cudaMalloc(reinterpret_cast<void**>(&p_), sizeof(T) * n);
+      if (e == cudaErrorMemoryAllocation) {
+        cudaGetLastError();  // not sticky: clear it so later calls start clean
+        p_ = nullptr;
+        throw std::bad_alloc();
+      }
+      CAUSTICA_CUDA_CHECK(e);
       cap_ = n;
     }
     n_ = n;
