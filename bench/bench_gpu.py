@@ -13,7 +13,8 @@
                 build, gather) at 1920x1080 visible points and PHOTONS photon paths per pass on `cornell` and
                 `smallvcm-spheres`; the grid build time per million stored photons; also with stochastic
                 hashing (Hachisuka & Jensen 2010).
-  bdpt, vcm, upg  ms per pass and rays/s (camera, light, visibility and trial rays together) at 1920x1080 on
+  bdpt, vcm, upg  ms per pass, rays/s (camera, light, visibility and trial rays together) and ms per stage
+                (light subpaths, grid, camera subpaths, accumulation) at 1920x1080 on
                 `smallvcm-spheres`, one light subpath per pixel (wavefront_vcm.h).
 
 Targets (issue 7, H100): >= 1e9 rays/s for the path tracer on cornell at 1080p; a complete SPPM pass
@@ -162,6 +163,7 @@ def bench_bidirectional(scene, a, label: str) -> list[dict]:
         st = best_of(a.repeats, lambda: caustica.render_job(scene, **kw).stats)
         rows.append({"scene": label, "integrator": integrator, "passes": st["passes"], "seconds": st["seconds"],
                      "ms_per_pass": 1e3 * st["seconds"] / st["passes"], "rays_per_s": st["rays"] / st["seconds"],
+                     **{f"ms_{k}": 1e3 * v / st["passes"] for k, v in st["stage_seconds"].items()},
                      "device": st["device"]})
     return rows
 
@@ -207,7 +209,9 @@ def main() -> int:
               f"photons {r['ms_photons']:.2f}, grid {r['ms_grid']:.2f} ({r['grid_ms_per_million']:.2f} per M), "
               f"gather {r['ms_gather']:.2f}")
     for r in bidir_rows:
-        print(f"{r['integrator']:5s} {r['scene']:18s} {r['ms_per_pass']:8.2f} ms/pass {r['rays_per_s'] / 1e6:10.1f} M rays/s")
+        print(f"{r['integrator']:5s} {r['scene']:18s} {r['ms_per_pass']:8.2f} ms/pass {r['rays_per_s'] / 1e6:10.1f} M rays/s"
+              f"  stages ms: light {r['ms_light_subpaths']:.2f}, grid {r['ms_grid']:.2f}, camera "
+              f"{r['ms_camera_subpaths']:.2f}, accumulate {r['ms_accumulate']:.2f}")
     if not a.no_results:
         cmd = "python bench/bench_gpu.py " + " ".join(sys.argv[1:])
         host = machine()
@@ -225,9 +229,12 @@ def main() -> int:
             lines.append(f"| {r['scene']} | {'yes' if r['stochastic_hash'] else 'no'} | {r['ms_per_pass']:.2f} | "
                          f"{r['photons_per_s'] / 1e6:.2f} M | {r['ms_visible_points']:.2f} | {r['ms_photons']:.2f} | "
                          f"{r['ms_grid']:.2f} ({r['grid_ms_per_million']:.2f}) | {r['ms_gather']:.2f} |\n")
-        lines.append("\n| bidirectional | scene | ms/pass | rays/s |\n|---|---|---|---|\n")
+        lines.append("\n| bidirectional | scene | ms/pass | rays/s | light ms | grid ms | camera ms | accumulate ms |\n"
+                     "|---|---|---|---|---|---|---|---|\n")
         for r in bidir_rows:
-            lines.append(f"| {r['integrator']} | {r['scene']} | {r['ms_per_pass']:.2f} | {r['rays_per_s'] / 1e6:.1f} M |\n")
+            lines.append(f"| {r['integrator']} | {r['scene']} | {r['ms_per_pass']:.2f} | {r['rays_per_s'] / 1e6:.1f} M | "
+                         f"{r['ms_light_subpaths']:.2f} | {r['ms_grid']:.2f} | {r['ms_camera_subpaths']:.2f} | "
+                         f"{r['ms_accumulate']:.2f} |\n")
         with open(RESULTS, "a") as f:
             f.writelines(lines)
         print(f"appended to {os.path.relpath(RESULTS, ROOT)}")

@@ -78,6 +78,10 @@ def test_cpu_wavefront_bidirectional_gives_the_cpu_drivers_image(integrator):
     assert r.stats["device"] == f"cpu (wavefront, {r.stats['accel']})"
     for key in ("photons", "rays", "radius"):
         assert r.stats[key] == ref.stats[key], key
+    stages = r.stats["stage_seconds"]
+    assert set(stages) == {"light_subpaths", "grid", "camera_subpaths", "accumulate"}
+    assert all(v >= 0 for v in stages.values()) and sum(stages.values()) <= r.stats["seconds"]
+    assert (r.stats["stored_photons"] > 0) == (integrator != "light")  # light tracing keeps no vertices
     assert r.image.sum() > 0
     assert np.array_equal(r.image, ref.image)
 

@@ -159,7 +159,15 @@ static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
   d["lanes"] = s.lanes;
   d["device"] = j.device_name();
   d["accel"] = j.accel_name();
-  if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {
+  if (s.seconds_light + s.seconds_camera + s.seconds_accumulate > 0.0) {  // bidirectional wavefront
+    nb::dict st;
+    st["light_subpaths"] = s.seconds_light;
+    st["grid"] = s.seconds_grid;
+    st["camera_subpaths"] = s.seconds_camera;
+    st["accumulate"] = s.seconds_accumulate;
+    d["stage_seconds"] = st;
+    d["stored_photons"] = s.stored_photons;  // light vertices
+  } else if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {  // sppm, pppm
     nb::dict st;
     st["visible_points"] = s.seconds_visible;
     st["photons"] = s.seconds_photons;

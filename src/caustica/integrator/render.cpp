@@ -328,6 +328,9 @@ void RenderJob::run() {
             stage_totals_->seconds_photons += ps.seconds_photons;
             stage_totals_->seconds_grid += ps.seconds_grid;
             stage_totals_->seconds_gather += ps.seconds_gather;
+            stage_totals_->seconds_light += ps.seconds_light;
+            stage_totals_->seconds_camera += ps.seconds_camera;
+            stage_totals_->seconds_accumulate += ps.seconds_accumulate;
             stage_totals_->stored_photons += ps.stored_photons;
           } else if (photon_) {
             bool complete = photon_->render_pass(pass, cancel_);
@@ -427,6 +430,9 @@ RenderStats RenderJob::stats() const {
     s.seconds_photons = stage_totals_->seconds_photons;
     s.seconds_grid = stage_totals_->seconds_grid;
     s.seconds_gather = stage_totals_->seconds_gather;
+    s.seconds_light = stage_totals_->seconds_light;
+    s.seconds_camera = stage_totals_->seconds_camera;
+    s.seconds_accumulate = stage_totals_->seconds_accumulate;
     s.stored_photons = stage_totals_->stored_photons;
   }
   return s;

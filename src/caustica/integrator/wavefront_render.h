@@ -23,7 +23,10 @@ struct WavefrontPassStats {
   uint64_t rays = 0, shadow_rays = 0, invalid = 0, photons = 0;
   // Photon integrators: wall-clock seconds of the pass's stages (the backend synchronised after each).
   double seconds_visible = 0.0, seconds_photons = 0.0, seconds_grid = 0.0, seconds_gather = 0.0;
-  uint64_t stored_photons = 0;  // photons in the grid's input (before stochastic hashing)
+  // Bidirectional integrators: light subpaths, the merge/gather grid (seconds_grid), camera subpaths,
+  // accumulation.
+  double seconds_light = 0.0, seconds_camera = 0.0, seconds_accumulate = 0.0;
+  uint64_t stored_photons = 0;  // photons in the grid's input (before stochastic hashing); light vertices
 };
 
 // A render on a backend, pass by pass: the path tracer (wavefront_path.h), sppm/pppm (wavefront_photon.h)
