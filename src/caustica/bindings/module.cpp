@@ -1,6 +1,7 @@
 // The Python extension `caustica._native`: scenes, render jobs (rendering on a
 // C++ thread without the GIL), image output and the BSDF/sampling routines the
 // tests need. The pure-Python package (python/caustica) builds the API on it.
+#include <initializer_list>
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/optional.h>
 #include <nanobind/ndarray.h>
@@ -159,23 +160,19 @@ static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
   d["lanes"] = s.lanes;
   d["device"] = j.device_name();
   d["accel"] = j.accel_name();
-  if (s.seconds_light + s.seconds_camera + s.seconds_accumulate > 0.0) {  // bidirectional wavefront
+  // Wavefront renders: seconds per stage, and the grid's input (photons, or the bidirectional light vertices).
+  auto stages = [&](std::initializer_list<std::pair<const char*, double>> named) {
     nb::dict st;
-    st["light_subpaths"] = s.seconds_light;
-    st["grid"] = s.seconds_grid;
-    st["camera_subpaths"] = s.seconds_camera;
-    st["accumulate"] = s.seconds_accumulate;
-    d["stage_seconds"] = st;
-    d["stored_photons"] = s.stored_photons;  // light vertices
-  } else if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0) {  // sppm, pppm
-    nb::dict st;
-    st["visible_points"] = s.seconds_visible;
-    st["photons"] = s.seconds_photons;
-    st["grid"] = s.seconds_grid;
-    st["gather"] = s.seconds_gather;
+    for (const auto& [name, seconds] : named) st[name] = seconds;
     d["stage_seconds"] = st;
     d["stored_photons"] = s.stored_photons;
-  }
+  };
+  if (s.seconds_light + s.seconds_camera + s.seconds_accumulate > 0.0)
+    stages({{"light_subpaths", s.seconds_light}, {"grid", s.seconds_grid}, {"camera_subpaths", s.seconds_camera},
+            {"accumulate", s.seconds_accumulate}});
+  else if (s.seconds_visible + s.seconds_photons + s.seconds_grid + s.seconds_gather > 0.0)
+    stages({{"visible_points", s.seconds_visible}, {"photons", s.seconds_photons}, {"grid", s.seconds_grid},
+            {"gather", s.seconds_gather}});
   return d;
 }
 
