@@ -4,22 +4,150 @@
 // Thin lens: Kolb et al. 1995 / pbrt-v4 Sec. 5.2.3 - rays from a point on the
 // lens disk of radius aperture_radius through the point of the pinhole ray at
 // distance focus_distance along the view axis.
+//
+// Motion blur (camera motion): a moving camera holds its pose at shutter open
+// and at shutter close; a ray's time u in [0, 1) picks the pose in between, the
+// position interpolated linearly and the orientation by spherical linear
+// interpolation of unit quaternions (Shoemake 1985, "Animating rotation with
+// quaternion curves"; pbrt-v4 Sec. 3.9's AnimatedTransform does the same for
+// the rotation part), so the camera turns at a constant angular speed about one
+// axis. The scene itself is static, so only camera rays (and light tracing's
+// connections to the lens) carry a time; everything after the first vertex is
+// the same for every time.
 #pragma once
+#include <cmath>
 #include "../base/math.h"
 #include "../base/sampling.h"
 #include "../geometry/ray.h"
 
 namespace caustica {
 
+// Unit quaternion (w, v) of a rotation.
+struct Quat {
+  float w = 1.f;
+  Vec3f v{0.f, 0.f, 0.f};
+};
+
+// The rotation whose matrix has columns c0, c1, c2 (orthonormal, determinant +1);
+// Shepperd's method: the largest of the four squared components is taken
+// from the trace or a diagonal entry, so the division is well conditioned.
+CHD Quat quat_from_columns(Vec3f c0, Vec3f c1, Vec3f c2) {
+  float m00 = c0.x, m11 = c1.y, m22 = c2.z, tr = m00 + m11 + m22;
+  Quat q;
+  if (tr > 0.f) {
+    float s = 2.f * std::sqrt(tr + 1.f);  // 4 w
+    q.w = 0.25f * s;
+    q.v = Vec3f(c1.z - c2.y, c2.x - c0.z, c0.y - c1.x) / s;
+  } else if (m00 >= m11 && m00 >= m22) {
+    float s = 2.f * std::sqrt(1.f + m00 - m11 - m22);  // 4 x
+    q.w = (c1.z - c2.y) / s;
+    q.v = Vec3f(0.25f * s, (c1.x + c0.y) / s, (c2.x + c0.z) / s);
+  } else if (m11 >= m22) {
+    float s = 2.f * std::sqrt(1.f + m11 - m00 - m22);  // 4 y
+    q.w = (c2.x - c0.z) / s;
+    q.v = Vec3f((c1.x + c0.y) / s, 0.25f * s, (c2.y + c1.z) / s);
+  } else {
+    float s = 2.f * std::sqrt(1.f + m22 - m00 - m11);  // 4 z
+    q.w = (c0.y - c1.x) / s;
+    q.v = Vec3f((c2.x + c0.z) / s, (c2.y + c1.z) / s, 0.25f * s);
+  }
+  return q;
+}
+
+// Columns of the rotation matrix of unit quaternion q.
+CHD void quat_to_columns(Quat q, Vec3f& c0, Vec3f& c1, Vec3f& c2) {
+  float w = q.w, x = q.v.x, y = q.v.y, z = q.v.z;
+  c0 = Vec3f(1.f - 2.f * (y * y + z * z), 2.f * (x * y + w * z), 2.f * (x * z - w * y));
+  c1 = Vec3f(2.f * (x * y - w * z), 1.f - 2.f * (x * x + z * z), 2.f * (y * z + w * x));
+  c2 = Vec3f(2.f * (x * z + w * y), 2.f * (y * z - w * x), 1.f - 2.f * (x * x + y * y));
+}
+
+// Spherical linear interpolation along the shorter arc (q and -q are the same
+// rotation); nearly equal rotations fall back to normalised linear interpolation.
+CHD Quat quat_slerp(Quat a, Quat b, float u) {
+  float c = a.w * b.w + dot(a.v, b.v);
+  if (c < 0.f) {
+    c = -c;
+    b.w = -b.w;
+    b.v = -b.v;
+  }
+  float ka, kb;
+  if (c > 0.9995f) {
+    ka = 1.f - u;
+    kb = u;
+  } else {
+    float theta = std::acos(c), s = std::sin(theta);
+    ka = std::sin((1.f - u) * theta) / s;
+    kb = std::sin(u * theta) / s;
+  }
+  Quat q;
+  q.w = ka * a.w + kb * b.w;
+  q.v = a.v * ka + b.v * kb;
+  float n = std::sqrt(q.w * q.w + dot(q.v, q.v));
+  q.w /= n;
+  q.v = q.v / n;
+  return q;
+}
+
+// Where the camera is and which way it looks: `right`, `up`, `forward` orthonormal.
+// (right, up, -forward) is a right-handed frame, or a left-handed one for a
+// mirrored camera (right negated, CameraDesc::flip_x).
+struct CameraPose {
+  Vec3f position{0, 0, 0};
+  Vec3f right{1, 0, 0}, up{0, 1, 0}, forward{0, 0, -1};
+};
+
+CHD CameraPose interpolate_pose(const CameraPose& a, const CameraPose& b, float u) {
+  // Rotate the right-handed frames; a mirrored camera's right is negated before and after.
+  float ha = dot(cross(a.right, a.up), a.forward) < 0.f ? 1.f : -1.f;
+  float hb = dot(cross(b.right, b.up), b.forward) < 0.f ? 1.f : -1.f;
+  Quat qa = quat_from_columns(a.right * ha, a.up, -a.forward);
+  Quat qb = quat_from_columns(b.right * hb, b.up, -b.forward);
+  CameraPose p;
+  Vec3f c0, c1, c2;
+  quat_to_columns(quat_slerp(qa, qb, u), c0, c1, c2);
+  p.right = c0 * ha;
+  p.up = c1;
+  p.forward = -c2;
+  p.position = a.position * (1.f - u) + b.position * u;
+  return p;
+}
+
 struct Camera {
+  // The pose (at shutter open for a moving camera).
   Vec3f position{0, 0, 0};
   Vec3f right{1, 0, 0}, up{0, 1, 0}, forward{0, 0, -1};  // orthonormal
   float tan_half_x = 0.4f, tan_half_y = 0.4f;            // image-plane extent at distance 1
   float aperture_radius = 0.f;
   float focus_distance = 1.f;
   int width = 256, height = 256;
+  // Motion blur: the pose at shutter close; time u in [0, 1) spans the shutter.
+  bool moving = false;
+  CameraPose close_pose;
 
-  // film: raster position in pixels; lens: a sample of [0,1)^2.
+  CHD CameraPose pose() const {
+    CameraPose p;
+    p.position = position;
+    p.right = right;
+    p.up = up;
+    p.forward = forward;
+    return p;
+  }
+  // The camera at time u of the shutter interval (itself when it does not move).
+  CHD Camera at(float u) const {
+    Camera c = *this;
+    if (!moving) return c;
+    CameraPose p = interpolate_pose(pose(), close_pose, u);
+    c.position = p.position;
+    c.right = p.right;
+    c.up = p.up;
+    c.forward = p.forward;
+    c.moving = false;
+    return c;
+  }
+
+  // film: raster position in pixels; lens: a sample of [0,1)^2. The pose is
+  // this camera's own (the shutter-open one of a moving camera: use at(u)).
   CHD Ray generate_ray(Vec2f film, Vec2f lens) const {
     float sx = (2.f * film.x / float(width) - 1.f) * tan_half_x;
     float sy = (1.f - 2.f * film.y / float(height)) * tan_half_y;

@@ -63,7 +63,9 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
   // A pinhole camera takes no lens sample (and spends no dimension on one).
   Vec2f lens = s.camera.aperture_radius > 0.f ? st.sampler.next_2d() : Vec2f(0.5f, 0.5f);
   Vec2f film(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y);
-  st.ray = s.camera.generate_ray(film, lens);
+  // A moving camera takes a time in the shutter interval (a static one spends no dimension on it).
+  st.ray = s.camera.moving ? s.camera.at(st.sampler.next_1d()).generate_ray(film, lens)
+                           : s.camera.generate_ray(film, lens);
   st.prev_p = st.ray.o;
   st.weight = fs.weight;
 }

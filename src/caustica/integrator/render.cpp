@@ -207,6 +207,9 @@ void RenderJob::make_integrator() {
       throw InputError("--cache-first-bounce: the camera has a lens (aperture radius " +
                        std::to_string(scene_->view().camera.aperture_radius) +
                        "), so camera rays differ every pass; use a pinhole camera");
+    if (opt_.cache_first_bounce && scene_->view().camera.moving)
+      throw InputError("--cache-first-bounce: the camera moves while the shutter is open (motion blur), so camera "
+                       "rays differ every pass; use a static camera");
     WavefrontOptions wo;
     wo.compaction = opt_.compaction;
     wo.sort_materials = opt_.sort_materials;

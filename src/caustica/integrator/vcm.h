@@ -542,7 +542,9 @@ struct VcmSplat {
 CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathState& st, VcmSplat& sp) {
   sp.active = false;
   if (!st.vertex_valid || !p.use_lt() || st.length + 1 > p.max_depth) return;
-  const Camera& c = s.camera;
+  // A moving camera: each connection takes its own time (the scene is static, so the light
+  // subpath is the same at every time and only the lens moves).
+  const Camera c = s.camera.moving ? s.camera.at(st.sampler.next_1d()) : s.camera;
   Vec3f pl = camera_lens_point(c, st.sampler.next_2d());
   Vec2f raster;
   float cos_theta;
@@ -649,11 +651,12 @@ CHD void vcm_light_continue(const VcmParams& p, VcmPathState& st) {
 // Starts pixel (px, py)'s camera path of pass p.pass.
 CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, uint32_t py, VcmPathState& st) {
   st = VcmPathState();
-  const Camera& c = s.camera;
-  st.pixel = py * uint32_t(c.width) + px;
+  st.pixel = py * uint32_t(s.camera.width) + px;
   st.sampler.start(p.sampler, p.seed, st.pixel, p.pass);
   FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
   Vec2f lens = st.sampler.next_2d();
+  // A moving camera: the pose at this path's time (its importance and pdf are the same at every time).
+  const Camera c = s.camera.moving ? s.camera.at(st.sampler.next_1d()) : s.camera;
   st.ray = c.generate_ray(Vec2f(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y), lens);
   st.prev_p = st.ray.o;
   float h = 1.f, pr = 1.f;

@@ -205,7 +205,10 @@ bool same_camera(const CameraDesc& a, const CameraDesc& b) {
   auto eq = [](Vec3f x, Vec3f y) { return x.x == y.x && x.y == y.y && x.z == y.z; };
   return a.name == b.name && eq(a.position, b.position) && eq(a.target, b.target) && eq(a.up, b.up) &&
          a.fov_degrees == b.fov_degrees && a.fov_axis == b.fov_axis && a.aperture_radius == b.aperture_radius &&
-         a.focus_distance == b.focus_distance && a.width == b.width && a.height == b.height && a.flip_x == b.flip_x;
+         a.focus_distance == b.focus_distance && a.width == b.width && a.height == b.height && a.flip_x == b.flip_x &&
+         a.moving == b.moving && (!a.moving || (eq(a.position1, b.position1) && eq(a.target1, b.target1) &&
+                                                eq(a.up1, b.up1))) &&
+         a.shutter_open == b.shutter_open && a.shutter_close == b.shutter_close;
 }
 
 struct Writer {
@@ -341,6 +344,13 @@ struct Writer {
     if (c.aperture_radius != 0.f) o.set("aperture_radius", JV::flt(c.aperture_radius));
     if (c.focus_distance != 0.f) o.set("focus_distance", JV::flt(c.focus_distance));
     if (c.flip_x) o.set("flip_x", JV::boolean(true));
+    if (c.moving) {
+      JV m = JV::object();
+      m.set("position", vec(c.position1)).set("target", vec(c.target1)).set("up", vec(c.up1));
+      o.set("motion", m);
+    }
+    if (c.shutter_open != 0.f) o.set("shutter_open", JV::flt(c.shutter_open));
+    if (c.shutter_close != 1.f) o.set("shutter_close", JV::flt(c.shutter_close));
     return o;
   }
 

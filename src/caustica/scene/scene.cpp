@@ -96,12 +96,31 @@ float diffuse_fresnel_reflectance(float eta) {
 }
 
 Camera make_camera(const CameraDesc& c) {
+  auto look_at = [&](Vec3f position, Vec3f target, Vec3f up) {
+    CameraPose p;
+    p.position = position;
+    p.forward = normalize(target - position);
+    p.right = normalize(cross(p.forward, up));
+    p.up = cross(p.right, p.forward);
+    if (c.flip_x) p.right = -p.right;
+    return p;
+  };
+  CameraPose open = look_at(c.position, c.target, c.up), close = open;
+  if (c.moving) {
+    // The keyframes are times 0 and 1; the shutter's ends are poses between them.
+    CameraPose p0 = open, p1 = look_at(c.position1, c.target1, c.up1);
+    open = interpolate_pose(p0, p1, c.shutter_open);
+    close = interpolate_pose(p0, p1, c.shutter_close);
+  }
   Camera cam;
-  cam.position = c.position;
-  cam.forward = normalize(c.target - c.position);
-  cam.right = normalize(cross(cam.forward, c.up));
-  cam.up = cross(cam.right, cam.forward);
-  if (c.flip_x) cam.right = -cam.right;
+  cam.position = open.position;
+  cam.forward = open.forward;
+  cam.right = open.right;
+  cam.up = open.up;
+  cam.moving = c.moving && c.shutter_close > c.shutter_open &&
+               (length_sq(close.position - open.position) > 0.f || length_sq(close.forward - open.forward) > 0.f ||
+                length_sq(close.up - open.up) > 0.f);
+  if (cam.moving) cam.close_pose = close;
   cam.width = c.width;
   cam.height = c.height;
   float t = std::tan(0.5f * c.fov_degrees * kPi / 180.f);

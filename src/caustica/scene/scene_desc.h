@@ -61,6 +61,11 @@ struct CameraDesc {
   float focus_distance = 0.f;  // 0: distance to target
   int width = 256, height = 256;
   bool flip_x = false;  // mirror the image horizontally (a camera matrix with negative determinant)
+  // Motion blur: with `moving`, the fields above are the pose at time 0 and these the pose
+  // at time 1 (JSON "motion"); the shutter is open over [shutter_open, shutter_close] within [0, 1].
+  bool moving = false;
+  Vec3f position1{0, 0, 0}, target1{0, 0, -1}, up1{0, 1, 0};
+  float shutter_open = 0.f, shutter_close = 1.f;
 };
 
 struct SceneDesc {

@@ -516,7 +516,7 @@ std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::str
 
 void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDesc& cam) {
   check_keys(c, j, path, {"name", "position", "target", "up", "fov", "fov_axis", "width", "height", "aperture_radius",
-                          "focus_distance", "flip_x"});
+                          "focus_distance", "flip_x", "motion", "shutter_open", "shutter_close"});
   if (j.contains("name")) cam.name = str(c, j["name"], path + "/name");
   if (j.contains("position")) cam.position = point3(c, j["position"], path + "/position");
   if (j.contains("target")) cam.target = point3(c, j["target"], path + "/target");
@@ -540,6 +540,26 @@ void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDe
   if (j.contains("flip_x")) cam.flip_x = boolean(c, j["flip_x"], path + "/flip_x");
   if (length(cam.target - cam.position) == 0.f) c.fail(path + "/target", "must differ from the position");
   if (length(cross(cam.target - cam.position, cam.up)) == 0.f) c.fail(path + "/up", "must not be parallel to the view direction");
+  // Motion blur: "motion" is the pose at time 1 (keys left out keep their time-0 value).
+  if (j.contains("motion")) {
+    const std::string mp = path + "/motion";
+    const json& m = j["motion"];
+    if (!m.is_object()) c.fail(mp, "expected an object with the camera's position, target and up at time 1");
+    check_keys(c, m, mp, {"position", "target", "up"});
+    cam.moving = true;
+    cam.position1 = m.contains("position") ? point3(c, m["position"], mp + "/position") : cam.position;
+    cam.target1 = m.contains("target") ? point3(c, m["target"], mp + "/target") : cam.target;
+    cam.up1 = m.contains("up") ? point3(c, m["up"], mp + "/up") : cam.up;
+    if (length(cam.target1 - cam.position1) == 0.f) c.fail(mp + "/target", "must differ from the position");
+    if (length(cross(cam.target1 - cam.position1, cam.up1)) == 0.f)
+      c.fail(mp + "/up", "must not be parallel to the view direction");
+  }
+  if (j.contains("shutter_open")) cam.shutter_open = num(c, j["shutter_open"], path + "/shutter_open");
+  if (j.contains("shutter_close")) cam.shutter_close = num(c, j["shutter_close"], path + "/shutter_close");
+  if (!(cam.shutter_open >= 0.f && cam.shutter_open <= 1.f))
+    c.fail(path + "/shutter_open", "expected a time in [0, 1] (0: the camera's pose, 1: its \"motion\" pose)");
+  if (!(cam.shutter_close >= cam.shutter_open && cam.shutter_close <= 1.f))
+    c.fail(path + "/shutter_close", "expected a time in [shutter_open, 1]");
 }
 
 FilterType parse_filter(const Ctx& c, const json& j, const std::string& path) {
