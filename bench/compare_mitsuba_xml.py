@@ -12,7 +12,7 @@ which bounds the noise from above).
 Scenes (written to bench/out/xml/): Mitsuba's cornell_box() (tests/data/mitsuba/cornell.xml), an
 environment map with coloured quadrants and a sun over a diffuse sphere, a rough gold sphere and a floor
 (checks the envmap's orientation and importance sampling), and a textured floor with a plastic sphere, a
-point light and an area light.
+point light and an area light, and an orthographic sensor over a cube, a sphere and a floor.
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -88,8 +88,28 @@ def write_scenes(res):
   <emitter type="point"><point name="position" x="2" y="2" z="2"/><rgb name="intensity" value="6, 6, 8"/></emitter>
 </scene>
 """)
+    # Orthographic sensor (its to_world scale sets the view: 2 x 2.5 units wide) looking down obliquely at
+    # a red cube left-right asymmetric with a sphere (a mirrored or mis-scaled view shows), sun and sky.
+    with open(os.path.join(OUT, "orthographic.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="3"/></integrator>
+  <sensor type="orthographic">
+    <transform name="to_world"><scale x="2.5" y="2.5"/><lookat origin="3, 4, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
+      <rfilter type="box"/></film></sensor>
+  <shape type="cube"><transform name="to_world"><scale value="0.5"/><translate x="1.2" y="0.5" z="0"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="-1" y="0.6" z="0.3"/><float name="radius" value="0.6"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf></shape>
+  <emitter type="directional"><vector name="direction" x="-0.3" y="-1" z="-0.5"/><rgb name="irradiance" value="3, 3, 3"/></emitter>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.25, 0.3"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
-            "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml")}
+            "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
+            "orthographic": os.path.join(OUT, "orthographic.xml")}
 
 
 def render_caustica(path, res, spp, seed):

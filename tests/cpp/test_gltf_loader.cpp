@@ -221,7 +221,7 @@ TEST(GltfLoader, CamerasDefaultAndByName) {
   b.scene({n0, n1, n2, n3});
   std::string path = b.write("cameras");
   SceneDesc d = load_gltf_scene(path);
-  ASSERT_EQ(d.cameras.size(), 2u);
+  ASSERT_EQ(d.cameras.size(), 3u);
   EXPECT_EQ(d.cameras[0].name, "front");  // the first glTF camera is the default
   EXPECT_EQ(d.cameras[1].name, "camera1");
   EXPECT_EQ(d.camera.name, "front");
@@ -233,7 +233,14 @@ TEST(GltfLoader, CamerasDefaultAndByName) {
   EXPECT_EQ(d.camera.width, 768);
   EXPECT_EQ(d.camera.height, 512);
   expect_near(d.cameras[1].target - d.cameras[1].position, Vec3f(-1, 0, 0));
-  EXPECT_TRUE(has_warning(d, "1 orthographic camera(s) skipped"));
+  // The orthographic camera: xmag, ymag are half the view's width and height.
+  EXPECT_EQ(d.cameras[2].name, "camera2");
+  EXPECT_TRUE(d.cameras[2].orthographic);
+  EXPECT_FALSE(d.cameras[0].orthographic);
+  EXPECT_FLOAT_EQ(d.cameras[2].view_size, 2.f);
+  EXPECT_EQ(d.cameras[2].fov_axis, CameraDesc::FovAxis::kY);
+  EXPECT_EQ(d.cameras[2].width, 512);
+  EXPECT_FALSE(has_warning(d, "orthographic"));
   EXPECT_FALSE(has_warning(d, "no camera in the file"));
   LoadOptions opt;
   opt.camera = "camera1";
@@ -244,7 +251,7 @@ TEST(GltfLoader, CamerasDefaultAndByName) {
     load_scene_desc(path, opt);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "cameras: no camera named 'nope' (cameras: front, camera1)");
+    EXPECT_STREQ(e.what(), "cameras: no camera named 'nope' (cameras: front, camera1, camera2)");
   }
 }
 

@@ -647,6 +647,28 @@ TEST(MitsubaSensor, Cameras) {
   EXPECT_FLOAT_EQ(d.camera.aperture_radius, 0.1f);
 }
 
+TEST(MitsubaSensor, Orthographic) {
+  // Mitsuba's orthographic sensor sees [-1, 1] x [-1/aspect, 1/aspect] of its plane, scaled by to_world.
+  std::string f = scene_file("ortho.xml", "<shape type=\"cube\"/>\n"
+      "<sensor type=\"orthographic\"><transform name=\"to_world\"><scale x=\"3\" y=\"3\"/>"
+      "<lookat origin=\"0 0 5\" target=\"0 0 0\" up=\"0 1 0\"/></transform>"
+      "<film type=\"hdrfilm\"><integer name=\"width\" value=\"200\"/><integer name=\"height\" value=\"100\"/></film>"
+      "</sensor>\n");
+  SceneDesc d = load_mitsuba_scene(f);
+  ASSERT_EQ(d.cameras.size(), 1u);
+  const CameraDesc& c = d.camera;
+  EXPECT_TRUE(c.orthographic);
+  EXPECT_FLOAT_EQ(c.view_size, 6.f);
+  EXPECT_EQ(c.fov_axis, CameraDesc::FovAxis::kX);
+  expect_vec_near(c.position, {0, 0, 5});
+  expect_vec_near(c.target, {0, 0, 4});
+  expect_vec_near(c.up, {0, 1, 0});
+  Camera cam = make_camera(c);
+  EXPECT_TRUE(cam.orthographic);
+  EXPECT_FLOAT_EQ(cam.tan_half_x, 3.f);
+  EXPECT_FLOAT_EQ(cam.tan_half_y, 1.5f);
+}
+
 TEST(MitsubaSensor, DefaultCameraAndIntegrator) {
   std::string f = scene_file("nosensor.xml", "<integrator type=\"volpath\"><integer name=\"max_depth\" value=\"-1\"/>"
                                              "<integer name=\"rr_depth\" value=\"10\"/></integrator>\n"
@@ -667,8 +689,13 @@ TEST(MitsubaSensor, Errors) {
     std::string body, message;
   };
   std::vector<Case> cases = {
-      {"<sensor type=\"orthographic\"/>\n",
-       ":2: <sensor type=\"orthographic\">: unsupported sensor type (supported: perspective, thinlens)"},
+      {"<sensor type=\"radiancemeter\"/>\n",
+       ":2: <sensor type=\"radiancemeter\">: unsupported sensor type (supported: perspective, thinlens, orthographic)"},
+      {"<sensor type=\"orthographic\"><transform name=\"to_world\"><scale x=\"2\" y=\"3\"/></transform></sensor>\n",
+       ":2: <sensor type=\"orthographic\">: an orthographic sensor's to_world must scale x and y alike (caustica's "
+       "pixels are square)"},
+      {"<sensor type=\"orthographic\"><float name=\"fov\" value=\"30\"/></sensor>\n",
+       ":2: <float name=\"fov\">: unknown property of sensor orthographic (supported: to_world)"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"mitchell\"/></film></sensor>\n",
        ":3: <rfilter type=\"mitchell\">: unsupported reconstruction filter (supported: box, tent, gaussian)"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"gaussian\"><float name=\"stddev\" "

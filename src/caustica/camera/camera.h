@@ -1,9 +1,13 @@
-// Perspective camera (pinhole or thin lens). The field of view spans the
-// smaller image axis, as in Mitsuba's default. Raster (0,0) is the top-left
-// corner; image right is the camera's `right` axis and image up its `up` axis.
+// Perspective camera (pinhole or thin lens) or orthographic camera. The field
+// of view spans the smaller image axis, as in Mitsuba's default. Raster (0,0) is
+// the top-left corner; image right is the camera's `right` axis and image up its
+// `up` axis.
 // Thin lens: Kolb et al. 1995 / pbrt-v4 Sec. 5.2.3 - rays from a point on the
 // lens disk of radius aperture_radius through the point of the pinhole ray at
 // distance focus_distance along the view axis.
+// Orthographic (pbrt-v4 Sec. 5.2.1, Mitsuba 3's `orthographic`): parallel rays
+// along `forward` from the plane through `position` spanned by `right` and `up`,
+// over [-tan_half_x, tan_half_x] x [-tan_half_y, tan_half_y] in scene units.
 //
 // Motion blur (camera motion): a moving camera holds its pose at shutter open
 // and at shutter close; a ray's time u in [0, 1) picks the pose in between, the
@@ -117,8 +121,10 @@ struct Camera {
   // The pose (at shutter open for a moving camera).
   Vec3f position{0, 0, 0};
   Vec3f right{1, 0, 0}, up{0, 1, 0}, forward{0, 0, -1};  // orthonormal
-  float tan_half_x = 0.4f, tan_half_y = 0.4f;            // image-plane extent at distance 1
-  float aperture_radius = 0.f;
+  // Half the image plane's extent at distance 1 (orthographic: half the view's extent in scene units).
+  float tan_half_x = 0.4f, tan_half_y = 0.4f;
+  bool orthographic = false;
+  float aperture_radius = 0.f;  // (perspective only)
   float focus_distance = 1.f;
   int width = 256, height = 256;
   // Motion blur: the pose at shutter close; time u in [0, 1) spans the shutter.
@@ -151,6 +157,13 @@ struct Camera {
   CHD Ray generate_ray(Vec2f film, Vec2f lens) const {
     float sx = (2.f * film.x / float(width) - 1.f) * tan_half_x;
     float sy = (1.f - 2.f * film.y / float(height)) * tan_half_y;
+    Ray r;
+    r.tmax = kInf;
+    if (orthographic) {
+      r.o = position + right * sx + up * sy;
+      r.d = forward;
+      return r;
+    }
     Vec3f d_cam(sx, sy, 1.f);
     Vec3f o_cam(0.f, 0.f, 0.f);
     if (aperture_radius > 0.f) {
@@ -159,10 +172,8 @@ struct Camera {
       o_cam = Vec3f(pl.x, pl.y, 0.f);
       d_cam = focus - o_cam;
     }
-    Ray r;
     r.o = position + right * o_cam.x + up * o_cam.y;
     r.d = normalize(right * d_cam.x + up * d_cam.y + forward * d_cam.z);
-    r.tmax = kInf;
     return r;
   }
 };

@@ -78,7 +78,8 @@ float automatic_radius(const Scene& scene) {
     for (int x = 0; x < W; x += std::max(1, W / 32)) {
       Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
       Hit h;
-      if (scene.accel().intersect(r, h)) fp.push_back(h.t * pixel_angle);
+      // A pixel's footprint at the hit: distance x pixel angle, or the pixel's own size (orthographic).
+      if (scene.accel().intersect(r, h)) fp.push_back(v.camera.orthographic ? pixel_angle : h.t * pixel_angle);
     }
   if (fp.empty()) return 1e-3f * v.bsphere_radius;
   std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());

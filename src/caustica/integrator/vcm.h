@@ -261,6 +261,12 @@ CHD float vcm_filter_p1(FilterType t, float x) {
 // focus_distance). So a raster density p(x) is p / (A_pix cos^3 theta) per solid
 // angle, and a light vertex y seen from lens point c contributes to pixel j
 //   beta f |cos_y| h_j(x) / (|y - c|^2 A_pix cos^3 theta N_light).
+// Orthographic: a camera ray starts at a film point with area density p / A_pix
+// (A_pix now a pixel's area in scene units) and runs along the view axis, so a
+// light vertex y is seen from the film point straight "below" it, and the film
+// area dA = |cos_y| dA(y): its contribution is beta f |cos_y| h_j(x) / (A_pix
+// N_light), and the camera subpath's first segment, like one from a directional
+// light, keeps its density per area (no 1/d^2; vcm_camera_hit).
 CHD float camera_pixel_area(const Camera& c) {
   return 4.f * c.tan_half_x * c.tan_half_y / (float(c.width) * float(c.height));
 }
@@ -268,6 +274,12 @@ CHD Vec3f camera_lens_point(const Camera& c, Vec2f u) {
   if (c.aperture_radius <= 0.f) return c.position;
   Vec2f pl = square_to_concentric_disk(u) * c.aperture_radius;
   return c.position + c.right * pl.x + c.up * pl.y;
+}
+// The lens (film, for the orthographic camera) point that sees p: a sample of the
+// lens, the pinhole, or p's projection onto the orthographic camera's plane.
+CHD Vec3f camera_eye_point(const Camera& c, Vec3f p, Vec2f u) {
+  if (c.orthographic) return p - c.forward * dot(p - c.position, c.forward);
+  return camera_lens_point(c, u);
 }
 // Raster position of the camera ray from lens point `pl` towards `p`, and the
 // cosine of that ray with the view axis; false behind the camera.
@@ -277,7 +289,11 @@ CHD bool camera_project(const Camera& c, Vec3f pl, Vec3f p, Vec2f& raster, float
   if (!(dz > 0.f)) return false;
   float dx = dot(d, c.right), dy = dot(d, c.up);
   float sx, sy;
-  if (c.aperture_radius > 0.f) {
+  if (c.orthographic) {
+    Vec3f o = pl - c.position;
+    sx = dot(o, c.right);
+    sy = dot(o, c.up);
+  } else if (c.aperture_radius > 0.f) {
     Vec3f o = pl - c.position;
     float t = c.focus_distance / dz;
     sx = (dot(o, c.right) + dx * t) / c.focus_distance;
@@ -287,7 +303,7 @@ CHD bool camera_project(const Camera& c, Vec3f pl, Vec3f p, Vec2f& raster, float
     sy = dy / dz;
   }
   raster = Vec2f((sx / c.tan_half_x + 1.f) * 0.5f * float(c.width), (1.f - sy / c.tan_half_y) * 0.5f * float(c.height));
-  cos_theta = dz / length(d);
+  cos_theta = c.orthographic ? 1.f : dz / length(d);
   return std::isfinite(raster.x) && std::isfinite(raster.y);
 }
 
@@ -545,7 +561,7 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   // A moving camera: each connection takes its own time (the scene is static, so the light
   // subpath is the same at every time and only the lens moves).
   const Camera c = s.camera.moving ? s.camera.at(st.sampler.next_1d()) : s.camera;
-  Vec3f pl = camera_lens_point(c, st.sampler.next_2d());
+  Vec3f pl = camera_eye_point(c, st.sh.p, st.sampler.next_2d());
   Vec2f raster;
   float cos_theta;
   if (!camera_project(c, pl, st.sh.p, raster, cos_theta)) return;
@@ -558,7 +574,8 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   RGB f = bsdf_eval(st.m, st.wo, wl, TransportMode::kImportance);
   if (is_black(f)) return;
   float cos_y = std::fabs(wl.z);
-  float K = cos_y / (d2 * camera_pixel_area(c) * cos_theta * cos_theta * cos_theta);
+  float K = c.orthographic ? cos_y / camera_pixel_area(c)
+                           : cos_y / (d2 * camera_pixel_area(c) * cos_theta * cos_theta * cos_theta);
   sp.C = st.beta * f * (K / p.n_light);
   sp.K = K;
   VcmMis lm = vcm_mis_commit(p, st.mis);
@@ -705,7 +722,8 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, st.sh);
   st.wo_world = -st.ray.d;
   Vec3f ns = st.sh.ns;
-  vcm_after_segment(p, st.mis, hit.t, absdot(ns, st.wo_world), true);
+  // The orthographic camera's first segment: its density stays per area (camera_pixel_area's comment).
+  vcm_after_segment(p, st.mis, hit.t, absdot(ns, st.wo_world), st.length > 1 || !s.camera.orthographic);
   if (st.sh.light >= 0) {
     const Light& l = s.lights[st.sh.light];
     RGB Le = area_radiance(s, l, st.sh.ng, st.wo_world, st.sh.uv);

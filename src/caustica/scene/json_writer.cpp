@@ -204,7 +204,7 @@ bool roughness_for_alpha(float alpha, float& r) {
 bool same_camera(const CameraDesc& a, const CameraDesc& b) {
   auto eq = [](Vec3f x, Vec3f y) { return x.x == y.x && x.y == y.y && x.z == y.z; };
   return a.name == b.name && eq(a.position, b.position) && eq(a.target, b.target) && eq(a.up, b.up) &&
-         a.fov_degrees == b.fov_degrees && a.fov_axis == b.fov_axis && a.aperture_radius == b.aperture_radius &&
+         a.orthographic == b.orthographic && a.view_size == b.view_size && a.fov_degrees == b.fov_degrees && a.fov_axis == b.fov_axis && a.aperture_radius == b.aperture_radius &&
          a.focus_distance == b.focus_distance && a.width == b.width && a.height == b.height && a.flip_x == b.flip_x &&
          a.moving == b.moving && (!a.moving || (eq(a.position1, b.position1) && eq(a.target1, b.target1) &&
                                                 eq(a.up1, b.up1))) &&
@@ -336,13 +336,14 @@ struct Writer {
     JV o = JV::object();
     if (with_name && !c.name.empty()) o.set("name", JV::str(c.name));
     o.set("position", vec(c.position)).set("target", vec(c.target)).set("up", vec(c.up));
-    o.set("fov", JV::flt(c.fov_degrees));
+    if (c.orthographic) o.set("type", JV::str("orthographic")).set("view_size", JV::flt(c.view_size));
+    else o.set("fov", JV::flt(c.fov_degrees));
     if (c.fov_axis == CameraDesc::FovAxis::kX) o.set("fov_axis", JV::str("x"));
     if (c.fov_axis == CameraDesc::FovAxis::kY) o.set("fov_axis", JV::str("y"));
     if (c.width != d.camera.width) o.set("width", JV::integer(c.width));
     if (c.height != d.camera.height) o.set("height", JV::integer(c.height));
-    if (c.aperture_radius != 0.f) o.set("aperture_radius", JV::flt(c.aperture_radius));
-    if (c.focus_distance != 0.f) o.set("focus_distance", JV::flt(c.focus_distance));
+    if (c.aperture_radius != 0.f && !c.orthographic) o.set("aperture_radius", JV::flt(c.aperture_radius));
+    if (c.focus_distance != 0.f && !c.orthographic) o.set("focus_distance", JV::flt(c.focus_distance));
     if (c.flip_x) o.set("flip_x", JV::boolean(true));
     if (c.moving) {
       JV m = JV::object();

@@ -123,7 +123,9 @@ Camera make_camera(const CameraDesc& c) {
   if (cam.moving) cam.close_pose = close;
   cam.width = c.width;
   cam.height = c.height;
-  float t = std::tan(0.5f * c.fov_degrees * kPi / 180.f);
+  // Half the view across fov_axis: at distance 1 (perspective) or in scene units (orthographic).
+  float t = c.orthographic ? 0.5f * c.view_size : std::tan(0.5f * c.fov_degrees * kPi / 180.f);
+  cam.orthographic = c.orthographic;
   float aspect = float(c.width) / float(c.height);
   bool x_axis = c.fov_axis == CameraDesc::FovAxis::kX ||
                 (c.fov_axis == CameraDesc::FovAxis::kSmaller && c.width < c.height);
@@ -134,7 +136,7 @@ Camera make_camera(const CameraDesc& c) {
     cam.tan_half_y = t;
     cam.tan_half_x = t * aspect;
   }
-  cam.aperture_radius = c.aperture_radius;
+  cam.aperture_radius = c.orthographic ? 0.f : c.aperture_radius;
   cam.focus_distance = c.focus_distance > 0.f ? c.focus_distance : length(c.target - c.position);
   return cam;
 }

@@ -55,7 +55,9 @@ struct ShapeDesc {
 struct CameraDesc {
   std::string name;  // glTF / XML camera name (for --camera NAME)
   Vec3f position{0, 0, 0}, target{0, 0, -1}, up{0, 1, 0};
-  float fov_degrees = 39.3077f;
+  bool orthographic = false;
+  float view_size = 2.f;  // orthographic: the view's width in scene units across fov_axis
+  float fov_degrees = 39.3077f;  // perspective
   enum class FovAxis { kSmaller, kX, kY } fov_axis = FovAxis::kSmaller;
   float aperture_radius = 0.f;
   float focus_distance = 0.f;  // 0: distance to target

@@ -400,6 +400,8 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
       const json& o = object_at(c, req(cam, "orthographic", p, "an object with xmag, ymag, zfar and znear"), P(p, "orthographic"));
       for (const char* k : {"xmag", "ymag", "zfar", "znear"})
         number(c, req(o, k, P(p, "orthographic"), "a number"), P(P(p, "orthographic"), k));
+      for (const char* k : {"xmag", "ymag"})
+        if (!(o[k].get<double>() > 0.0)) c.fail(P(P(p, "orthographic"), k), "expected a positive half-extent");
     } else {
       c.fail(P(p, "type"), type.empty() ? "missing (expected \"perspective\" or \"orthographic\")"
                                         : "unknown camera type '" + type + "' (expected perspective or orthographic)");
@@ -567,7 +569,7 @@ class Converter {
   int default_material_ = -1;
   // Warning counters (reported once each at the end).
   size_t skipped_points_lines_ = 0, nan_triangles_ = 0, degenerate_triangles_ = 0, bad_index_triangles_ = 0,
-         singular_instances_ = 0, zero_area_lights_ = 0, ortho_cameras_ = 0, skinned_ = 0;
+         singular_instances_ = 0, zero_area_lights_ = 0, skinned_ = 0;
   std::set<std::string> once_;
 
   void warn_once(const std::string& w) {
@@ -1030,10 +1032,8 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
   if (const json* cj = member(n, "camera")) {
     size_t ci = cj->get<size_t>();
     const json& cam = root_["cameras"][ci];
-    if (cam["type"].get<std::string>() == "orthographic") {
-      ++ortho_cameras_;
-    } else {
-      const json& per = cam["perspective"];
+    {
+      const bool ortho = cam["type"].get<std::string>() == "orthographic";
       CameraDesc cd;
       std::string name = string_or(c_, cam, "name", P("/cameras", ci), "");
       cd.name = name.empty() ? "camera" + std::to_string(ci) : name;
@@ -1044,11 +1044,21 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
       cd.target = cd.position + normalize(fwd);
       cd.up = normalize(up);
       cd.flip_x = world.det3() < 0.0;
-      cd.fov_degrees = float(per["yfov"].get<double>() * 180.0 / kPi);
       cd.fov_axis = CameraDesc::FovAxis::kY;
       cd.height = 512;
       cd.width = 512;
-      if (const json* ar = member(per, "aspectRatio")) cd.width = std::max(1, int(std::lround(512.0 * ar->get<double>())));
+      if (ortho) {
+        // xmag, ymag: half the view's width and height; the film's aspect follows their ratio.
+        const json& o = cam["orthographic"];
+        double xmag = o["xmag"].get<double>(), ymag = o["ymag"].get<double>();
+        cd.orthographic = true;
+        cd.view_size = float(2.0 * ymag);
+        cd.width = std::max(1, int(std::lround(512.0 * xmag / ymag)));
+      } else {
+        const json& per = cam["perspective"];
+        cd.fov_degrees = float(per["yfov"].get<double>() * 180.0 / kPi);
+        if (const json* ar = member(per, "aspectRatio")) cd.width = std::max(1, int(std::lround(512.0 * ar->get<double>())));
+      }
       cams_.emplace_back(ci, cd);
     }
   }
@@ -1138,7 +1148,6 @@ void Converter::run() {
   count_warning(degenerate_triangles_, "degenerate (zero-area) triangle(s) skipped");
   count_warning(singular_instances_, "mesh instance(s) with a singular (zero-scale) transform skipped");
   count_warning(zero_area_lights_, "emissive mesh instance(s) of zero area are not lights");
-  count_warning(ortho_cameras_, "orthographic camera(s) skipped (only perspective cameras are supported)");
   count_warning(skinned_, "skinned node(s) rendered in their rest pose (skinning is not supported)");
 
   // Cameras: ordered by camera index (the first glTF camera is the default), then traversal order.

@@ -515,9 +515,24 @@ std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::str
 // ---------------------------------------------------------------- cameras
 
 void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDesc& cam) {
-  check_keys(c, j, path, {"name", "position", "target", "up", "fov", "fov_axis", "width", "height", "aperture_radius",
-                          "focus_distance", "flip_x", "motion", "shutter_open", "shutter_close"});
+  check_keys(c, j, path, {"name", "type", "position", "target", "up", "fov", "view_size", "fov_axis", "width", "height",
+                          "aperture_radius", "focus_distance", "flip_x", "motion", "shutter_open", "shutter_close"});
   if (j.contains("name")) cam.name = str(c, j["name"], path + "/name");
+  if (j.contains("type")) {
+    std::string t = str(c, j["type"], path + "/type");
+    if (t == "orthographic") cam.orthographic = true;
+    else if (t != "perspective") c.fail(path + "/type", "unknown camera type '" + t + "' (allowed: perspective, orthographic)");
+  }
+  if (cam.orthographic) {
+    for (const char* k : {"fov", "aperture_radius", "focus_distance"})
+      if (j.contains(k))
+        c.fail(path + "/" + k, std::string("applies to a perspective camera (an orthographic one takes view_size)"));
+    if (j.contains("view_size")) cam.view_size = num(c, j["view_size"], path + "/view_size");
+    if (!(cam.view_size > 0.f && std::isfinite(cam.view_size)))
+      c.fail(path + "/view_size", "expected the view's width in scene units (> 0)");
+  } else if (j.contains("view_size")) {
+    c.fail(path + "/view_size", "applies to an orthographic camera (\"type\": \"orthographic\")");
+  }
   if (j.contains("position")) cam.position = point3(c, j["position"], path + "/position");
   if (j.contains("target")) cam.target = point3(c, j["target"], path + "/target");
   if (j.contains("up")) cam.up = point3(c, j["up"], path + "/up");

@@ -964,10 +964,12 @@ class Loader {
   void parse_sensor(xml_node n) {
     check_attrs(n, {"type", "id", "name"});
     std::string type = attr(n, "type");
-    if (type != "perspective" && type != "thinlens")
-      fail(n, "unsupported sensor type (supported: perspective, thinlens)");
+    if (type != "perspective" && type != "thinlens" && type != "orthographic")
+      fail(n, "unsupported sensor type (supported: perspective, thinlens, orthographic)");
+    const bool ortho = type == "orthographic";
     Props p(*this, n);
-    p.declare({"fov", "fov_axis", "focal_length", "to_world"});
+    if (ortho) p.declare({"to_world"});
+    else p.declare({"fov", "fov_axis", "focal_length", "to_world"});
     if (type == "thinlens") p.declare({"aperture_radius", "focus_distance"});
     CameraDesc cam;
     cam.name = has_attr(n, "id") ? attr(n, "id") : "sensor" + std::to_string(d.cameras.size());
@@ -982,9 +984,11 @@ class Loader {
     if (d.cameras.empty()) d.filter = filter;
     double aspect = double(width) / double(height);
     // Field of view, as an x, y or smaller-axis angle.
-    double fov;
+    double fov = 0.0;
     std::string axis;
-    if (p.has("fov")) {
+    if (ortho) {
+      axis = "x";  // set below from to_world's scale
+    } else if (p.has("fov")) {
       if (p.has("focal_length")) fail(n, "give either fov or focal_length, not both");
       fov = p.get_float("fov", 0.f);
       if (!(fov > 0 && fov < 180)) fail(p.get("fov"), "expected degrees in (0, 180)");
@@ -1001,7 +1005,7 @@ class Loader {
       if (p.has("fov_axis")) fail(p.get("fov_axis"), "fov_axis applies only together with fov");
     }
     auto deg = [](double rad) { return rad * 180.0 / kPi; };
-    double th = std::tan(0.5 * fov * kPi / 180.0);
+    double th = ortho ? 0.0 : std::tan(0.5 * fov * kPi / 180.0);
     if (axis == "x") {
       cam.fov_axis = CameraDesc::FovAxis::kX;
     } else if (axis == "y") {
@@ -1017,16 +1021,24 @@ class Loader {
     } else {
       fail(p.get("fov_axis"), "unknown fov_axis '" + axis + "' (allowed: x, y, smaller, larger, diagonal)");
     }
-    cam.fov_degrees = float(fov);
+    if (!ortho) cam.fov_degrees = float(fov);
     // Frame: Mitsuba's camera looks along local +z with +y up.
     M4 tw = p.get_transform("to_world");
     V3 o = column(tw, 3), x = column(tw, 0), y = column(tw, 1), z = column(tw, 2);
     double lx = len3(x), ly = len3(y), lz = len3(z);
-    double dxy = (x.x * y.x + x.y * y.y + x.z * y.z), dxz = (x.x * z.x + x.y * z.y + x.z * z.z),
-           dyz = (y.x * z.x + y.y * z.y + y.z * z.z);
-    if (std::fabs(lx - 1) > 1e-3 || std::fabs(ly - 1) > 1e-3 || std::fabs(lz - 1) > 1e-3 || std::fabs(dxy) > 1e-3 ||
-        std::fabs(dxz) > 1e-3 || std::fabs(dyz) > 1e-3)
+    double dxy = (x.x * y.x + x.y * y.y + x.z * y.z) / (lx * ly), dxz = (x.x * z.x + x.y * z.y + x.z * z.z) / (lx * lz),
+           dyz = (y.x * z.x + y.y * z.y + y.z * z.z) / (ly * lz);
+    if (std::fabs(dxy) > 1e-3 || std::fabs(dxz) > 1e-3 || std::fabs(dyz) > 1e-3 || !(lx > 0 && ly > 0 && lz > 0))
+      fail(n, "the camera's to_world must be a rotation and translation (with a scale of x and y for an orthographic one)");
+    if (ortho) {
+      // Mitsuba's orthographic sensor sees [-1, 1] x [-1/aspect, 1/aspect] of its plane, scaled by to_world.
+      if (std::fabs(lx / ly - 1) > 1e-3)
+        fail(n, "an orthographic sensor's to_world must scale x and y alike (caustica's pixels are square)");
+      cam.orthographic = true;
+      cam.view_size = float(2.0 * lx);
+    } else if (std::fabs(lx - 1) > 1e-3 || std::fabs(ly - 1) > 1e-3 || std::fabs(lz - 1) > 1e-3) {
       fail(n, "the camera's to_world must be a rotation and translation (Mitsuba allows no scale here either)");
+    }
     cam.position = to_vec(o);
     cam.target = to_vec(V3{o.x + z.x / lz, o.y + z.y / lz, o.z + z.z / lz});
     cam.up = to_vec(scale3(y, 1.0 / ly));
@@ -1039,7 +1051,7 @@ class Loader {
       float far_clip = p.get_float("far_clip", 1e4f);
       cam.focus_distance = p.get_float("focus_distance", far_clip);
       if (!(cam.focus_distance > 0.f)) fail(p.get("focus_distance"), "expected a positive distance");
-    } else {
+    } else if (!ortho) {
       p.get("focus_distance");  // no effect on a pinhole
     }
     for (xml_node s : p.take_objects("sampler")) {
