@@ -294,7 +294,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     (strategy_images stays with the CPU driver). The wavefront path tracer's switches:
     `compaction` (stream compaction of finished paths, default on), `sort_materials` (sort each queue by
     material before shading), `cache_first_bounce` (reuse the first pass's camera-ray hits; needs
-    jitter=False and a pinhole camera). `jitter=False` (path) traces every sample through the pixel centre.
+    jitter=False and a camera without lens or motion). `jitter=False` (path) traces every sample through the pixel centre.
     stats["device"] says where the passes ran. `accel` (CPU): "auto" (default) tests every triangle of a
     scene of at most 128 triangles (and 8 spheres), eight at a time with AVX2 ("small": on such scenes that
     is faster than Embree's per-query cost), and uses Embree otherwise; "embree", "small" (an InputError

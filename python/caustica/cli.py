@@ -128,7 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--sort-materials", action="store_true",
                    help="wavefront: sort each queue by material before shading")
     r.add_argument("--cache-first-bounce", action="store_true",
-                   help="wavefront: reuse the first pass's camera-ray hits (needs --no-jitter, a pinhole camera)")
+                   help="wavefront: reuse the first pass's camera-ray hits (needs --no-jitter, a camera without lens or motion)")
     r.add_argument("--no-jitter", action="store_true",
                    help="path: every sample through the pixel centre (no anti-aliasing)")
     r.add_argument("--no-lanes", action="store_true",
