@@ -147,7 +147,8 @@ def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Opt
     camera: a named camera of the file (glTF, XML, JSON "cameras"); params: Mitsuba XML
     $name substitutions ({"spp": 64}). width/height/filter override the scene's. Problems in
     the scene raise caustica.SceneError (an InputError); what was skipped or replaced is
-    reported with warnings.warn (caustica.SceneWarning). scene.describe() gives counts and bounds."""
+    reported with warnings.warn (caustica.SceneWarning). scene.describe() gives counts, bounds, the
+    camera's projection ("perspective", "thin lens", "orthographic") and its shutter (None unless it moves)."""
     if isinstance(scene, _native.Scene):
         if camera is not None or params:
             raise InputError("camera and params apply when loading; this scene is already loaded")

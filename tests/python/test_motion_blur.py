@@ -197,3 +197,15 @@ def test_lane_parallel_path_tracer_draws_the_same_times(tmp_path):
         pytest.skip("the eight-lane driver needs AVX2")
     assert one.stats["lanes"] == 0
     assert np.array_equal(lanes.image, one.image)
+
+
+def test_info_reports_the_shutter(tmp_path, caustica_bin):
+    d = caustica.describe(moving_scene())
+    assert d["shutter"] == (0.25, 0.75) and d["projection"] == "perspective"
+    assert caustica.describe("cornell")["shutter"] is None
+    f = tmp_path / "m.json"
+    f.write_text(json.dumps(moving_scene()))
+    r = subprocess.run([caustica_bin, "info", str(f), "--json"], capture_output=True, text=True)
+    assert r.returncode == 0 and json.loads(r.stdout)["shutter"] == [0.25, 0.75], r.stdout + r.stderr
+    r = subprocess.run([caustica_bin, "info", str(f)], capture_output=True, text=True)
+    assert "moving camera (motion blur, shutter 0.25 to 0.75)" in r.stdout, r.stdout

@@ -157,3 +157,12 @@ def test_view_size_on_a_perspective_camera_is_an_error(tmp_path, caustica_bin):
     r = subprocess.run([caustica_bin, "render", str(f), "--spp", "1", "-o", str(tmp_path / "o.exr")],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "/camera/view_size" in r.stderr and "orthographic" in r.stderr, r.stderr
+
+
+def test_info_names_the_projection(tmp_path, caustica_bin):
+    assert caustica.describe(two_squares(0.0))["projection"] == "orthographic"
+    f = tmp_path / "o.json"
+    f.write_text(json.dumps(two_squares(0.0)))
+    r = subprocess.run([caustica_bin, "info", str(f)], capture_output=True, text=True)
+    assert r.returncode == 0 and "projection:  orthographic" in r.stdout, r.stdout + r.stderr
+    assert caustica.describe("cornell")["projection"] == "perspective"

@@ -99,6 +99,10 @@ nb::dict describe(const SceneDesc& d) {
     hi.append(st.hi[i]);
   }
   r["bounds"] = nb::make_tuple(lo, hi);
+  const CameraDesc& c = d.camera;
+  r["projection"] = c.orthographic ? "orthographic" : (c.aperture_radius > 0.f ? "thin lens" : "perspective");
+  if (c.moving) r["shutter"] = nb::make_tuple(c.shutter_open, c.shutter_close);
+  else r["shutter"] = nb::none();
   return r;
 }
 
