@@ -14,6 +14,14 @@ def mean_and_se(values):
     return v.mean(), v.std(ddof=1) / np.sqrt(v.size)
 
 
+def seeded_rows(scene, integrator, seeds=(1, 2), **opts):
+    """The green channel of renders with the independent sampler, one per seed, stacked row-wise:
+    shape (len(seeds) * H, W), each row an independent estimate of the scene's row profile."""
+    import caustica
+    imgs = [caustica.render(scene, integrator=integrator, seed=s, sampler="independent", **opts) for s in seeds]
+    return np.concatenate([im[:, :, 1] for im in imgs], axis=0).astype(np.float64)
+
+
 def relmse(x, ref):
     """Mean over pixels and channels of (x - r)^2 / (r^2 + 0.01) (shared/scenes/cornell-box.md)."""
     return float(np.mean((x - ref) ** 2 / (ref ** 2 + 0.01)))

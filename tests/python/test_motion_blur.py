@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import caustica
+from conftest import seeded_rows
 
 W, H = 16, 8          # 0.5 scene units per pixel at the lit plane
 L_LIT = 0.5           # radiance of the lit plane: albedo 0.5 / pi x irradiance pi
@@ -61,9 +62,7 @@ def test_moving_camera_matches_the_shutter_average(integrator, opts):
     # photon or splat lands in one pixel (radius 0.05 << the 0.5-unit rows), so the pixels' estimates
     # are multinomially, i.e. negatively, correlated, which only makes the spread a conservative
     # standard error.
-    imgs = [caustica.render(moving_scene(), integrator=integrator, seed=s, sampler="independent", **opts)
-            for s in (1, 2)]
-    vals = np.concatenate([im[:, :, 1] for im in imgs], axis=0).astype(np.float64)  # (2H, W)
+    vals = seeded_rows(moving_scene(), integrator, **opts)  # (2H, W)
     n = vals.shape[0]
     mean = vals.mean(axis=0)
     se = vals.std(axis=0, ddof=1) / math.sqrt(n)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import caustica
+from conftest import seeded_rows
 
 
 def two_squares(depth_b):
@@ -79,9 +80,7 @@ def test_orthographic_importance_matches_the_analytic_radiance(integrator, opts)
     # photons land in one pixel each, so pixels are independent or negatively correlated: the spread is a
     # conservative standard error). The mean within 5 standard errors, and no pixel further than 6 of
     # its own (128 pixels: two-sided p ~ 2e-9 each under normality).
-    imgs = [caustica.render(tilted_plane(), integrator=integrator, seed=s, sampler="independent", **opts)
-            for s in (1, 2)]
-    v = np.concatenate([im[:, :, 1].ravel() for im in imgs]).astype(np.float64)
+    v = seeded_rows(tilted_plane(), integrator, **opts).ravel()
     se = v.std(ddof=1) / math.sqrt(v.size)
     # path: NEE of a delta light on a uniform plane gives exactly 0.5 in every sample (se = 0): allow
     # float rounding.
