@@ -560,7 +560,9 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   if (!st.vertex_valid || !p.use_lt() || st.length + 1 > p.max_depth) return;
   // A moving camera: each connection takes its own time (the scene is static, so the light
   // subpath is the same at every time and only the lens moves).
-  const Camera c = s.camera.moving ? s.camera.at(st.sampler.next_1d()) : s.camera;
+  // (A static camera is used in place: this runs per light vertex, so it is not copied.)
+  Camera moved;
+  const Camera& c = s.camera.moving ? (moved = s.camera.at(st.sampler.next_1d())) : s.camera;
   Vec3f pl = camera_eye_point(c, st.sh.p, st.sampler.next_2d());
   Vec2f raster;
   float cos_theta;
@@ -673,7 +675,8 @@ CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, u
   FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
   Vec2f lens = st.sampler.next_2d();
   // A moving camera: the pose at this path's time (its importance and pdf are the same at every time).
-  const Camera c = s.camera.moving ? s.camera.at(st.sampler.next_1d()) : s.camera;
+  Camera moved;
+  const Camera& c = s.camera.moving ? (moved = s.camera.at(st.sampler.next_1d())) : s.camera;
   st.ray = c.generate_ray(Vec2f(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y), lens);
   st.prev_p = st.ray.o;
   float h = 1.f, pr = 1.f;
