@@ -258,6 +258,15 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
                 alpha=pick(alpha, "alpha", 0.75 if integrator in ("bpm", "vcm") else 0.7), k=pick(k, "k", 50))
 
 
+PHOTON_SAMPLINGS = ("uniform", "adaptive")
+
+
+def _photon_sampling(v) -> str:
+    if v not in PHOTON_SAMPLINGS:
+        raise InputError(f"unknown photon sampling '{v}' (allowed: {', '.join(PHOTON_SAMPLINGS)})")
+    return v
+
+
 def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = None, time: Optional[float] = None,
                seed: int = 0, threads: int = 0, max_depth: Optional[int] = None, rr_depth: Optional[int] = None,
                sampler: Optional[str] = None, accel: str = "auto",
@@ -270,7 +279,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                target_noise: Optional[float] = None, strategy_images: bool = False,
                device: str = "cpu", wavefront: bool = False, compaction: bool = True,
                sort_materials: bool = False, cache_first_bounce: bool = False, jitter: bool = True,
-               lanes: bool = True) -> RenderResult:
+               lanes: bool = True, photon_sampling: str = "uniform") -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -278,6 +287,9 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
+    `photon_sampling` (ppm, sppm, pppm on the CPU): "uniform" (default) or "adaptive", photon paths drawn by
+    Markov chains on their visibility to the pass's visible points (Hachisuka & Jensen 2011); stats["adaptive"]
+    then holds the visible fraction of uniform paths, the mutations' acceptance rate and the mutation size.
     `k` (pm): photons per k-nearest density estimate (default 50).
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
     Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
@@ -346,7 +358,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             k=_positive_int("k", k), strategy_images=bool(strategy_images), device=device,
                             wavefront=bool(wavefront), compaction=bool(compaction),
                             sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
-                            jitter=bool(jitter), lanes=bool(lanes), **targets)
+                            jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(photon_sampling),
+                            **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -410,7 +423,7 @@ def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, t
     (passes, target_passes, samples, rays, shadow_rays, seconds); returning False stops
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,
-    pass_offset=, stochastic_hash=; stop on quality: target_error= with reference=, and
+    pass_offset=, stochastic_hash=, photon_sampling=; stop on quality: target_error= with reference=, and
     target_noise= (see render_job)."""
     r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
                    **photon_options)

@@ -153,6 +153,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "and t camera vertices of paths of k <= 7 segments; merge_t{t}.exr), MIS-weighted")
     r.add_argument("--stochastic-hash", action="store_true",
                    help="photon maps keep one photon per hash cell (Hachisuka & Jensen 2010)")
+    r.add_argument("--photon-sampling", default="uniform", metavar="{uniform,adaptive}",
+                   help="ppm, sppm, pppm: how photon paths are drawn: uniform (independent paths, default) or "
+                        "adaptive (Markov chains on the paths' visibility, Hachisuka & Jensen 2011)")
     r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
                    help="write the image so far every S seconds (atomically)")
     r.add_argument("--target-error", type=_float("--target-error"), default=None,
@@ -203,20 +206,25 @@ class _Progress:
 
     def __init__(self, spp, seconds, enabled):
         self.bar = None
+        self.spp, self.seconds, self.enabled = spp, seconds, enabled
         self.by_time = spp is None and seconds is not None
-        if not enabled:
-            return
-        from tqdm import tqdm
-        if self.by_time:
-            self.bar = tqdm(total=round(seconds, 1), unit="s", desc="rendering", dynamic_ncols=True,
-                            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s [{elapsed}<{remaining}{postfix}]")
-        else:
-            self.bar = tqdm(total=spp, unit="spp", desc="rendering", dynamic_ncols=True)
         self.t0 = _time.monotonic()
 
+    def _open(self):
+        # Opened at the first report, i.e. once the render has started: options the renderer rejects
+        # give their one error line without a bar before it.
+        from tqdm import tqdm
+        if self.by_time:
+            self.bar = tqdm(total=round(self.seconds, 1), unit="s", desc="rendering", dynamic_ncols=True,
+                            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s [{elapsed}<{remaining}{postfix}]")
+        else:
+            self.bar = tqdm(total=self.spp, unit="spp", desc="rendering", dynamic_ncols=True)
+
     def __call__(self, st):
-        if self.bar is None:
+        if not self.enabled:
             return True
+        if self.bar is None:
+            self._open()
         elapsed = _time.monotonic() - self.t0
         n = min(elapsed, self.bar.total) if self.by_time else st["passes"]
         self.bar.n = n
@@ -267,6 +275,7 @@ def cmd_render(a) -> int:
     if a.sampler is not None:
         _check_choice("sampler", a.sampler, _api.SAMPLERS)
     _check_choice("accelerator", a.accel, _api.ACCELS)
+    _check_choice("photon sampling", a.photon_sampling, _api.PHOTON_SAMPLINGS)
     _api._check_device(a.device)
     if a.filter is not None:
         _check_choice("filter", a.filter, _api.FILTERS)
@@ -306,7 +315,7 @@ def cmd_render(a) -> int:
                               strategy_images=a.strategy_images is not None, device=a.device,
                               wavefront=a.wavefront, compaction=not a.no_compaction,
                               sort_materials=a.sort_materials, cache_first_bounce=a.cache_first_bounce,
-                              jitter=not a.no_jitter, lanes=not a.no_lanes)
+                              jitter=not a.no_jitter, lanes=not a.no_lanes, photon_sampling=a.photon_sampling)
     finally:
         prog.close()
     st = res.stats
@@ -326,8 +335,12 @@ def cmd_render(a) -> int:
     elif st.get("photons") or integrator != "path":
         msg = (f"{scene.name}: {integrator}{where}, {st['passes']} passes, {scene.width}x{scene.height}, "
                f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "
-               f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g} "
-               f"-> {', '.join(outputs)}")
+               f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g}")
+        if st.get("adaptive"):
+            ad = st["adaptive"]
+            msg += (f", adaptive: {100 * ad['visible_fraction']:.3g}% of uniform paths visible, acceptance "
+                    f"{ad['acceptance']:.3f}, mutation size {ad['mutation_size']:.3g}")
+        msg += f" -> {', '.join(outputs)}"
     else:
         msg = (f"{scene.name}: {st['passes']} spp{where}, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
                f"{st['samples'] / secs / 1e6:.2f} M samples/s, "

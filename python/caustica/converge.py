@@ -47,7 +47,7 @@ LABELS = {"mse": "MSE", "rmse": "RMSE", "relmse": "relMSE", "mape": "MAPE", "ssi
 REFERENCE_SEED = 1_000_003  # make_reference's default seed: far from converge's (0), so the noise is independent
 SNAPSHOT_MEMORY = 1 << 30    # snapshots beyond this many bytes (per integrator) go to a temporary directory
 RENDER_OPTIONS = ("threads", "max_depth", "rr_depth", "sampler", "accel", "photons", "radius", "alpha", "k",
-                  "stochastic_hash")
+                  "stochastic_hash", "photon_sampling")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -203,6 +203,7 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
                              sampler=o["sampler"], accel=accel, photons=int(o["photons"] or 0),
                              radius=float(r or 0.0), alpha=float(o["alpha"]),
                              stochastic_hash=bool(opts.get("stochastic_hash", False)),
+                             photon_sampling=_api._photon_sampling(opts.get("photon_sampling", "uniform")),
                              k=_api._positive_int("k", o["k"]))
 
 
@@ -294,7 +295,7 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
     seconds this thread spent on snapshots and live metrics while the render ran. A pandas DataFrame (header in .attrs["header"])
     when pandas is installed and as_frame is not False, else a ConvergenceLog (a list with
     .header). render_options: threads, max_depth, rr_depth, sampler, accel, photons, radius,
-    alpha, k, stochastic_hash. progress(record) is called at each checkpoint."""
+    alpha, k, stochastic_hash, photon_sampling. progress(record) is called at each checkpoint."""
     if not isinstance(time, (int, float)) or isinstance(time, bool) or not time > 0 or not math.isfinite(time):
         raise InputError(f"time must be a positive number of seconds, got {time!r}")
     names = _integrator_names(integrators)

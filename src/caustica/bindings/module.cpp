@@ -158,6 +158,13 @@ static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
   d["cancelled"] = s.cancelled;
   d["photons"] = s.photons;
   d["radius"] = s.radius;
+  if (s.photon_visible >= 0.0) {  // --photon-sampling adaptive
+    nb::dict a;
+    a["visible_fraction"] = s.photon_visible;
+    a["acceptance"] = s.photon_acceptance;
+    a["mutation_size"] = s.photon_mutation_size;
+    d["adaptive"] = a;
+  }
   d["error"] = s.error >= 0.0 ? nb::cast(s.error) : nb::none();
   d["noise"] = s.noise >= 0.0 ? nb::cast(s.noise) : nb::none();
   d["target_reached"] = s.target_reached;
@@ -312,7 +319,8 @@ NB_MODULE(_native, m) {
               bool stochastic_hash, int k, double target_error,
               std::optional<nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>> reference,
               double target_noise, bool strategy_images, const std::string& device, bool wavefront,
-              bool compaction, bool sort_materials, bool cache_first_bounce, bool jitter, bool lanes) {
+              bool compaction, bool sort_materials, bool cache_first_bounce, bool jitter, bool lanes,
+              const std::string& photon_sampling) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -341,6 +349,7 @@ NB_MODULE(_native, m) {
              o.cache_first_bounce = cache_first_bounce;
              o.jitter = jitter;
              o.lanes = lanes;
+             o.photon_sampling = photon_sampling;
              if (reference) {
                if (reference->shape(2) != 3) throw InputError("the reference image must have 3 channels (H, W, 3)");
                const float* p = reference->data();
@@ -357,7 +366,7 @@ NB_MODULE(_native, m) {
            nb::arg("reference") = nb::none(), nb::arg("target_noise") = 0.0, nb::arg("strategy_images") = false,
            nb::arg("device") = "cpu", nb::arg("wavefront") = false, nb::arg("compaction") = true,
            nb::arg("sort_materials") = false, nb::arg("cache_first_bounce") = false, nb::arg("jitter") = true,
-           nb::arg("lanes") = true)
+           nb::arg("lanes") = true, nb::arg("photon_sampling") = "uniform")
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())

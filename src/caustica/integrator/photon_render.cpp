@@ -10,6 +10,7 @@
 #include "../base/sampler.h"
 #include "../light/light_sample.h"
 #include "../material/bsdf.h"
+#include "../photon/adaptive.h"
 #include "../photon/hash_grid.h"
 #include "../photon/trace.h"
 #include "path.h"
@@ -122,6 +123,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
           : opt.integrator == "pm"   ? Kind::kPM
                                      : Kind::kSPPM;
   if (opt.k < 1) throw InputError("--k must be a positive integer");
+  adaptive_ = opt.photon_sampling == "adaptive" && kind_ != Kind::kPM;
   int md = opt.max_depth == -2 ? scene_->desc().max_depth : opt.max_depth;
   max_depth_ = md < 0 ? 0xffffffffu : uint32_t(md);
   W_ = v.camera.width;
@@ -273,14 +275,16 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   // so path lengths match the path tracer's (exact for first-hit visible points;
   // points behind specular chains may exceed it by the chain's extra segments).
   uint32_t photon_depth = max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1;
-  std::vector<Photon> photons = trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass),
-                                              photons_per_pass_, photon_depth, false, &cancel);
+  float rmax = kind_ == Kind::kPPPM ? pppm_radius(r0_, opt_.alpha, abs_pass) : *std::max_element(R_.begin(), R_.end());
+  std::vector<Photon> photons =
+      adaptive_ ? trace_photons_adaptive(abs_pass, photon_depth, rmax, cancel)
+                : trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
+                                photon_depth, false, &cancel);
   if (cancel.load()) {
     direct_.swap(direct_backup);
     return false;
   }
   traced_ += photons_per_pass_;
-  float rmax = kind_ == Kind::kPPPM ? pppm_radius(r0_, opt_.alpha, abs_pass) : *std::max_element(R_.begin(), R_.end());
   PhotonHashGrid grid;
   // Cells of twice the largest radius: a query sphere then overlaps at most 2x2x2 cells.
   grid.build(photons, v.bounds, 2.f * rmax, opt_.stochastic_hash, hash3(opt_.seed, uint64_t(abs_pass), 0x9d));
@@ -301,6 +305,106 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
       }
   });
   return true;
+}
+
+std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax,
+                                                             const std::atomic<bool>& cancel) {
+  const SceneView& v = scene_->view();
+  const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
+  // V(u) of photon/adaptive.h: a stored photon lies where the gather of some visible point i would find it.
+  // The gather measures from the photon's quantized position (compact_photon.h: within |extent| / 65535 of
+  // the exact one) to within R_i; the test here, on exact positions, takes R_i + margin with twice that
+  // error, so it is never 0 for a photon that would be gathered (a larger V costs efficiency, not bias).
+  std::vector<Photon> points;
+  std::vector<uint32_t> point_vp;  // visible-point index of each grid record
+  for (size_t i = 0; i < vp_.size(); ++i)
+    if (vp_[i].valid) {
+      Photon p;
+      p.p = vp_[i].p;
+      points.push_back(p);
+      point_vp.push_back(uint32_t(i));
+    }
+  const Vec3f ext = v.bounds.hi - v.bounds.lo;
+  const float margin = 2.f * length(ext) / 65535.f + 1e-6f * rmax;
+  const float query_radius = rmax + 2.f * margin;  // also covers the visible points' own quantization
+  PhotonHashGrid point_grid;
+  if (!points.empty()) point_grid.build(points, v.bounds, 2.f * query_radius, false, 0, true);
+  const PhotonGridView pg = point_grid.view();
+  const bool global_radius = kind_ == Kind::kPPPM;
+  auto visible = [&](const Photon& ph) {
+    bool hit = false;
+    pg.query_indexed(ph.p, query_radius, [&](uint32_t id, const Photon&) {
+      if (hit) return;
+      const uint32_t i = point_vp[id];
+      const float r = (global_radius ? rmax : R_[i]) + margin;
+      hit = photon_dist2(ph.p, vp_[i].p) <= r * r;
+    });
+    return hit;
+  };
+  const uint64_t n = photons_per_pass_;
+  const uint32_t chains = adaptive_chain_count(n);
+  const float d = mutation_size_;
+  std::vector<std::vector<Photon>> parts(chains);
+  std::vector<ChainCounts> counts(chains);
+  struct Buffers {
+    PrimarySample samples[2];
+    std::vector<Photon> payloads[2];
+  };
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, chains, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+    auto buffers = std::make_unique<Buffers>();
+    for (uint32_t c = r.begin(); c < r.end(); ++c) {
+      const uint64_t steps = n / chains + (c < n % chains ? 1 : 0);
+      PCG32 rng(hash3(opt_.seed, uint64_t(abs_pass), 0xada9000000000000ULL | c), mix64(uint64_t(abs_pass) << 32 | c));
+      auto evaluate = [&](const PssStream& stream, std::vector<Photon>& out) {
+        out.clear();
+        PhotonPathStateT<PssStream> st;
+        st.rng = stream;
+        photon_emit(v, st);
+        bool vis = false;
+        trace_photon_path(
+            v, st, photon_depth, [&](const Ray& ray, Hit& h) { return accel.intersect(ray, h); },
+            [&](const Photon& ph) {
+              if (ph.flags & kPhotonDirect) return;  // direct light is NEE's (as with keep_direct = false)
+              out.push_back(ph);
+              vis = vis || visible(ph);
+            });
+        return vis;
+      };
+      std::vector<Photon>& out = parts[c];
+      run_visibility_chain(
+          rng, steps, d, buffers->samples, buffers->payloads, evaluate,
+          [&](const std::vector<Photon>& state) { out.insert(out.end(), state.begin(), state.end()); },
+          [&] { return cancel.load(std::memory_order_relaxed); }, counts[c]);
+    }
+  });
+  if (cancel.load()) return {};
+  ChainCounts pass_counts;
+  for (const ChainCounts& c : counts) pass_counts.add(c);
+  const float scale = float(pass_counts.deposit_scale());
+  size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  std::vector<Photon> all;
+  all.reserve(total);
+  for (const auto& p : parts)
+    for (Photon ph : p) {  // chain order: deterministic
+      ph.power = ph.power * scale;
+      all.push_back(ph);
+    }
+  chain_totals_.add(pass_counts);
+  const double acceptance = pass_counts.mutated ? double(pass_counts.accepted) / double(pass_counts.mutated) : 0.0;
+  mutation_size_ = adapt_mutation_size(d, acceptance, pass_counts.mutated, adapted_passes_);
+  if (pass_counts.mutated) ++adapted_passes_;
+  return all;
+}
+
+AdaptiveSummary PhotonIntegrator::adaptive_summary() const {
+  AdaptiveSummary a;
+  if (!adaptive_) return a;
+  const ChainCounts& c = chain_totals_;
+  a.visible = c.uniform ? double(c.visible) / double(c.uniform) : 0.0;
+  a.acceptance = c.mutated ? double(c.accepted) / double(c.mutated) : 0.0;
+  a.mutation_size = mutation_size_;
+  return a;
 }
 
 std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t photons_per_pass, PhotonEstimate kind,

@@ -11,6 +11,9 @@
 //          Eq. 15, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1); images averaged.
 //          Passes are memoryless, so passes [i0, i0 + k) can be rendered anywhere
 //          and averaged later (RenderOptions::pass_offset).
+//   --photon-sampling adaptive (ppm, sppm, pppm) - Hachisuka & Jensen 2011, "Robust Adaptive Photon Tracing
+//          using Photon Path Visibility": each pass's photon paths drawn by Markov chains whose target is
+//          the visibility of the path to the pass's visible points (photon/adaptive.h).
 //   pm   - Jensen 1996, "Global Illumination using Photon Maps" (and Jensen 2001
 //          Ch. 7-9): a global and a caustic photon map built once (kd-trees),
 //          then per pass one camera sample per pixel: emission and specular
@@ -23,6 +26,7 @@
 #include <vector>
 
 #include "../backend/cpu/cpu_accel.h"
+#include "../photon/adaptive.h"
 #include "../photon/kdtree.h"
 #include "../photon/photon.h"
 #include "render.h"
@@ -46,6 +50,10 @@ class PhotonIntegrator {
   float initial_radius() const { return r0_; }
   uint64_t photons_per_pass() const { return photons_per_pass_; }
   uint64_t photons_traced() const { return traced_; }
+  // --photon-sampling adaptive: the chains' counters summed over the passes done, and the mutation size
+  // the next pass uses.
+  AdaptiveSummary adaptive_summary() const;
+  const ChainCounts& chain_counts() const { return chain_totals_; }
   // Traces one pass of photons in deterministic order (also used by tests).
   static std::vector<Photon> trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed, uint32_t pass,
                                            uint64_t count, uint32_t max_depth, bool keep_direct,
@@ -60,6 +68,14 @@ class PhotonIntegrator {
   uint64_t global_paths_ = 0;
   uint64_t traced_ = 0;
   void trace_visible_points(int64_t abs_pass);
+  // The photons of one pass drawn by the visibility chains (photon/adaptive.h), their powers scaled by
+  // n_vis / S; empty if cancelled.
+  std::vector<Photon> trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax,
+                                             const std::atomic<bool>& cancel);
+  bool adaptive_ = false;
+  float mutation_size_ = kInitialMutationSize;
+  int64_t adapted_passes_ = 0;
+  ChainCounts chain_totals_;
   std::shared_ptr<Scene> scene_;
   RenderOptions opt_;
   uint32_t max_depth_;

@@ -95,6 +95,15 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.radius < 0 || !std::isfinite(o.radius)) throw InputError("--radius must be a positive number");
   if (!(o.alpha > 0.f && o.alpha < 1.f)) throw InputError("--alpha must be in (0, 1)");
   if (o.pass_offset < 0) throw InputError("--pass-offset must be a non-negative integer");
+  if (o.photon_sampling != "uniform" && o.photon_sampling != "adaptive")
+    throw InputError("unknown photon sampling '" + o.photon_sampling + "' (allowed: uniform, adaptive)");
+  if (o.photon_sampling == "adaptive") {
+    if (o.integrator != "ppm" && o.integrator != "sppm" && o.integrator != "pppm")
+      throw InputError("--photon-sampling adaptive applies to integrators ppm, sppm and pppm, got '" +
+                       o.integrator + "'");
+    if (uses_wavefront(o))
+      throw InputError("--photon-sampling adaptive runs on the CPU driver only (not with --wavefront or --device cuda)");
+  }
   if (o.accel != "auto" && o.accel != "embree" && o.accel != "small" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: auto, embree, small, bvh)");
   if (o.strategy_images && !is_vcm_integrator(o.integrator))
@@ -339,6 +348,10 @@ void RenderJob::run() {
             bool complete = photon_->render_pass(pass, cancel_);
             photons_ = photon_->photons_traced();
             if (!complete) return;
+            if (opt_.photon_sampling == "adaptive") {
+              std::lock_guard<std::mutex> adaptive_lock(adaptive_mutex_);
+              adaptive_ = photon_->adaptive_summary();
+            }
             samples_ += uint64_t(film_.width) * film_.height;
           } else if (vcm_) {
             bool complete = vcm_->render_pass(pass, cancel_);
@@ -421,6 +434,12 @@ RenderStats RenderJob::stats() const {
   s.seconds = seconds_.load();
   s.photons = photons_.load();
   s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
+  if (photon_ && opt_.photon_sampling == "adaptive") {
+    std::lock_guard<std::mutex> lock(adaptive_mutex_);
+    s.photon_visible = adaptive_.visible;
+    s.photon_acceptance = adaptive_.acceptance;
+    s.photon_mutation_size = adaptive_.mutation_size;
+  }
   s.done = finished_.load();
   s.cancelled = cancel_.load();
   s.error = error_value_.load();

@@ -44,6 +44,9 @@ struct RenderOptions {
   float alpha = 0.7f;        // radius reduction (Hachisuka et al. 2008; Knaus & Zwicker 2011)
   int64_t pass_offset = 0;   // pppm: render passes [pass_offset, pass_offset + spp)
   bool stochastic_hash = false;  // keep one photon per hash cell (Hachisuka & Jensen 2010)
+  // ppm, sppm, pppm on the CPU: "uniform" (independent photon paths) or "adaptive" (Markov chains on the
+  // photon paths' visibility, Hachisuka & Jensen 2011: photon/adaptive.h).
+  std::string photon_sampling = "uniform";
   int k = 50;                // pm: photons per k-nearest density estimate
   // light, bdpt, bpm, vcm: keep one image per strategy (Veach 1997 Fig. 10.3): connections (s, t) of paths
   // up to kStrategyMaxLength segments, merges per camera vertex (VcmIntegrator::strategy_images).
@@ -68,6 +71,9 @@ struct RenderStats {
   uint64_t invalid_samples = 0;  // NaN/inf radiance, dropped
   uint64_t photons = 0;          // photon paths traced (photon integrators)
   float radius = 0.f;            // initial gather radius (photon integrators)
+  // --photon-sampling adaptive, over the passes so far: the visible fraction of the uniform photon paths,
+  // the mutations' acceptance rate, and the mutation size the next pass uses (-1 when not adaptive).
+  double photon_visible = -1.0, photon_acceptance = -1.0, photon_mutation_size = -1.0;
   double seconds = 0.0;
   bool done = false;
   bool cancelled = false;
@@ -82,6 +88,10 @@ struct RenderStats {
   double seconds_light = 0.0, seconds_camera = 0.0, seconds_accumulate = 0.0;
   uint64_t stored_photons = 0;
 };
+
+// --photon-sampling adaptive over the passes so far (RenderStats::photon_*): the visible fraction of the
+// uniform photon paths, the mutations' acceptance rate, the mutation size of the next pass.
+struct AdaptiveSummary { double visible = -1.0, acceptance = -1.0, mutation_size = -1.0; };
 
 // Names of the integrators this build offers (the registry).
 const std::vector<std::string>& integrator_names();
@@ -178,6 +188,8 @@ class RenderJob {
   bool target_met(int64_t passes_done);
   std::thread thread_;
   std::unique_ptr<PhotonIntegrator> photon_;
+  AdaptiveSummary adaptive_;           // --photon-sampling adaptive: photon_'s counters after the last pass
+  mutable std::mutex adaptive_mutex_;  // guards adaptive_
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::unique_ptr<UpgIntegrator> upg_;
   std::unique_ptr<WavefrontRenderer> wavefront_;

@@ -18,21 +18,24 @@ namespace caustica {
 
 // One photon path's state between bounces: the stage functions below run it one segment at a time (the
 // wavefront drivers run each as a kernel over all paths), trace_photon runs them back to back.
-struct PhotonPathState {
+// `Rng` supplies the path's random numbers (next_float()): a PCG32 stream, or a primary-sample vector that a
+// Markov chain mutates (photon/adaptive.h).
+template <typename Rng>
+struct PhotonPathStateT {
   Ray ray;
   RGB beta{0.f};
-  PCG32 rng;
+  Rng rng;
   uint32_t depth = 0;  // segments traced so far
   bool specular_seen = false, diffuse_seen = false;
   bool active = false;
 };
+using PhotonPathState = PhotonPathStateT<PCG32>;
 
-// Chooses a light in proportion to power and emits the path's first ray. The random stream depends only on
-// (seed, pass, index).
-CHD void photon_start(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t index, PhotonPathState& st) {
-  st = PhotonPathState();
+// Chooses a light in proportion to power and emits the path's first ray, with the numbers of st.rng (the
+// rest of st as default-constructed).
+template <typename Rng>
+CHD void photon_emit(const SceneView& s, PhotonPathStateT<Rng>& st) {
   if (s.num_lights == 0) return;
-  st.rng = PCG32(hash3(seed, pass, index), mix64(uint64_t(pass) << 32 | index));
   float pmf;
   uint32_t li = s.light_sampler.sample(st.rng.next_float(), pmf);
   EmitSample e;
@@ -44,10 +47,19 @@ CHD void photon_start(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t
   st.active = true;
 }
 
+// photon_emit with a PCG32 stream that depends only on (seed, pass, index).
+CHD void photon_start(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t index, PhotonPathState& st) {
+  st = PhotonPathState();
+  if (s.num_lights == 0) return;
+  st.rng = PCG32(hash3(seed, pass, index), mix64(uint64_t(pass) << 32 | index));
+  photon_emit(s, st);
+}
+
 // The segment st.ray just traced ended at `hit`: stores a photon there (returns true and fills `ph`) if
 // the surface is not specular, then samples the BSDF and Russian roulette for the next segment (st.active
 // false when the path ends). max_depth counts segments from the light (the first hit is depth 1).
-CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathState& st, const Hit& hit, Photon& ph) {
+template <typename Rng>
+CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<Rng>& st, const Hit& hit, Photon& ph) {
   st.depth += 1;
   if (!hit.valid()) {
     st.active = false;
@@ -90,17 +102,22 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathState& 
 // Traces one photon path. `intersect(ray, hit)` is the accelerator's closest
 // hit; `store(const Photon&)` receives each stored photon. max_depth counts
 // segments from the light (the first hit is depth 1).
-template <typename Intersect, typename Store>
-CHD void trace_photon(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t index, uint32_t max_depth,
-                      Intersect&& intersect, Store&& store) {
-  PhotonPathState st;
-  photon_start(s, seed, pass, index, st);
+template <typename Rng, typename Intersect, typename Store>
+CHD void trace_photon_path(const SceneView& s, PhotonPathStateT<Rng>& st, uint32_t max_depth, Intersect&& intersect,
+                           Store&& store) {
   while (st.active && st.depth < max_depth) {
     Hit hit;
     intersect(st.ray, hit);
     Photon ph;
     if (photon_bounce(s, max_depth, st, hit, ph)) store(ph);
   }
+}
+template <typename Intersect, typename Store>
+CHD void trace_photon(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t index, uint32_t max_depth,
+                      Intersect&& intersect, Store&& store) {
+  PhotonPathState st;
+  photon_start(s, seed, pass, index, st);
+  trace_photon_path(s, st, max_depth, intersect, store);
 }
 
 }  // namespace caustica

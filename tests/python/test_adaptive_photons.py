@@ -1,0 +1,125 @@
+"""Adaptive photon tracing (--photon-sampling adaptive; Hachisuka & Jensen 2011, photon/adaptive.h): on a
+close-up where few photon paths reach what the camera sees, each pass's estimate has the expectation of
+uniform photon tracing's (pppm: the same radii) and far less per-pixel variance at equal photons; sppm and
+ppm converge to the path tracer; renders do not depend on the thread count; options are checked."""
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import caustica
+from conftest import mean_and_se, relmse
+
+
+@pytest.fixture(scope="module")
+def closeup(tmp_path_factory):
+    """The Cornell box seen through a 5-degree lens aimed at the ceiling beside the light: the ceiling
+    receives no direct light (the light faces down), so every pixel is photon-mapped indirect light, and
+    about 0.3% of the uniform photon paths store a photon there."""
+    path = tmp_path_factory.mktemp("adaptive") / "cornell.json"
+    caustica.load_scene_desc("cornell").write_json(str(path))
+    d = json.loads(path.read_text())
+    d["camera"] = {"position": [0, 0, 0.8], "target": [0.6, 1, -0.6], "up": [0, 1, 0], "fov": 5.0,
+                   "width": 16, "height": 16}
+    return caustica.load_scene(d)
+
+
+def renders(scene, sampling, seeds, **kw):
+    opts = dict(integrator="pppm", spp=4, photons=20000, radius=0.02, sampler="independent")
+    opts.update(kw)
+    return np.array([caustica.render(scene, seed=s, photon_sampling=sampling, **opts)[:, :, 1] for s in seeds],
+                    dtype=np.float64)
+
+
+def test_adaptive_passes_have_uniform_tracings_expectation(closeup):
+    # pppm's passes are independent and both samplings use the same radius per pass, so the two estimate
+    # the same expectation (photon/adaptive.h: each pass is unbiased against uniform tracing). The image
+    # mean and each quadrant's mean over 24 seeds agree within 5 standard errors of their difference.
+    a = renders(closeup, "adaptive", range(24))
+    u = renders(closeup, "uniform", range(100, 124))
+    assert u.mean() > 0.01  # the ceiling is lit (indirectly)
+    for sl in [(slice(None), slice(None)), (slice(0, 8), slice(0, 8)), (slice(0, 8), slice(8, 16)),
+               (slice(8, 16), slice(0, 8)), (slice(8, 16), slice(8, 16))]:
+        ma, sa = mean_and_se(a[:, sl[0], sl[1]].mean(axis=(1, 2)))
+        mu, su = mean_and_se(u[:, sl[0], sl[1]].mean(axis=(1, 2)))
+        assert abs(ma - mu) < 5 * np.hypot(sa, su), (sl, ma, mu, sa, su)
+
+
+def test_adaptive_lowers_per_pixel_variance_at_equal_photons(closeup):
+    # Per-pixel variance over 8 seeds at 8 passes of 20000 photon paths: measured 0.1x of uniform tracing's
+    # (16 passes: 0.1x; 2 passes: 0.23x, the mutation size still adapting). 0.4 leaves room for the
+    # variance estimates' own noise (8 seeds) and fails when the chains deposit only their uniform samples.
+    a = renders(closeup, "adaptive", range(8), spp=8)
+    u = renders(closeup, "uniform", range(8), spp=8)
+    ratio = a.var(axis=0, ddof=1).mean() / u.var(axis=0, ddof=1).mean()
+    assert ratio < 0.4, ratio
+
+
+def test_stats_report_the_chains(closeup):
+    r = caustica.render_job(closeup, integrator="sppm", spp=3, photons=20000, seed=1, photon_sampling="adaptive")
+    ad = r.stats["adaptive"]
+    # About 0.3% of the uniform paths are visible here (binomial: 3 x 20000 draws).
+    assert 0.001 < ad["visible_fraction"] < 0.01, ad
+    assert 0.0 < ad["acceptance"] < 1.0 and 1e-4 <= ad["mutation_size"] <= 1.0, ad
+    assert "adaptive" not in caustica.render_job(closeup, integrator="sppm", spp=1, photons=2000).stats
+
+
+@pytest.fixture(scope="module")
+def cornell():
+    return caustica.load_scene("cornell", width=48, height=48, filter="box")
+
+
+@pytest.mark.parametrize("integrator", ["sppm", "ppm"])
+def test_converges_to_path_tracer(cornell, integrator):
+    # As test_photon.py's test for uniform photons: the diffuse Cornell box at 48 x 48, relMSE to a
+    # 2048-spp path-traced reference below 0.003 after 64 passes of 20000 photons, and the error at 64
+    # passes under half the error at 4. (Here about 40% of the uniform paths are visible and the chains'
+    # gain is small; the test is that adaptive sampling converges to the same image.)
+    ref = caustica.render(cornell, spp=2048, seed=99, sampler="independent").astype(np.float64)
+    e = {p: relmse(caustica.render(cornell, integrator=integrator, spp=p, photons=20000, seed=5,
+                                   photon_sampling="adaptive"), ref) for p in (4, 64)}
+    assert e[64] < 0.5 * e[4] and e[64] < 0.003, e
+
+
+@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm"])
+def test_deterministic_across_thread_counts(closeup, integrator):
+    a = caustica.render(closeup, integrator=integrator, spp=2, photons=8000, threads=1, seed=2,
+                        photon_sampling="adaptive")
+    b = caustica.render(closeup, integrator=integrator, spp=2, photons=8000, threads=2, seed=2,
+                        photon_sampling="adaptive")
+    assert np.array_equal(a, b)
+    assert a.max() > 0
+
+
+def test_options_rejected():
+    for kw, needle in [(dict(integrator="sppm", photon_sampling="mcmc"),
+                        r"unknown photon sampling 'mcmc' \(allowed: uniform, adaptive\)"),
+                       (dict(integrator="path", photon_sampling="adaptive"),
+                        "applies to integrators ppm, sppm and pppm, got 'path'"),
+                       (dict(integrator="pm", photon_sampling="adaptive"), "got 'pm'"),
+                       (dict(integrator="sppm", photon_sampling="adaptive", wavefront=True),
+                        "runs on the CPU driver only")]:
+        with pytest.raises(caustica.InputError, match=needle):
+            caustica.render("cornell", spp=1, **kw)
+
+
+def test_cli(caustica_bin, tmp_path):
+    # The run's summary names the chains' figures; a bad value, and an integrator the option does not
+    # apply to (checked by the renderer), are one error line (no progress bar before it) and exit code 2.
+    out = tmp_path / "a.exr"
+    r = subprocess.run([caustica_bin, "render", "cornell", "--integrator", "sppm", "--photon-sampling", "adaptive",
+                        "--spp", "2", "--photons", "5000", "--width", "24", "--height", "24", "--quiet",
+                        "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "adaptive:" in r.stderr and "% of uniform paths visible" in r.stderr and out.exists()
+    r = subprocess.run([caustica_bin, "render", "cornell", "--photon-sampling", "metropolis", "-o",
+                        str(tmp_path / "b.exr")], capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.strip().splitlines() == [
+        "caustica: error: unknown photon sampling 'metropolis' (allowed: uniform, adaptive)"]
+    r = subprocess.run([caustica_bin, "render", "cornell", "--integrator", "pm", "--photon-sampling", "adaptive",
+                        "-o", str(tmp_path / "c.exr")], capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.strip().splitlines() == [
+        "caustica: error: --photon-sampling adaptive applies to integrators ppm, sppm and pppm, got 'pm'"]
