@@ -364,9 +364,12 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
         trace_photon_path(
             v, st, photon_depth, [&](const Ray& ray, Hit& h) { return accel.intersect(ray, h); },
             [&](const Photon& ph) {
-              if (ph.flags & kPhotonDirect) return;  // direct light is NEE's (as with keep_direct = false)
+              // Direct light is NEE's (as with keep_direct = false). Only the photons some visible point
+              // would gather are kept: the others add nothing this pass (V's test, with its margin).
+              if (ph.flags & kPhotonDirect) return;
+              if (!visible(ph)) return;
               out.push_back(ph);
-              vis = vis || visible(ph);
+              vis = true;
             });
         return vis;
       };
