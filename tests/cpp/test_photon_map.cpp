@@ -368,6 +368,13 @@ TEST(PhotonHashGrid, QueryEqualsBruteForce) {
           ASSERT_EQ(got.size(), want.size()) << cloud_name(kind) << " stochastic " << stochastic << " cell "
                                              << cfg.cell_size << " radius " << cfg.radius << " query " << qi;
           ASSERT_TRUE(got == want) << cloud_name(kind) << " query " << qi;
+          // query_any: true exactly when a reported photon satisfies the predicate (here: any photon; and
+          // one in the upper half of the radius, whose answer differs from "any" for some queries).
+          EXPECT_EQ(v.query_any(p, cfg.radius, [](uint32_t, const Photon&) { return true; }), !want.empty());
+          auto outer = [&](const Photon& ph) { return photon_dist2(p, ph.p) > 0.25f * cfg.radius * cfg.radius; };
+          bool any_outer = false;
+          query(v, p, cfg.radius, [&](const Photon& ph) { any_outer = any_outer || outer(ph); });
+          EXPECT_EQ(v.query_any(p, cfg.radius, [&](uint32_t, const Photon& ph) { return outer(ph); }), any_outer);
           total_found += got.size();
           ++total_queries;
           for (const Photon& ph : decoded) at_radius += photon_dist2(p, ph.p) == cfg.radius * cfg.radius;

@@ -332,14 +332,11 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
   const PhotonGridView pg = point_grid.view();
   const bool global_radius = kind_ == Kind::kPPPM;
   auto visible = [&](const Photon& ph) {
-    bool hit = false;
-    pg.query_indexed(ph.p, query_radius, [&](uint32_t id, const Photon&) {
-      if (hit) return;
+    return pg.query_any(ph.p, query_radius, [&](uint32_t id, const Photon&) {
       const uint32_t i = point_vp[id];
       const float r = (global_radius ? rmax : R_[i]) + margin;
-      hit = photon_dist2(ph.p, vp_[i].p) <= r * r;
+      return photon_dist2(ph.p, vp_[i].p) <= r * r;
     });
-    return hit;
   };
   const uint64_t n = photons_per_pass_;
   const uint32_t chains = adaptive_chain_count(n);

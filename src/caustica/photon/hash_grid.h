@@ -99,7 +99,24 @@ struct PhotonGridView {
   // run's first photon is prefetched with the photons (for callers that read a record per photon found).
   template <class F>
   CHD void query_indexed(Vec3f p, float radius, F&& f, const void* records = nullptr, uint32_t stride = 0) const {
-    if (num_photons == 0) return;
+    visit(p, radius, [&](uint32_t id, const Photon& ph) {
+      f(id, ph);
+      return false;
+    }, records, stride);
+  }
+
+  // Whether pred(uint32_t id, const Photon& decoded) is true for some photon within `radius` of p (the
+  // photons of query_indexed, in its order, stopping at the first true).
+  template <class F>
+  CHD bool query_any(Vec3f p, float radius, F&& pred) const {
+    return visit(p, radius, pred, nullptr, 0);
+  }
+
+ private:
+  // query_indexed's traversal; stops and returns true when f returns true.
+  template <class F>
+  CHD bool visit(Vec3f p, float radius, F&& f, const void* records, uint32_t stride) const {
+    if (num_photons == 0) return false;
     const float r2 = radius * radius;
     const float ru = radius * inv_cell_size;
     int32_t c0[3], c1[3];
@@ -152,10 +169,11 @@ struct PhotonGridView {
           ph.wi = oct_decode(c.oct);
           ph.power = compact_power(c);
           ph.flags = compact_flags(c);
-          f(ids ? ids[j] : j, static_cast<const Photon&>(ph));
+          if (f(ids ? ids[j] : j, static_cast<const Photon&>(ph))) return true;
         }
       }
     }
+    return false;
   }
 };
 
