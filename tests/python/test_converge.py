@@ -110,6 +110,23 @@ def test_python_api_returns_log(reference):
         caustica.load_scene("cornell", width=SIZE, height=SIZE), spp=log[-1]["passes"]), ref), rel=1e-5)
 
 
+def test_adaptive_variant_is_compared_as_an_integrator(reference):
+    # "sppm+adaptive" runs sppm with photon_sampling="adaptive" under its own label; its final image is the
+    # one caustica.render gives for the passes it did (same seed and options).
+    ref, _ = reference
+    log = caustica.converge("cornell", integrators="sppm,sppm+adaptive", time=0.6, reference=ref, metrics="relmse",
+                            checkpoints=[0.3], width=SIZE, height=SIZE, as_frame=False, photons=4000)
+    assert log.header["integrators"] == ["sppm", "sppm+adaptive"]
+    last = [r for r in log if r["integrator"] == "sppm+adaptive"][-1]
+    img = caustica.render(caustica.load_scene("cornell", width=SIZE, height=SIZE), integrator="sppm",
+                          spp=last["passes"], photons=4000, photon_sampling="adaptive")
+    assert last["relmse"] == pytest.approx(caustica.metrics.relmse(img, ref), rel=1e-5)
+    for bad, needle in [("path+adaptive", "'\\+adaptive' applies to ppm, sppm, pppm, got 'path\\+adaptive'"),
+                        ("sppm+fast", "unknown integrator variant '\\+fast'")]:
+        with pytest.raises(caustica.InputError, match=needle):
+            caustica.converge("cornell", integrators=bad, time=1, reference=ref)
+
+
 def test_python_api_dataframe(reference):
     pd = pytest.importorskip("pandas")
     df = caustica.converge("cornell", integrators=["path"], time=0.3, reference=caustica.read_image(reference[0]),
