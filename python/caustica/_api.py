@@ -242,11 +242,12 @@ class RenderResult:
 def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, spp: Optional[int] = None,
                     time: Optional[float] = None, rr_depth: Optional[int] = None, sampler: Optional[str] = None,
                     photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
-                    k: Optional[int] = None) -> dict:
+                    k: Optional[int] = None, photon_sampling: Optional[str] = None) -> dict:
     """Options given explicitly win; the rest come from the scene's integrator defaults (JSON
     "integrator"), then from caustica's own defaults (path, 16 spp, rr_depth 5, sobol, alpha 0.7
-    (0.75 for bpm and vcm, Georgiev et al. 2012), k 50). spp and time go together: giving either
-    ignores both of the scene's."""
+    (0.75 for bpm and vcm, Georgiev et al. 2012), k 50, photon_sampling "uniform"). spp and time go
+    together: giving either ignores both of the scene's. The scene's photon_sampling applies to ppm,
+    sppm and pppm only."""
     dflt = scene.integrator_defaults
     if spp is None and time is None:
         spp, time = dflt.get("spp"), dflt.get("time")
@@ -255,7 +256,9 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
     return dict(integrator=integrator, spp=spp, time=time,
                 rr_depth=pick(rr_depth, "rr_depth", 5), sampler=pick(sampler, "sampler", "sobol"),
                 photons=pick(photons, "photons", None), radius=pick(radius, "radius", None),
-                alpha=pick(alpha, "alpha", 0.75 if integrator in ("bpm", "vcm") else 0.7), k=pick(k, "k", 50))
+                alpha=pick(alpha, "alpha", 0.75 if integrator in ("bpm", "vcm") else 0.7), k=pick(k, "k", 50),
+                photon_sampling=photon_sampling if photon_sampling is not None else
+                dflt.get("photon_sampling", "uniform") if integrator in ("ppm", "sppm", "pppm") else "uniform")
 
 
 PHOTON_SAMPLINGS = ("uniform", "adaptive")
@@ -279,7 +282,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                target_noise: Optional[float] = None, strategy_images: bool = False,
                device: str = "cpu", wavefront: bool = False, compaction: bool = True,
                sort_materials: bool = False, cache_first_bounce: bool = False, jitter: bool = True,
-               lanes: bool = True, photon_sampling: str = "uniform") -> RenderResult:
+               lanes: bool = True, photon_sampling: Optional[str] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -287,7 +290,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
-    `photon_sampling` (ppm, sppm, pppm on the CPU): "uniform" (default) or "adaptive", photon paths drawn by
+    `photon_sampling` (ppm, sppm, pppm on the CPU): "uniform" (default: the scene's, else uniform; a scene's
+    "adaptive" is not applied on the wavefront/CUDA drivers, which lack it) or "adaptive", photon paths drawn by
     Markov chains on their visibility to the pass's visible points (Hachisuka & Jensen 2011); stats["adaptive"]
     then holds the visible fraction of uniform paths, the mutations' acceptance rate and the mutation size.
     `k` (pm): photons per k-nearest density estimate (default 50).
@@ -321,8 +325,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     _check_device(device)
     scene = load_scene(scene)
     until_target = spp is None and time is None and (target_error is not None or target_noise is not None)
-    o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k)
+    o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k, photon_sampling)
     integrator, spp, time, rr_depth, sampler = o["integrator"], o["spp"], o["time"], o["rr_depth"], o["sampler"]
+    if photon_sampling is None and (wavefront or device != "cpu"):
+        o["photon_sampling"] = "uniform"  # the scene's choice, where the driver has only uniform tracing
     if until_target:  # a target alone renders until it is met (not the scene's default spp)
         spp = time = None
     photons, radius, alpha, k = o["photons"], o["radius"], o["alpha"], o["k"]
@@ -358,7 +364,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             k=_positive_int("k", k), strategy_images=bool(strategy_images), device=device,
                             wavefront=bool(wavefront), compaction=bool(compaction),
                             sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
-                            jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(photon_sampling),
+                            jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(o["photon_sampling"]),
                             **targets)
     interrupted = False
     job.start()

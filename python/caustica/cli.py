@@ -153,9 +153,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "and t camera vertices of paths of k <= 7 segments; merge_t{t}.exr), MIS-weighted")
     r.add_argument("--stochastic-hash", action="store_true",
                    help="photon maps keep one photon per hash cell (Hachisuka & Jensen 2010)")
-    r.add_argument("--photon-sampling", default="uniform", metavar="{uniform,adaptive}",
-                   help="ppm, sppm, pppm: how photon paths are drawn: uniform (independent paths, default) or "
-                        "adaptive (Markov chains on the paths' visibility, Hachisuka & Jensen 2011)")
+    r.add_argument("--photon-sampling", default=None, metavar="{uniform,adaptive}",
+                   help="ppm, sppm, pppm: how photon paths are drawn: uniform (independent paths) or adaptive "
+                        "(Markov chains on the paths' visibility, Hachisuka & Jensen 2011) (default: the scene's, "
+                        "else uniform)")
     r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
                    help="write the image so far every S seconds (atomically)")
     r.add_argument("--target-error", type=_float("--target-error"), default=None,
@@ -275,7 +276,8 @@ def cmd_render(a) -> int:
     if a.sampler is not None:
         _check_choice("sampler", a.sampler, _api.SAMPLERS)
     _check_choice("accelerator", a.accel, _api.ACCELS)
-    _check_choice("photon sampling", a.photon_sampling, _api.PHOTON_SAMPLINGS)
+    if a.photon_sampling is not None:
+        _check_choice("photon sampling", a.photon_sampling, _api.PHOTON_SAMPLINGS)
     _api._check_device(a.device)
     if a.filter is not None:
         _check_choice("filter", a.filter, _api.FILTERS)

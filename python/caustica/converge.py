@@ -199,7 +199,8 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
     integrator, variant = _split_variant(integrator)
     opts = {**opts, **variant}
     o = _api.resolve_options(scene, integrator, None, time, opts.get("rr_depth"), opts.get("sampler"),
-                             opts.get("photons"), opts.get("radius"), opts.get("alpha"), opts.get("k"))
+                             opts.get("photons"), opts.get("radius"), opts.get("alpha"), opts.get("k"),
+                             opts.get("photon_sampling"))
     if o["sampler"] not in _api.SAMPLERS:
         raise InputError(f"unknown sampler '{o['sampler']}' (allowed: {', '.join(_api.SAMPLERS)})")
     accel = opts.get("accel") or "auto"
@@ -223,7 +224,7 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
                              sampler=o["sampler"], accel=accel, photons=int(o["photons"] or 0),
                              radius=float(r or 0.0), alpha=float(o["alpha"]),
                              stochastic_hash=bool(opts.get("stochastic_hash", False)),
-                             photon_sampling=_api._photon_sampling(opts.get("photon_sampling", "uniform")),
+                             photon_sampling=_api._photon_sampling(o["photon_sampling"]),
                              k=_api._positive_int("k", o["k"]))
 
 

@@ -123,3 +123,23 @@ def test_cli(caustica_bin, tmp_path):
     assert r.returncode == 2
     assert r.stderr.strip().splitlines() == [
         "caustica: error: --photon-sampling adaptive applies to integrators ppm, sppm and pppm, got 'pm'"]
+
+
+def test_scene_file_default(tmp_path):
+    # A JSON scene's "integrator": {"photon_sampling": "adaptive"} applies to sppm (stats report the chains),
+    # not to the path tracer or the wavefront driver (no error there); it survives export; a bad value names
+    # its JSON path.
+    d = {"integrator": {"type": "sppm", "photons": 2000, "photon_sampling": "adaptive"},
+         "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 40, "width": 8, "height": 8},
+         "shapes": [{"type": "rectangle", "emission": 1.0}, {"type": "sphere", "radius": 0.5}]}
+    s = caustica.load_scene(d)
+    assert s.integrator_defaults["photon_sampling"] == "adaptive"
+    assert "adaptive" in caustica.render_job(s, spp=1).stats
+    assert "adaptive" not in caustica.render_job(s, spp=1, photon_sampling="uniform").stats
+    assert "adaptive" not in caustica.render_job(s, spp=1, wavefront=True).stats
+    caustica.render(s, integrator="path", spp=1)
+    s.write_json(str(tmp_path / "s.json"))
+    assert json.loads((tmp_path / "s.json").read_text())["integrator"]["photon_sampling"] == "adaptive"
+    d["integrator"]["photon_sampling"] = "smart"
+    with pytest.raises(caustica.SceneError, match=r"/integrator/photon_sampling.*unknown photon sampling 'smart'"):
+        caustica.load_scene(d)

@@ -119,6 +119,7 @@ nb::dict integrator_defaults(const SceneDesc& d) {
   if (in.radius > 0.f) r["radius"] = in.radius;
   if (in.alpha > 0.f) r["alpha"] = in.alpha;
   if (in.k > 0) r["k"] = in.k;
+  if (!in.photon_sampling.empty()) r["photon_sampling"] = in.photon_sampling;
   return r;
 }
 

@@ -128,9 +128,7 @@ bool run_visibility_chain(PCG32& rng, uint64_t steps, float d, PrimarySample (&s
     if ((j & 255u) == 0 && cancelled()) return false;
     const int other = cur ^ 1;
     // The uniform replica's new sample; a visible one is swapped into the visibility chain.
-    PssStream uniform;
-    uniform.out = &samples[other];
-    uniform.rng = &rng;
+    PssStream uniform{&samples[other], nullptr, 0.f, &rng};
     samples[other].n = 0;
     ++c.uniform;
     if (evaluate(uniform, payloads[other])) {
@@ -138,11 +136,7 @@ bool run_visibility_chain(PCG32& rng, uint64_t steps, float d, PrimarySample (&s
       cur = other;
       has_state = true;
     } else if (has_state) {
-      PssStream mutation;
-      mutation.out = &samples[other];
-      mutation.base = &samples[cur];
-      mutation.d = d;
-      mutation.rng = &rng;
+      PssStream mutation{&samples[other], &samples[cur], d, &rng};  // the state, mutated
       samples[other].n = 0;
       ++c.mutated;
       if (evaluate(mutation, payloads[other])) {

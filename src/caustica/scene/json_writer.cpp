@@ -426,6 +426,7 @@ struct Writer {
     if (in.radius > 0.f) integ.set("radius", JV::flt(in.radius));
     if (in.alpha > 0.f) integ.set("alpha", JV::flt(in.alpha));
     if (in.k > 0) integ.set("k", JV::integer(in.k));
+    if (!in.photon_sampling.empty()) integ.set("photon_sampling", JV::str(in.photon_sampling));
     if (!integ.obj.empty()) root.set("integrator", integ);
 
     std::vector<std::string> cam_names;

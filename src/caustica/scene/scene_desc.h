@@ -99,6 +99,7 @@ struct SceneDesc {
     float radius = 0.f;    // initial gather radius
     float alpha = 0.f;     // radius reduction, in (0, 1)
     int k = 0;             // pm: photons per density estimate
+    std::string photon_sampling;  // ppm, sppm, pppm: "uniform" or "adaptive"
   } integrator;
 
   int add_material(const std::string& name, const Material& m) {

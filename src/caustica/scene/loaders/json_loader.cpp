@@ -593,7 +593,8 @@ int parse_max_depth(const Ctx& c, const json& j, const std::string& path) {
 
 void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
   const std::string p = "/integrator";
-  check_keys(c, j, p, {"type", "spp", "time", "max_depth", "rr_depth", "sampler", "photons", "radius", "alpha", "k"});
+  check_keys(c, j, p, {"type", "spp", "time", "max_depth", "rr_depth", "sampler", "photons", "radius", "alpha", "k",
+                       "photon_sampling"});
   SceneDesc::IntegratorDefaults& in = d.integrator;
   if (j.contains("type")) {
     in.type = str(c, j["type"], p + "/type");
@@ -634,6 +635,11 @@ void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
   if (j.contains("alpha")) {
     in.alpha = num(c, j["alpha"], p + "/alpha");
     if (!(in.alpha > 0.f && in.alpha < 1.f)) c.fail(p + "/alpha", "expected a number in (0, 1)");
+  }
+  if (j.contains("photon_sampling")) {
+    in.photon_sampling = str(c, j["photon_sampling"], p + "/photon_sampling");
+    if (in.photon_sampling != "uniform" && in.photon_sampling != "adaptive")
+      c.fail(p + "/photon_sampling", "unknown photon sampling '" + in.photon_sampling + "' (allowed: uniform, adaptive)");
   }
 }
 
