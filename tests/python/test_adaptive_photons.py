@@ -3,6 +3,7 @@ close-up where few photon paths reach what the camera sees, each pass's estimate
 uniform photon tracing's (pppm: the same radii) and far less per-pixel variance at equal photons; sppm and
 ppm converge to the path tracer; renders do not depend on the thread count; options are checked."""
 import json
+import os
 import subprocess
 
 import numpy as np
@@ -63,6 +64,27 @@ def test_stats_report_the_chains(closeup):
     assert 0.001 < ad["visible_fraction"] < 0.01, ad
     assert 0.0 < ad["acceptance"] < 1.0 and 1e-4 <= ad["mutation_size"] <= 1.0, ad
     assert "adaptive" not in caustica.render_job(closeup, integrator="sppm", spp=1, photons=2000).stats
+
+
+ROOM = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "json", "sunlit-room.json")
+
+
+def test_sunlit_room(tmp_path):
+    # tests/data/json/sunlit-room.json: a closed room lit by the sun through a 0.2 x 0.2 hole in its
+    # ceiling (about 0.17% of uniform photon paths enter and store a photon the camera sees). On the pixels
+    # lit only indirectly (below the 90th percentile of uniform tracing's mean; the sunlit patch's
+    # anti-aliasing noise is the same for both), per-pixel variance at equal photons over 12 seeds: measured
+    # 0.035x uniform tracing's; asserted below 0.2x. pppm with one radius: the dim pixels' means agree
+    # within 5 standard errors of their difference.
+    s = caustica.load_scene(ROOM)
+    a = renders(s, "adaptive", range(12), radius=0.05)
+    u = renders(s, "uniform", range(100, 112), radius=0.05)
+    dim = u.mean(axis=0) < np.percentile(u.mean(axis=0), 90)
+    ratio = a.var(axis=0, ddof=1)[dim].mean() / u.var(axis=0, ddof=1)[dim].mean()
+    assert ratio < 0.2, ratio
+    ma, sa = mean_and_se(a[:, dim].mean(axis=1))
+    mu, su = mean_and_se(u[:, dim].mean(axis=1))
+    assert mu > 0.001 and abs(ma - mu) < 5 * np.hypot(sa, su), (ma, mu, sa, su)
 
 
 @pytest.fixture(scope="module")

@@ -311,7 +311,8 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
                                                              const std::atomic<bool>& cancel) {
   const SceneView& v = scene_->view();
   const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
-  // V(u) of photon/adaptive.h: a stored photon lies where the gather of some visible point i would find it.
+  // V(u) of photon/adaptive.h: a stored photon lies where the gather of some visible point i would find it
+  // and weight it by a nonzero BSDF value.
   // The gather measures from the photon's quantized position (compact_photon.h: within |extent| / 65535 of
   // the exact one) to within R_i; the test here, on exact positions, takes R_i + margin with twice that
   // error, so it is never 0 for a photon that would be gathered (a larger V costs efficiency, not bias).
@@ -331,11 +332,21 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
   if (!points.empty()) point_grid.build(points, v.bounds, 2.f * query_radius, false, 0, true);
   const PhotonGridView pg = point_grid.view();
   const bool global_radius = kind_ == Kind::kPPPM;
+  // A point within reach gathers the photon when its BSDF passes light from the photon's direction: the
+  // test evaluates it as sppm_gather does, on the direction the grid will store (compact_photon.h's
+  // octahedral encoding), so a photon on the far side of a thin wall, whose one-sided BSDF there is 0,
+  // does not make its path visible.
   auto visible = [&](const Photon& ph) {
+    uint16_t oct[2];
+    oct_encode(ph.wi, oct);
+    const Vec3f wi = oct_decode(oct);
     return pg.query_any(ph.p, query_radius, [&](uint32_t id, const Photon&) {
       const uint32_t i = point_vp[id];
       const float r = (global_radius ? rmax : R_[i]) + margin;
-      return photon_dist2(ph.p, vp_[i].p) <= r * r;
+      if (photon_dist2(ph.p, vp_[i].p) > r * r) return false;
+      const VisiblePoint& vp = vp_[i];
+      const Frame frame(vp.ns);
+      return !is_black(bsdf_eval(vp.material, frame.to_local(vp.wo), frame.to_local(wi), TransportMode::kRadiance));
     });
   };
   const uint64_t n = photons_per_pass_;
