@@ -264,6 +264,25 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
 PHOTON_SAMPLINGS = ("uniform", "adaptive")
 
 
+# Variants compared as integrators of their own: "sppm+adaptive" is sppm with photon_sampling="adaptive".
+VARIANTS = {"adaptive": ("photon_sampling", "adaptive", ("ppm", "sppm", "pppm"))}
+
+
+def split_integrator_variant(name: str) -> tuple[str, dict]:
+    """'sppm+adaptive' -> ('sppm', {'photon_sampling': 'adaptive'}); a plain name -> (name, {}). Comparisons
+    (caustica.converge, caustica.study.realtime) take such variants as integrators of their own."""
+    base, plus, variant = name.partition("+")
+    if not plus:
+        return name, {}
+    if variant not in VARIANTS:
+        raise InputError(f"unknown integrator variant '+{variant}' in '{name}' (allowed: "
+                         f"{', '.join('+' + v for v in VARIANTS)})")
+    key, value, bases = VARIANTS[variant]
+    if base not in bases:
+        raise InputError(f"'+{variant}' applies to {', '.join(bases)}, got '{name}'")
+    return base, {key: value}
+
+
 def _photon_sampling(v) -> str:
     if v not in PHOTON_SAMPLINGS:
         raise InputError(f"unknown photon sampling '{v}' (allowed: {', '.join(PHOTON_SAMPLINGS)})")

@@ -176,27 +176,9 @@ def _check_options(opts: dict) -> None:
         raise InputError(f"unknown render option(s) {', '.join(unknown)} (allowed: {', '.join(RENDER_OPTIONS)})")
 
 
-# Variants compared as integrators of their own: "sppm+adaptive" is sppm with photon_sampling="adaptive".
-VARIANTS = {"adaptive": ("photon_sampling", "adaptive", ("ppm", "sppm", "pppm"))}
-
-
-def _split_variant(name: str) -> tuple[str, dict]:
-    """'sppm+adaptive' -> ('sppm', {'photon_sampling': 'adaptive'}); a plain name -> (name, {})."""
-    base, plus, variant = name.partition("+")
-    if not plus:
-        return name, {}
-    if variant not in VARIANTS:
-        raise InputError(f"unknown integrator variant '+{variant}' in '{name}' (allowed: "
-                         f"{', '.join('+' + v for v in VARIANTS)})")
-    key, value, bases = VARIANTS[variant]
-    if base not in bases:
-        raise InputError(f"'+{variant}' applies to {', '.join(bases)}, got '{name}'")
-    return base, {key: value}
-
-
 def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native.RenderJob":
     """A RenderJob built the way caustica.render_job builds one (same defaults and checks)."""
-    integrator, variant = _split_variant(integrator)
+    integrator, variant = _api.split_integrator_variant(integrator)
     opts = {**opts, **variant}
     o = _api.resolve_options(scene, integrator, None, time, opts.get("rr_depth"), opts.get("sampler"),
                              opts.get("photons"), opts.get("radius"), opts.get("alpha"), opts.get("k"),
@@ -248,7 +230,7 @@ def _integrator_names(integrators) -> list[str]:
         raise InputError("integrators: give at least one integrator")
     allowed = _api.integrators()
     for i in names:
-        base, _ = _split_variant(i)
+        base, _ = _api.split_integrator_variant(i)
         if base not in allowed:
             raise InputError(f"unknown integrator '{i}' (allowed: {', '.join(allowed)}; variants: "
                              "ppm+adaptive, sppm+adaptive, pppm+adaptive)")

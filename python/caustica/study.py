@@ -189,8 +189,9 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
     integ = list(all_integrators) if integrators is None else _check_list(
         "integrators", integrators, lambda v: isinstance(v, str), "integrator names")
     for i in integ + [ref_integrator]:
-        if i not in all_integrators:
-            raise InputError(f"unknown integrator '{i}' (allowed: {', '.join(all_integrators)})")
+        if _api.split_integrator_variant(i)[0] not in all_integrators:
+            raise InputError(f"unknown integrator '{i}' (allowed: {', '.join(all_integrators)}; variants: "
+                             "ppm+adaptive, sppm+adaptive, pppm+adaptive)")
     integ = list(dict.fromkeys(integ))
     thr = _check_list("thresholds", thresholds,
                       lambda v: isinstance(v, (int, float, np.floating)) and 0 < v < 1, "numbers in (0, 1)")
@@ -239,7 +240,8 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
     if ref_meta is None:
         say(f"reference: {ref_integrator}, {ref_spp} spp at {w}x{h} ...")
         t = _time.perf_counter()
-        r = _api.render_job(sc, integrator=ref_integrator, spp=ref_spp, seed=REF_SEED, **common)
+        ref_base, ref_variant = _api.split_integrator_variant(ref_integrator)
+        r = _api.render_job(sc, integrator=ref_base, spp=ref_spp, seed=REF_SEED, **common, **ref_variant)
         if r.interrupted:
             raise KeyboardInterrupt
         ref = r.image
@@ -265,7 +267,8 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
         for spp in levels:
             fl, rm, secs, rates = [], [], [], []
             for seed in range(1, seeds + 1):
-                r = _api.render_job(sc, integrator=it, spp=spp, seed=seed, **common)
+                base, variant = _api.split_integrator_variant(it)
+                r = _api.render_job(sc, integrator=base, spp=spp, seed=seed, **common, **variant)
                 if r.interrupted:
                     raise KeyboardInterrupt
                 s = max(float(r.stats["seconds"]), 1e-9)

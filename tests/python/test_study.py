@@ -61,6 +61,11 @@ def test_realtime_study_tiny(tmp_path, capsys):
                                  thresholds=[0.3], out=out)
     assert [set(r) >= {"integrator", "threshold", "spp_needed", "frame_ms", "speedup_missing"} for r in r2["table"]]
     assert r2["reference"]["date"] == meta["date"]
+    # An integrator variant (adaptive photon tracing) is studied under its own name.
+    r3 = caustica.study.realtime("cornell", integrators=["sppm+adaptive"], size=(24, 24), max_spp=2, seeds=1,
+                                 ref_spp=128, thresholds=[0.3], out=out)
+    assert {r["integrator"] for r in r3["table"]} == {"sppm+adaptive"}
+    assert [c["spp"] for c in r3["curves"]["sppm+adaptive"]] == [1, 2]
 
 
 @pytest.mark.parametrize("argv", [
