@@ -1,5 +1,5 @@
 // Adaptive photon tracing: Hachisuka & Jensen 2011, "Robust Adaptive Photon Tracing using Photon Path
-// Visibility" (ACM TOG 30(5), Article 114). Photon paths are points u of the primary sample space, the unit
+// Visibility" (ACM TOG 30(5)). Photon paths are points u of the primary sample space, the unit
 // hypercube of the random numbers a path consumes (photon/trace.h reads them through PssStream below).
 // The target is the visibility V(u): 1 when the path stores a photon that some visible point (measurement
 // point) of the current pass would gather, else 0. Photons are drawn by a Markov chain whose stationary
@@ -11,7 +11,8 @@
 //     +-xi^(1/d + 1), wrapped around the unit interval, d the mutation size) and accepts the proposal when
 //     it is visible (Metropolis with a symmetric proposal and a 0/1 target);
 //   - adaptive MCMC (Andrieu & Thoms 2008): d is driven toward the acceptance rate 0.234 of Roberts et al.
-//     1997. The paper adapts d after every mutation with step 1/(mutations so far); here d is held fixed
+//     1997. The paper adapts d as the chain runs (Taichi's implementation: after every mutation, with step
+//     1/(mutations so far)); here d is held fixed
 //     within a pass and updated between passes (adapt_mutation_size), so that within a pass every state of
 //     a started chain is exactly distributed as V / |V| (see below).
 // Every step deposits the chain's current state (the paper's photon of the visibility chain, repeated when
