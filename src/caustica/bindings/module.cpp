@@ -159,11 +159,11 @@ static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
   d["cancelled"] = s.cancelled;
   d["photons"] = s.photons;
   d["radius"] = s.radius;
-  if (s.photon_visible >= 0.0) {  // --photon-sampling adaptive
+  if (s.adaptive.visible >= 0.0) {  // --photon-sampling adaptive
     nb::dict a;
-    a["visible_fraction"] = s.photon_visible;
-    a["acceptance"] = s.photon_acceptance;
-    a["mutation_size"] = s.photon_mutation_size;
+    a["visible_fraction"] = s.adaptive.visible;
+    a["acceptance"] = s.adaptive.acceptance;
+    a["mutation_size"] = s.adaptive.mutation_size;
     d["adaptive"] = a;
   }
   d["error"] = s.error >= 0.0 ? nb::cast(s.error) : nb::none();

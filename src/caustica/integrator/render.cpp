@@ -436,9 +436,7 @@ RenderStats RenderJob::stats() const {
   s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
   if (photon_ && opt_.photon_sampling == "adaptive") {
     std::lock_guard<std::mutex> lock(adaptive_mutex_);
-    s.photon_visible = adaptive_.visible;
-    s.photon_acceptance = adaptive_.acceptance;
-    s.photon_mutation_size = adaptive_.mutation_size;
+    s.adaptive = adaptive_;
   }
   s.done = finished_.load();
   s.cancelled = cancel_.load();

@@ -62,6 +62,10 @@ struct RenderOptions {
 // relMSE of an image against a reference (both H*W*3), epsilon 0.01 (shared/scenes/cornell-box.md).
 double relmse(const std::vector<float>& img, const std::vector<float>& ref);
 
+// --photon-sampling adaptive over the passes so far: the visible fraction of the uniform photon paths, the
+// mutations' acceptance rate, the mutation size the next pass uses (all -1 when not adaptive).
+struct AdaptiveSummary { double visible = -1.0, acceptance = -1.0, mutation_size = -1.0; };
+
 struct RenderStats {
   int64_t passes = 0;        // completed passes (samples per pixel)
   int64_t target_passes = 0; // 0 when the budget is time
@@ -71,9 +75,7 @@ struct RenderStats {
   uint64_t invalid_samples = 0;  // NaN/inf radiance, dropped
   uint64_t photons = 0;          // photon paths traced (photon integrators)
   float radius = 0.f;            // initial gather radius (photon integrators)
-  // --photon-sampling adaptive, over the passes so far: the visible fraction of the uniform photon paths,
-  // the mutations' acceptance rate, and the mutation size the next pass uses (-1 when not adaptive).
-  double photon_visible = -1.0, photon_acceptance = -1.0, photon_mutation_size = -1.0;
+  AdaptiveSummary adaptive;      // --photon-sampling adaptive
   double seconds = 0.0;
   bool done = false;
   bool cancelled = false;
@@ -88,10 +90,6 @@ struct RenderStats {
   double seconds_light = 0.0, seconds_camera = 0.0, seconds_accumulate = 0.0;
   uint64_t stored_photons = 0;
 };
-
-// --photon-sampling adaptive over the passes so far (RenderStats::photon_*): the visible fraction of the
-// uniform photon paths, the mutations' acceptance rate, the mutation size of the next pass.
-struct AdaptiveSummary { double visible = -1.0, acceptance = -1.0, mutation_size = -1.0; };
 
 // Names of the integrators this build offers (the registry).
 const std::vector<std::string>& integrator_names();
