@@ -301,7 +301,9 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                target_noise: Optional[float] = None, strategy_images: bool = False,
                device: str = "cpu", wavefront: bool = False, compaction: bool = True,
                sort_materials: bool = False, cache_first_bounce: bool = False, jitter: bool = True,
-               lanes: bool = True, photon_sampling: Optional[str] = None) -> RenderResult:
+               lanes: bool = True, photon_sampling: Optional[str] = None,
+               restir_candidates: Optional[int] = None, restir_neighbors: Optional[int] = None,
+               restir_radius: Optional[float] = None, restir_history: Optional[float] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -314,6 +316,11 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     Markov chains on their visibility to the pass's visible points (Hachisuka & Jensen 2011); stats["adaptive"]
     then holds the visible fraction of uniform paths, the mutations' acceptance rate and the mutation size.
     `k` (pm): photons per k-nearest density estimate (default 50).
+    restir (ReSTIR DI, Bitterli et al. 2020: the direct light at each pixel's first non-delta vertex resampled
+    from light candidates and reused across passes and neighbouring pixels, unbiased; the rest path traced):
+    `restir_candidates` light candidates per pixel and pass (default 32), `restir_neighbors` spatial neighbours
+    (default 5, 0: no spatial reuse), `restir_radius` their radius in pixels (default 30), `restir_history`
+    the temporal confidence cap in multiples of the candidates (default 20, 0: no temporal reuse).
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
     Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
     `target_error` with `reference` (a path to an .exr/.pfm or an (H, W, 3) array) stops when
@@ -376,6 +383,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
             raise InputError(f"{name} must be a non-negative integer, got {v!r}")
     targets = _targets(scene, target_error, reference, target_noise)
+    restir = _restir_options(integrator, restir_candidates, restir_neighbors, restir_radius, restir_history)
     job = _native.RenderJob(scene, integrator=integrator, spp=spp_i, time=float(time or 0.0), seed=int(seed),
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
                             sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),
@@ -384,7 +392,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             wavefront=bool(wavefront), compaction=bool(compaction),
                             sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
                             jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(o["photon_sampling"]),
-                            **targets)
+                            **restir, **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -407,6 +415,27 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
         progress(stats)
     return RenderResult(image=job.image(), stats=stats, interrupted=interrupted,
                         strategies=job.strategy_images() if strategy_images else {})
+
+
+def _restir_options(integrator, candidates, neighbors, radius, history) -> dict:
+    """The restir options given (checked as numbers; the native job checks their ranges)."""
+    given = {k: v for k, v in (("restir_candidates", candidates), ("restir_neighbors", neighbors),
+                               ("restir_radius", radius), ("restir_history", history)) if v is not None}
+    if given and integrator != "restir":
+        raise InputError(f"{', '.join(given)} apply to integrator 'restir', got '{integrator}'")
+    for k in ("restir_candidates", "restir_neighbors"):
+        if k in given:
+            v = given[k]
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+                raise InputError(f"{k} must be a non-negative integer, got {v!r}")
+            given[k] = int(v)
+    for k in ("restir_radius", "restir_history"):
+        if k in given:
+            v = given[k]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise InputError(f"{k} must be a finite number, got {v!r}")
+            given[k] = float(v)
+    return given
 
 
 def _targets(scene, target_error, reference, target_noise) -> dict:

@@ -157,6 +157,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="ppm, sppm, pppm: how photon paths are drawn: uniform (independent paths) or adaptive "
                         "(Markov chains on the paths' visibility, Hachisuka & Jensen 2011) (default: the scene's, "
                         "else uniform)")
+    r.add_argument("--restir-candidates", type=_positive_int("--restir-candidates"), default=None,
+                   help="restir: light candidates per pixel and pass (default 32)")
+    r.add_argument("--restir-neighbors", type=_nonneg_int("--restir-neighbors"), default=None,
+                   help="restir: spatial neighbours per pixel and pass (default 5; 0: no spatial reuse)")
+    r.add_argument("--restir-radius", type=_float("--restir-radius"), default=None,
+                   help="restir: spatial reuse radius in pixels (default 30)")
+    r.add_argument("--restir-history", type=_float("--restir-history"), default=None,
+                   help="restir: temporal reuse's confidence cap, in multiples of the candidates (default 20; "
+                        "0: no temporal reuse)")
     r.add_argument("--checkpoint", type=_seconds_named("--checkpoint"), default=None,
                    help="write the image so far every S seconds (atomically)")
     r.add_argument("--target-error", type=_float("--target-error"), default=None,
@@ -291,6 +300,11 @@ def cmd_render(a) -> int:
     o = _api.resolve_options(scene, a.integrator, a.spp, a.time, a.rr_depth, a.sampler, a.photons, a.radius,
                              a.alpha, a.k)
     integrator, spp, seconds = o["integrator"], o["spp"], o["time"]
+    restir_flags = [f for f, v in (("--restir-candidates", a.restir_candidates), ("--restir-neighbors", a.restir_neighbors),
+                                   ("--restir-radius", a.restir_radius), ("--restir-history", a.restir_history))
+                    if v is not None]
+    if restir_flags and integrator != "restir":
+        raise _api.InputError(f"{', '.join(restir_flags)}: applies to integrator 'restir', got '{integrator}'")
     target = a.target_error is not None or a.target_noise is not None
     if a.reference is not None and a.target_error is None:
         raise _api.InputError("--reference goes with --target-error (the relMSE to stop at)")
@@ -317,7 +331,9 @@ def cmd_render(a) -> int:
                               strategy_images=a.strategy_images is not None, device=a.device,
                               wavefront=a.wavefront, compaction=not a.no_compaction,
                               sort_materials=a.sort_materials, cache_first_bounce=a.cache_first_bounce,
-                              jitter=not a.no_jitter, lanes=not a.no_lanes, photon_sampling=a.photon_sampling)
+                              jitter=not a.no_jitter, lanes=not a.no_lanes, photon_sampling=a.photon_sampling,
+                              restir_candidates=a.restir_candidates, restir_neighbors=a.restir_neighbors,
+                              restir_radius=a.restir_radius, restir_history=a.restir_history)
     finally:
         prog.close()
     st = res.stats
@@ -334,6 +350,10 @@ def cmd_render(a) -> int:
         if integrator in ("bpm", "vcm", "upg"):
             msg += f", initial radius {st['radius']:.4g}"
         msg += f" -> {', '.join(outputs)}"
+    elif integrator == "restir":
+        msg = (f"{scene.name}: restir, {st['passes']} passes, {scene.width}x{scene.height}, {st['seconds']:.2f} s, "
+               f"{st['passes'] / secs:.2f} passes/s, {(st['rays'] + st['shadow_rays']) / secs / 1e6:.2f} M rays/s "
+               f"-> {', '.join(outputs)}")
     elif st.get("photons") or integrator != "path":
         msg = (f"{scene.name}: {integrator}{where}, {st['passes']} passes, {scene.width}x{scene.height}, "
                f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "

@@ -39,6 +39,9 @@ struct PathState {
   float weight = 1.f;  // pixel filter weight of this sample
   float prev_pdf = 1.f;  // solid-angle pdf of the BSDF sample that made `ray`
   bool prev_delta = true;  // camera rays and delta BSDF samples skip MIS on emitters
+  // The emitters `ray` reaches were already estimated by light sampling alone at the previous vertex (the
+  // ReSTIR integrator's direct light, integrator/restir.h): their emission is not added again.
+  bool nee_only = false;
   bool active = true;
   uint32_t depth = 0;  // segments traced before `ray`
   float eta_scale = 1.f;
@@ -91,7 +94,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   sr.active = false;
   st.depth += 1;  // the segment just traced
   if (!hit.valid()) {
-    if (s.environment_light >= 0) {
+    if (s.environment_light >= 0 && !st.nee_only) {
       const Light& env = s.lights[s.environment_light];
       float w = 1.f;
       if (!st.prev_delta) {
@@ -107,7 +110,8 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   Vec3f wo_world = -st.ray.d;
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
 
-  path_add_emission(s, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
+  if (!st.nee_only) path_add_emission(s, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
+  st.nee_only = false;
   if (st.depth >= pp.max_depth) { st.active = false; return; }
 
   const Material m = surface_material(s, sh);

@@ -17,6 +17,7 @@
 #include "path.h"
 #include "path_lanes.h"
 #include "photon_render.h"
+#include "restir_render.h"
 #include "upg_render.h"
 #include "vcm_render.h"
 #include "wavefront_render.h"
@@ -25,7 +26,7 @@ namespace caustica {
 
 const std::vector<std::string>& integrator_names() {
   static const std::vector<std::string> names = {"path", "sppm", "ppm", "pppm", "pm",
-                                                      "light", "bdpt", "bpm", "vcm", "upg"};
+                                                      "light", "bdpt", "bpm", "vcm", "upg", "restir"};
   return names;
 }
 
@@ -103,6 +104,23 @@ void RenderJob::validate(const RenderOptions& o) {
                        o.integrator + "'");
     if (uses_wavefront(o))
       throw InputError("--photon-sampling adaptive runs on the CPU driver only (not with --wavefront or --device cuda)");
+  }
+  if (o.restir_candidates < 1 || o.restir_candidates > 1024)
+    throw InputError("--restir-candidates must be an integer in [1, 1024], got " + std::to_string(o.restir_candidates));
+  if (o.restir_neighbors < 0 || o.restir_neighbors > 32)
+    throw InputError("--restir-neighbors must be an integer in [0, 32], got " + std::to_string(o.restir_neighbors));
+  if (!(o.restir_radius >= 1.f && o.restir_radius <= 1e4f))
+    throw InputError("--restir-radius must be a number of pixels in [1, 10000], got " + std::to_string(o.restir_radius));
+  if (!(o.restir_history >= 0.f && o.restir_history <= 1e6f))
+    throw InputError("--restir-history must be a number in [0, 1000000] (0: no temporal reuse), got " +
+                     std::to_string(o.restir_history));
+  {
+    const RenderOptions d;
+    if (o.integrator != "restir" && (o.restir_candidates != d.restir_candidates ||
+                                     o.restir_neighbors != d.restir_neighbors || o.restir_radius != d.restir_radius ||
+                                     o.restir_history != d.restir_history))
+      throw InputError("--restir-candidates, --restir-neighbors, --restir-radius and --restir-history apply to "
+                       "integrator 'restir', got '" + o.integrator + "'");
   }
   if (o.accel != "auto" && o.accel != "embree" && o.accel != "small" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: auto, embree, small, bvh)");
@@ -182,6 +200,7 @@ void RenderJob::make_integrator() {
     photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator) && !uses_wavefront(opt_)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
   if (opt_.integrator == "upg" && !uses_wavefront(opt_)) upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
+  if (opt_.integrator == "restir") restir_ = std::make_unique<RestirIntegrator>(scene_, opt_);
   if (uses_wavefront(opt_)) stage_totals_ = std::make_unique<WavefrontPassStats>();
   lanes_ = opt_.lanes && opt_.integrator == "path" && !uses_wavefront(opt_) && path_lanes_available() &&
            path_lanes_supported(scene_->view(), path_params());
@@ -365,6 +384,13 @@ void RenderJob::run() {
             rays_ = upg_->rays();
             if (!complete) return;
             samples_ += uint64_t(film_.width) * film_.height;
+          } else if (restir_) {
+            bool complete = restir_->render_pass(pass, cancel_);
+            rays_ = restir_->rays();
+            shadow_rays_ = restir_->shadow_rays();
+            invalid_ = restir_->invalid();
+            if (!complete) return;
+            samples_ += uint64_t(film_.width) * film_.height;
           } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);
           else
@@ -467,6 +493,7 @@ std::vector<float> RenderJob::image(RenderStats* at_snapshot) const {
   if (photon_) return photon_->image(passes_.load());
   if (vcm_) return vcm_->image(passes_.load());
   if (upg_) return upg_->image(passes_.load());
+  if (restir_) return restir_->image();
   if (wavefront_) return wavefront_->image(passes_.load());
   return film_.image();
 }

@@ -48,6 +48,13 @@ struct RenderOptions {
   // photon paths' visibility, Hachisuka & Jensen 2011: photon/adaptive.h).
   std::string photon_sampling = "uniform";
   int k = 50;                // pm: photons per k-nearest density estimate
+  // restir (ReSTIR DI, integrator/restir.h): light candidates per pixel and pass, spatial neighbours (0: no
+  // spatial reuse), their radius in pixels, the temporal history cap in multiples of the candidates (0: no
+  // temporal reuse); the defaults are Bitterli et al. 2020's.
+  int restir_candidates = 32;
+  int restir_neighbors = 5;
+  float restir_radius = 30.f;
+  float restir_history = 20.f;
   // light, bdpt, bpm, vcm: keep one image per strategy (Veach 1997 Fig. 10.3): connections (s, t) of paths
   // up to kStrategyMaxLength segments, merges per camera vertex (VcmIntegrator::strategy_images).
   bool strategy_images = false;
@@ -128,6 +135,7 @@ class Film {
 class PhotonIntegrator;
 class VcmIntegrator;
 class UpgIntegrator;
+class RestirIntegrator;
 class WavefrontRenderer;
 struct PathParams;
 struct WavefrontPassStats;
@@ -167,7 +175,7 @@ class RenderJob {
   template <typename Accel>
   void render_pass(const Accel& accel, int64_t pass);
   PathParams path_params() const;
-  void make_integrator();  // the constructor's: photon_, vcm_, upg_ or wavefront_ for opt_
+  void make_integrator();  // the constructor's: photon_, vcm_, upg_, restir_ or wavefront_ for opt_
   Film wavefront_film() const;
   std::shared_ptr<Scene> scene_;
   RenderOptions opt_;
@@ -190,6 +198,7 @@ class RenderJob {
   mutable std::mutex adaptive_mutex_;  // guards adaptive_
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::unique_ptr<UpgIntegrator> upg_;
+  std::unique_ptr<RestirIntegrator> restir_;
   std::unique_ptr<WavefrontRenderer> wavefront_;
   std::atomic<uint64_t> photons_{0};
   std::unique_ptr<WavefrontPassStats> stage_totals_;  // wavefront renders: sums over passes

@@ -13,6 +13,7 @@ struct LightSample {
   float pdf = 0.f;  // solid-angle density (1 for delta lights)
   bool delta = false;
   Vec3f p_l, n_l;   // area lights: the sampled point and its geometric normal (else n_l = 0)
+  Vec2f uv_l;       // area lights: the sampled point's texture coordinates
 };
 
 // Radiance of an area light at surface texture coordinates uv (emission texture applied).
@@ -82,7 +83,8 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       float c = absdot(n, ls.wi);
       if (c == 0.f) return false;
       ls.pdf = d2 / (c * triangle_area(p0, p1, p2));
-      ls.Li = area_radiance(s, l, n, -ls.wi, triangle_uv(s, l.prim, b.x, b.y));
+      ls.uv_l = triangle_uv(s, l.prim, b.x, b.y);
+      ls.Li = area_radiance(s, l, n, -ls.wi, ls.uv_l);
       ls.delta = false;
       ls.p_l = p;
       ls.n_l = n;
@@ -115,7 +117,8 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       ls.dist = std::sqrt(d2);
       ls.wi = d / ls.dist;
       ls.pdf = light_pdf(s, l, ref, p, n);
-      ls.Li = area_radiance(s, l, n, -ls.wi, sphere_uv(n));
+      ls.uv_l = sphere_uv(n);
+      ls.Li = area_radiance(s, l, n, -ls.wi, ls.uv_l);
       ls.delta = false;
       ls.p_l = p;
       ls.n_l = n;

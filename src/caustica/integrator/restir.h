@@ -1,0 +1,278 @@
+// ReSTIR DI: direct lighting by reservoir-based spatiotemporal importance resampling.
+//
+// Papers:
+//  - Talbot, Cline & Egbert 2005, "Importance Resampling for Global Illumination" (resampled importance
+//    sampling, RIS: M candidates from a source density p, one kept with probability proportional to
+//    p_hat / p, weighted by (1 / p_hat(y)) * (1 / M) * sum of p_hat(x_i) / p(x_i)).
+//  - Bitterli, Wyman, Pharr, Shirley, Lefohn & Jarosz 2020, "Spatiotemporal Reservoir Resampling for Real-Time
+//    Ray Tracing with Dynamic Direct Lighting", ACM TOG 39(4) 148: RIS streamed through a one-sample weighted
+//    reservoir, the reservoirs of the previous frame at the pixel (temporal reuse, its candidate count capped at
+//    20x the frame's) and of k = 5 random neighbours within 30 pixels (spatial reuse, neighbours whose normals
+//    differ by more than 25 degrees or whose depths differ by more than 10% skipped) resampled again; the
+//    unbiased combination whose normalisation counts every input that could have produced the sample.
+//  - Lin, Kettunen, Bitterli, Pantaleoni, Yuksel & Wyman 2022, "Generalized Resampled Importance Sampling:
+//    Foundations of ReSTIR", ACM TOG 41(4) 75: resampling inputs from different domains with any partition of
+//    unity as resampling MIS weights; here the (confidence-weighted) balance heuristic
+//      m_i(y) = c_i p_hat_i(y) / sum_j c_j p_hat_j(y),
+//    each input i resampled with weight w_i = m_i(y_i) p_hat_q(y_i) W_i, and W = sum_i w_i / p_hat_q(y).
+//    (The papers' equation numbers were not checked; the formulas are written out here instead.)
+//
+// What caustica builds. The shading point of a pixel is the first vertex of its camera path with a non-delta
+// BSDF (camera rays through glass and mirrors reach it by the path tracer's sampled specular bounces). Its
+// direct light is estimated by ReSTIR; everything else - emitters seen directly or through specular bounces,
+// and the light of the longer paths - by the path tracer (path.h), which continues from the shading point
+// with a BSDF sample whose emission hit is not added again (PathState::nee_only: the direct light at the
+// shading point comes from light sampling alone, as the NEE-only estimator does, so no MIS is needed there).
+//
+// The sample domain is shared by every pixel: a light of the scene and, for area lights, a point on it (area
+// measure), for the environment a direction (solid-angle measure), for point, spot and directional lights the
+// light itself (counting measure). Candidates come from the path tracer's light sampling (power-proportional
+// choice, then sample_light) with their density converted to that measure; the target p_hat_q(y) is the
+// luminance of the unshadowed contribution beta * f * Le * |cos| * J (J = |cos_l| / d^2 on area lights,
+// 1 / d^2 folded into a point light's Li, 1 elsewhere), beta the throughput from the camera to q. The final
+// estimate traces one shadow ray: beta f Le |cos| J V W. Every reservoir input's W is an unbiased contribution
+// weight for its own target, whose support (p_hat > 0) is exactly where its candidates' density is positive
+// (restir_contribution refuses the back of a sphere light, which cone sampling cannot reach); with the
+// balance heuristic over all inputs that could have produced y, each pass is an unbiased estimate of the
+// direct light (GRIS), whatever the correlation between the inputs. Visibility is not in the target, so no
+// bias from a visibility-reuse shortcut is taken.
+//
+// Stage functions shared by the CPU driver (restir_render.cpp); written host/device like the path tracer's.
+#pragma once
+#include "../base/rng.h"
+#include "path.h"
+
+namespace caustica {
+
+struct RestirParams {
+  uint32_t candidates = 32;  // M: light samples per pixel and pass (Bitterli et al. 2020 use 32)
+  uint32_t neighbors = 5;    // k: spatial neighbours per pixel and pass (0: no spatial reuse)
+  float radius = 30.f;       // spatial reuse radius, pixels
+  float history = 20.f;      // temporal reuse: the previous pass's confidence capped at history * M (0: none)
+};
+
+// A point of the shared light domain (see the header comment).
+struct LightPoint {
+  Vec3f p;          // area lights: the point; point/spot: unused; environment: the direction towards the sky
+  Vec3f n;          // area lights: the geometric normal
+  Vec2f uv;         // area lights: texture coordinates (emission textures)
+  int32_t light = -1;
+};
+
+// The pixel's shading point as stored between stages and passes.
+struct RestirVertex {
+  SurfaceHit sh;     // as made by make_surface_hit (before normal mapping)
+  Vec3f wo;          // towards the camera, world space
+  RGB beta{0.f};     // throughput from the camera (pixel filter weight excluded)
+  float depth = 0.f; // path length from the camera (spatial reuse's similarity test)
+  bool valid = false;
+};
+
+// A one-sample reservoir: the sample y, its unbiased contribution weight W, its confidence c (candidates it
+// stands for) and its target at its own shading point.
+struct Reservoir {
+  LightPoint y;
+  float w_sum = 0.f;
+  float W = 0.f;
+  float c = 0.f;
+  float p_hat = 0.f;
+  CHD bool has_sample() const { return y.light >= 0 && W > 0.f; }
+  // Weighted reservoir sampling with one slot: x replaces the sample with probability w / w_sum.
+  CHD bool update(const LightPoint& x, float w, float p_hat_x, float u) {
+    if (!(w > 0.f) || !(w < kInf)) return false;
+    w_sum += w;
+    if (u * w_sum < w) {
+      y = x;
+      p_hat = p_hat_x;
+      return true;
+    }
+    return false;
+  }
+  // W = w_sum / p_hat_q(y) once all inputs are in.
+  CHD void finish() {
+    W = p_hat > 0.f ? w_sum / p_hat : 0.f;
+    if (!(W > 0.f) || !(W < kInf)) {
+      W = 0.f;
+      y.light = -1;
+    }
+  }
+};
+
+// What the target needs at a shading point, computed once per vertex and stage.
+struct RestirShading {
+  Material m;
+  Frame frame;
+  Vec3f wo;       // local
+  Vec3f wo_world;
+  Vec3f p, ng;
+  Vec3f p_front;  // the shadow rays' (and light densities') reference point on wo's side
+  RGB beta{0.f};
+  float depth = 0.f;
+  bool valid = false;
+};
+
+CHD RestirShading restir_shading(const SceneView& s, const RestirVertex& v) {
+  RestirShading r;
+  if (!v.valid) return r;
+  SurfaceHit sh = v.sh;
+  r.m = surface_material(s, sh);
+  r.frame = Frame(sh.ns);
+  r.wo_world = v.wo;
+  r.wo = r.frame.to_local(v.wo);
+  r.p = sh.p;
+  r.ng = sh.ng;
+  r.p_front = offset_ray_origin(sh.p, sh.ng, v.wo);
+  r.beta = v.beta;
+  r.depth = v.depth;
+  r.valid = true;
+  return r;
+}
+
+// The unshadowed contribution of light point y at shading point v per unit of y's measure (0 where v's
+// candidates cannot reach y); wi and dist give the shadow ray's direction and length (kInf: distant).
+CHD RGB restir_contribution(const SceneView& s, const RestirShading& v, const LightPoint& y, Vec3f& wi,
+                            float& dist) {
+  if (!v.valid || y.light < 0) return RGB(0.f);
+  const Light& l = s.lights[y.light];
+  RGB Le(0.f);
+  float J = 1.f;
+  switch (l.type) {
+    case LightType::kTriangle:
+    case LightType::kSphere: {
+      Vec3f d = y.p - v.p_front;
+      float d2 = length_sq(d);
+      if (!(d2 > 0.f)) return RGB(0.f);
+      dist = std::sqrt(d2);
+      wi = d / dist;
+      float cos_l = dot(y.n, wi);  // < 0: the light's front faces v
+      if (l.type == LightType::kSphere) {
+        bool inside;
+        sphere_cos_theta_max(s.spheres[l.prim - s.num_triangles], v.p_front, inside);
+        if (!inside && cos_l >= 0.f) return RGB(0.f);  // the far side: outside the cone sampling covers
+      }
+      if (cos_l == 0.f) return RGB(0.f);
+      Le = area_radiance(s, l, y.n, -wi, y.uv);
+      J = std::fabs(cos_l) / d2;
+      break;
+    }
+    case LightType::kPoint:
+    case LightType::kSpot: {
+      Vec3f d = l.p - v.p_front;
+      float d2 = length_sq(d);
+      if (!(d2 > 0.f)) return RGB(0.f);
+      dist = std::sqrt(d2);
+      wi = d / dist;
+      float falloff = l.type == LightType::kSpot ? spot_falloff(l, dot(-wi, l.dir)) : 1.f;
+      Le = l.L * falloff;
+      J = 1.f / d2;
+      break;
+    }
+    case LightType::kDirectional:
+      wi = -l.dir;
+      dist = kInf;
+      Le = l.L;
+      break;
+    case LightType::kEnvironment:
+      wi = y.p;
+      dist = kInf;
+      Le = environment_radiance(s, l, wi);
+      break;
+  }
+  if (is_black(Le)) return RGB(0.f);
+  Vec3f wl = v.frame.to_local(wi);
+  RGB f = bsdf_eval(v.m, v.wo, wl);
+  return v.beta * f * Le * (abs_cos_theta(wl) * J);
+}
+
+CHD float restir_target(const SceneView& s, const RestirShading& v, const LightPoint& y) {
+  Vec3f wi;
+  float dist;
+  RGB g = restir_contribution(s, v, y, wi, dist);
+  float t = luminance(g);
+  return t > 0.f && t < kInf ? t : 0.f;
+}
+
+// The shadow ray from shading point v to light point y (wi: restir_contribution's direction), leaving on
+// wi's side of the surface (transmission: the other side), as the path tracer's next-event estimation.
+CHD Ray restir_shadow_ray(const SceneView& s, const RestirShading& v, const LightPoint& y, Vec3f wi) {
+  const Light& l = s.lights[y.light];
+  Vec3f o = dot(wi, v.ng) * dot(v.wo_world, v.ng) > 0.f ? v.p_front : offset_ray_origin(v.p, v.ng, wi);
+  if (l.type == LightType::kTriangle || l.type == LightType::kSphere) return spawn_ray_to(o, y.p, y.n);
+  if (l.type == LightType::kPoint || l.type == LightType::kSpot) return spawn_ray_to(o, l.p, Vec3f(0.f));
+  Ray r;
+  r.o = o;
+  r.d = wi;
+  r.tmax = kInf;
+  return r;
+}
+
+// One light-sampling candidate at v: the point and its density in the domain's measure (false: none).
+CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, LightPoint& y, float& pdf) {
+  if (s.num_lights == 0) return false;
+  float pmf;
+  uint32_t li = s.light_sampler.sample_reuse(u, pmf);
+  const Light& l = s.lights[li];
+  LightSample ls;
+  if (!sample_light(s, l, v.p_front, u, ls)) return false;
+  y.light = int32_t(li);
+  switch (l.type) {
+    case LightType::kTriangle:
+    case LightType::kSphere: {
+      y.p = ls.p_l;
+      y.n = ls.n_l;
+      y.uv = ls.uv_l;
+      // Solid angle to area: dw = |cos_l| / d^2 dA.
+      pdf = pmf * ls.pdf * absdot(ls.n_l, ls.wi) / (ls.dist * ls.dist);
+      break;
+    }
+    case LightType::kEnvironment:
+      y.p = ls.wi;
+      pdf = pmf * ls.pdf;
+      break;
+    default:  // delta lights: the light itself
+      pdf = pmf;
+      break;
+  }
+  return pdf > 0.f && pdf < kInf;
+}
+
+// RIS over M light-sampling candidates at v (a reservoir of confidence M, even if none succeeded).
+CHD Reservoir restir_initial(const SceneView& s, const RestirShading& v, uint32_t M, PCG32& rng) {
+  Reservoir r;
+  if (!v.valid) return r;
+  for (uint32_t i = 0; i < M; ++i) {
+    Vec2f u(rng.next_float(), rng.next_float());
+    float u_pick = rng.next_float();
+    LightPoint x;
+    float pdf;
+    if (!restir_candidate(s, v, u, x, pdf)) continue;
+    float ph = restir_target(s, v, x);
+    if (ph > 0.f) r.update(x, ph / (float(M) * pdf), ph, u_pick);
+  }
+  r.c = float(M);
+  r.finish();
+  return r;
+}
+
+// Resamples n reservoirs into one for shading point v[0] (GRIS with the balance heuristic, header comment):
+// in[i] belongs to shading point v[i] and enters with confidence c[i]. The output's confidence is sum c.
+CHD Reservoir restir_combine(const SceneView& s, const RestirShading* const* v, const Reservoir* in, const float* c,
+                             int n, PCG32& rng) {
+  Reservoir out;
+  for (int i = 0; i < n; ++i) {
+    out.c += c[i];
+    const Reservoir& r = in[i];
+    float u = rng.next_float();
+    if (!r.has_sample()) continue;
+    float p_q = i == 0 ? r.p_hat : restir_target(s, *v[0], r.y);
+    if (!(p_q > 0.f)) continue;
+    float denom = 0.f;
+    for (int j = 0; j < n; ++j) denom += c[j] * (j == i ? r.p_hat : j == 0 ? p_q : restir_target(s, *v[j], r.y));
+    float m = denom > 0.f ? c[i] * r.p_hat / denom : 0.f;
+    out.update(r.y, m * p_q * r.W, p_q, u);
+  }
+  out.finish();
+  return out;
+}
+
+}  // namespace caustica
