@@ -1,5 +1,6 @@
 // ReSTIR DI's building blocks (integrator/restir.h): the one-sample reservoir keeps each input in proportion
-// to its weight (chi-square); a light candidate's contribution over its density equals the path tracer's NEE
+// to its weight (chi-square); a light candidate's contribution over its density, as restir_candidate computes
+// it and as restir_contribution evaluates it again for the same light point, equals the path tracer's NEE
 // estimate of the same sample (the area / solid-angle conversion); RIS and the balance-heuristic combination
 // of reservoirs from other shading points (also chained, as temporal reuse chains them) give unbiased
 // estimates of the unshadowed direct light (means within 5 standard errors of the exact value, taken as the
@@ -174,7 +175,8 @@ TEST(Restir, CandidateOverDensityIsTheNeeEstimate) {
     uint32_t li = s.light_sampler.sample_reuse(u2, pmf);
     LightSample ls;
     bool nee_ok = sample_light(s, s.lights[li], q.p_front, u2, ls);
-    bool ok = restir_candidate(s, q, u, y, pdf);
+    RGB g_direct;
+    bool ok = restir_candidate(s, q, u, y, pdf, g_direct);
     ASSERT_EQ(ok, nee_ok && ls.pdf > 0.f);
     if (!ok) continue;
     ASSERT_EQ(uint32_t(y.light), li);
@@ -184,9 +186,12 @@ TEST(Restir, CandidateOverDensityIsTheNeeEstimate) {
     RGB g = restir_contribution(s, q, y, wi, dist);
     Vec3f wl = q.frame.to_local(ls.wi);
     RGB e = bsdf_eval(q.m, q.wo, wl) * ls.Li * (abs_cos_theta(wl) / (pmf * ls.pdf));
-    RGB r = g / pdf;
-    const float rv[3] = {r.x, r.y, r.z}, ev[3] = {e.x, e.y, e.z};
-    for (int k = 0; k < 3; ++k) ASSERT_NEAR(rv[k], ev[k], 2e-3f * std::fabs(ev[k]) + 1e-6f) << t << " light " << li;
+    RGB r = g / pdf, rd = g_direct / pdf;
+    const float rv[3] = {r.x, r.y, r.z}, dv[3] = {rd.x, rd.y, rd.z}, ev[3] = {e.x, e.y, e.z};
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_NEAR(rv[k], ev[k], 2e-3f * std::fabs(ev[k]) + 1e-6f) << t << " light " << li;
+      ASSERT_NEAR(dv[k], ev[k], 2e-3f * std::fabs(ev[k]) + 1e-6f) << t << " light " << li;
+    }
   }
   for (int k = 0; k < 6; ++k) EXPECT_GT(kinds_seen[k], 0) << "light type " << k << " never sampled";
 }

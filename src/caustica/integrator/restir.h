@@ -206,8 +206,10 @@ CHD Ray restir_shadow_ray(const SceneView& s, const RestirShading& v, const Ligh
   return r;
 }
 
-// One light-sampling candidate at v: the point and its density in the domain's measure (false: none).
-CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, LightPoint& y, float& pdf) {
+// One light-sampling candidate at v: the point, its density in the domain's measure, and its unshadowed
+// contribution g (restir_contribution's value, computed from the light sample without evaluating the light
+// again; false: none).
+CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, LightPoint& y, float& pdf, RGB& g) {
   if (s.num_lights == 0) return false;
   float pmf;
   uint32_t li = s.light_sampler.sample_reuse(u, pmf);
@@ -215,6 +217,7 @@ CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, L
   LightSample ls;
   if (!sample_light(s, l, v.p_front, u, ls)) return false;
   y.light = int32_t(li);
+  float J = 1.f;  // point and spot lights: 1 / d^2 is in ls.Li
   switch (l.type) {
     case LightType::kTriangle:
     case LightType::kSphere: {
@@ -222,7 +225,8 @@ CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, L
       y.n = ls.n_l;
       y.uv = ls.uv_l;
       // Solid angle to area: dw = |cos_l| / d^2 dA.
-      pdf = pmf * ls.pdf * absdot(ls.n_l, ls.wi) / (ls.dist * ls.dist);
+      J = absdot(ls.n_l, ls.wi) / (ls.dist * ls.dist);
+      pdf = pmf * ls.pdf * J;
       break;
     }
     case LightType::kEnvironment:
@@ -233,7 +237,10 @@ CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, L
       pdf = pmf;
       break;
   }
-  return pdf > 0.f && pdf < kInf;
+  if (!(pdf > 0.f && pdf < kInf)) return false;
+  Vec3f wl = v.frame.to_local(ls.wi);
+  g = v.beta * bsdf_eval(v.m, v.wo, wl) * ls.Li * (abs_cos_theta(wl) * J);
+  return true;
 }
 
 // RIS over M light-sampling candidates at v (a reservoir of confidence M, even if none succeeded).
@@ -245,9 +252,10 @@ CHD Reservoir restir_initial(const SceneView& s, const RestirShading& v, uint32_
     float u_pick = rng.next_float();
     LightPoint x;
     float pdf;
-    if (!restir_candidate(s, v, u, x, pdf)) continue;
-    float ph = restir_target(s, v, x);
-    if (ph > 0.f) r.update(x, ph / (float(M) * pdf), ph, u_pick);
+    RGB g;
+    if (!restir_candidate(s, v, u, x, pdf, g)) continue;
+    float ph = luminance(g);
+    if (ph > 0.f && ph < kInf) r.update(x, ph / (float(M) * pdf), ph, u_pick);
   }
   r.c = float(M);
   r.finish();
