@@ -422,7 +422,8 @@ def _restir_options(integrator, candidates, neighbors, radius, history) -> dict:
     given = {k: v for k, v in (("restir_candidates", candidates), ("restir_neighbors", neighbors),
                                ("restir_radius", radius), ("restir_history", history)) if v is not None}
     if given and integrator != "restir":
-        raise InputError(f"{', '.join(given)} apply to integrator 'restir', got '{integrator}'")
+        verb = "applies" if len(given) == 1 else "apply"
+        raise InputError(f"{', '.join(given)} {verb} to integrator 'restir', got '{integrator}'")
     for k in ("restir_candidates", "restir_neighbors"):
         if k in given:
             v = given[k]

@@ -304,7 +304,8 @@ def cmd_render(a) -> int:
                                    ("--restir-radius", a.restir_radius), ("--restir-history", a.restir_history))
                     if v is not None]
     if restir_flags and integrator != "restir":
-        raise _api.InputError(f"{', '.join(restir_flags)}: applies to integrator 'restir', got '{integrator}'")
+        verb = "applies" if len(restir_flags) == 1 else "apply"
+        raise _api.InputError(f"{', '.join(restir_flags)} {verb} to integrator 'restir', got '{integrator}'")
     target = a.target_error is not None or a.target_noise is not None
     if a.reference is not None and a.target_error is None:
         raise _api.InputError("--reference goes with --target-error (the relMSE to stop at)")

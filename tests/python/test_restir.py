@@ -140,7 +140,10 @@ def test_bad_options(kw, message):
 def test_options_of_another_integrator():
     with pytest.raises(caustica.InputError) as e:
         caustica.render(SCENE, integrator="path", spp=1, restir_history=0)
-    assert str(e.value) == "restir_history apply to integrator 'restir', got 'path'"
+    assert str(e.value) == "restir_history applies to integrator 'restir', got 'path'"
+    with pytest.raises(caustica.InputError) as e:
+        caustica.render(SCENE, integrator="sppm", spp=1, restir_radius=4, restir_candidates=8)
+    assert str(e.value) == "restir_candidates, restir_radius apply to integrator 'restir', got 'sppm'"
 
 
 def test_cli(caustica_bin, tmp_path):
@@ -154,7 +157,7 @@ def test_cli(caustica_bin, tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert r.stderr.strip().splitlines() == [
-        "caustica: error: --restir-history: applies to integrator 'restir', got 'path'"]
+        "caustica: error: --restir-history applies to integrator 'restir', got 'path'"]
     r = subprocess.run([caustica_bin, "render", SCENE, "--integrator", "restir", "--restir-neighbors", "-1", "-o",
                         str(tmp_path / "c.exr")], capture_output=True, text=True)
     assert r.returncode == 2
