@@ -578,7 +578,7 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
       {scene_with(R"("film": {"filter": "box"}, "filter": "box")"), "s.json: /filter: give the filter once (here or in /film)"},
       {scene_with(R"("integrator": {"type": "mlt"})"),
        "s.json: /integrator/type: unknown integrator 'mlt' (allowed: path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, "
-       "upg)"},
+       "upg, restir)"},
       {scene_with(R"("integrator": {"spp": 0})"), "s.json: /integrator/spp: expected a positive integer"},
       {scene_with(R"("integrator": {"alpha": 1.5})"), "s.json: /integrator/alpha: expected a number in (0, 1)"},
       {scene_with(R"("integrator": {"sampler": "halton"})"),

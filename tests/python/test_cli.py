@@ -80,7 +80,7 @@ def test_progress_bar_shows_rate(caustica_bin, tmp_path):
 
 BAD = [
     (["render", "nope", "-o", "{d}/a.exr"], "unknown scene 'nope'"),
-    (["render", "cornell", "--integrator", "xyz", "-o", "{d}/a.exr"], "unknown integrator 'xyz' (allowed: path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, upg)"),
+    (["render", "cornell", "--integrator", "xyz", "-o", "{d}/a.exr"], "unknown integrator 'xyz' (allowed: path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, upg, restir)"),
     (["render", "cornell", "--spp", "abc", "-o", "{d}/a.exr"], "--spp expects a positive integer, got 'abc'"),
     (["render", "cornell", "--spp", "0", "-o", "{d}/a.exr"], "--spp expects a positive integer"),
     (["render", "cornell", "--time", "-2", "-o", "{d}/a.exr"], "--time expects a positive number"),

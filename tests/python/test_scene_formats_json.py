@@ -148,7 +148,7 @@ def test_load_dict_describe_and_instances():
      "<dict>: /shapes/0/transform/look_at/target: must differ from the origin"),
     ({"camera": {}, "shapes": [{"type": "cube"}], "integrator": {"type": "mlt"}},
      "<dict>: /integrator/type: unknown integrator 'mlt' (allowed: path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, "
-     "upg)"),
+     "upg, restir)"),
     ({"camera": {}, "shapes": [{"type": "cube"}], "film": {"width": 1.5}},
      "<dict>: /film/width: expected an integer, got number"),
     ({"camera": {}, "shapes": [{"type": "cube"}], "materials": {"m": {"type": "metallic_roughness", "metallic": -1}}},

@@ -45,7 +45,7 @@ def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
                       (["--sort-materials"], "--sort-materials applies to the wavefront path tracer"),
                       (["--no-compaction"], "--no-compaction applies to the wavefront path tracer"),
                       (["--wavefront", "--integrator", "ppm"],
-                       "--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm and upg"),
+                       "--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm, upg and restir"),
                       (["--wavefront", "--integrator", "bdpt", "--strategy-images", str(tmp_path)],
                        "--strategy-images runs on the CPU driver only"),
                       (["--wavefront", "--integrator", "sppm", "--sort-materials"],

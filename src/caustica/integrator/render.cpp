@@ -17,7 +17,6 @@
 #include "path.h"
 #include "path_lanes.h"
 #include "photon_render.h"
-#include "restir_render.h"
 #include "upg_render.h"
 #include "vcm_render.h"
 #include "wavefront_render.h"
@@ -131,12 +130,14 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.device != "cpu" && !cuda)
     throw InputError("unknown device '" + o.device + "' (allowed: cpu, cuda, cuda:N)");
   const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "pppm" ||
-                                    is_vcm_integrator(o.integrator) || o.integrator == "upg";
+                                    is_vcm_integrator(o.integrator) || o.integrator == "upg" ||
+                                    o.integrator == "restir";
   if (cuda && !wavefront_integrator)
     throw InputError("integrator '" + o.integrator + "' does not run on the CUDA backend yet (allowed with " +
-                     "--device cuda: path, sppm, pppm, light, bdpt, bpm, vcm, upg)");
+                     "--device cuda: path, sppm, pppm, light, bdpt, bpm, vcm, upg, restir)");
   if (o.wavefront && !wavefront_integrator)
-    throw InputError("--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm and upg, got '" + o.integrator + "'");
+    throw InputError("--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm, upg and restir, got '" +
+                     o.integrator + "'");
   if (uses_wavefront(o) && o.strategy_images)
     throw InputError("--strategy-images runs on the CPU driver only (not with --wavefront or --device cuda)");
   if (uses_wavefront(o) && is_photon_integrator(o.integrator) && o.photons > 0x7fffffff)
@@ -200,11 +201,23 @@ void RenderJob::make_integrator() {
     photon_ = std::make_unique<PhotonIntegrator>(scene_, opt_);
   if (is_vcm_integrator(opt_.integrator) && !uses_wavefront(opt_)) vcm_ = std::make_unique<VcmIntegrator>(scene_, opt_);
   if (opt_.integrator == "upg" && !uses_wavefront(opt_)) upg_ = std::make_unique<UpgIntegrator>(scene_, opt_);
-  if (opt_.integrator == "restir") restir_ = std::make_unique<RestirIntegrator>(scene_, opt_);
   if (uses_wavefront(opt_)) stage_totals_ = std::make_unique<WavefrontPassStats>();
   lanes_ = opt_.lanes && opt_.integrator == "path" && !uses_wavefront(opt_) && path_lanes_available() &&
            path_lanes_supported(scene_->view(), path_params());
-  if (uses_wavefront(opt_) && (is_vcm_integrator(opt_.integrator) || opt_.integrator == "upg")) {
+  if (opt_.integrator == "restir") {
+    // restir has one driver over the backend interface: the CPU backend by default (and with --wavefront),
+    // CUDA with --device cuda.
+    RestirWavefrontParams p;
+    p.pp = path_params();
+    p.rp.candidates = uint32_t(opt_.restir_candidates);
+    p.rp.neighbors = uint32_t(opt_.restir_neighbors);
+    p.rp.radius = opt_.restir_radius;
+    p.rp.history = opt_.restir_history;
+    int dev = cuda_device_index(opt_.device);
+    stage_totals_ = std::make_unique<WavefrontPassStats>();
+    wavefront_ = dev >= 0 ? make_cuda_restir_wavefront(scene_, p, dev)
+                          : make_cpu_restir_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());
+  } else if (uses_wavefront(opt_) && (is_vcm_integrator(opt_.integrator) || opt_.integrator == "upg")) {
     const SceneView& v = scene_->view();
     const uint32_t pixels = uint32_t(v.camera.width) * uint32_t(v.camera.height);
     VcmWavefrontParams p;
@@ -384,13 +397,6 @@ void RenderJob::run() {
             rays_ = upg_->rays();
             if (!complete) return;
             samples_ += uint64_t(film_.width) * film_.height;
-          } else if (restir_) {
-            bool complete = restir_->render_pass(pass, cancel_);
-            rays_ = restir_->rays();
-            shadow_rays_ = restir_->shadow_rays();
-            invalid_ = restir_->invalid();
-            if (!complete) return;
-            samples_ += uint64_t(film_.width) * film_.height;
           } else if (opt_.accel == "bvh")
             render_pass(bvh, pass);
           else
@@ -493,7 +499,6 @@ std::vector<float> RenderJob::image(RenderStats* at_snapshot) const {
   if (photon_) return photon_->image(passes_.load());
   if (vcm_) return vcm_->image(passes_.load());
   if (upg_) return upg_->image(passes_.load());
-  if (restir_) return restir_->image();
   if (wavefront_) return wavefront_->image(passes_.load());
   return film_.image();
 }

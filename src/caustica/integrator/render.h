@@ -135,7 +135,6 @@ class Film {
 class PhotonIntegrator;
 class VcmIntegrator;
 class UpgIntegrator;
-class RestirIntegrator;
 class WavefrontRenderer;
 struct PathParams;
 struct WavefrontPassStats;
@@ -175,7 +174,7 @@ class RenderJob {
   template <typename Accel>
   void render_pass(const Accel& accel, int64_t pass);
   PathParams path_params() const;
-  void make_integrator();  // the constructor's: photon_, vcm_, upg_, restir_ or wavefront_ for opt_
+  void make_integrator();  // the constructor's: photon_, vcm_, upg_ or wavefront_ for opt_
   Film wavefront_film() const;
   std::shared_ptr<Scene> scene_;
   RenderOptions opt_;
@@ -198,7 +197,6 @@ class RenderJob {
   mutable std::mutex adaptive_mutex_;  // guards adaptive_
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::unique_ptr<UpgIntegrator> upg_;
-  std::unique_ptr<RestirIntegrator> restir_;
   std::unique_ptr<WavefrontRenderer> wavefront_;
   std::atomic<uint64_t> photons_{0};
   std::unique_ptr<WavefrontPassStats> stage_totals_;  // wavefront renders: sums over passes

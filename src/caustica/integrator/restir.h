@@ -37,7 +37,9 @@
 // direct light (GRIS), whatever the correlation between the inputs. Visibility is not in the target, so no
 // bias from a visibility-reuse shortcut is taken.
 //
-// Stage functions shared by the CPU driver (restir_render.cpp); written host/device like the path tracer's.
+// Stage functions, host/device like the path tracer's: restir_primary and restir_spatial are one pixel's work
+// in the two per-pass stages of the driver (integrator/wavefront_restir.h), which runs on the CPU backend
+// (the default, and --wavefront) and on CUDA from this one source.
 #pragma once
 #include "../base/rng.h"
 #include "path.h"
@@ -281,6 +283,130 @@ CHD Reservoir restir_combine(const SceneView& s, const RestirShading* const* v, 
   }
   out.finish();
   return out;
+}
+
+// What both stages of a pass need besides the scene.
+struct RestirPass {
+  PathParams pp;
+  RestirParams rp;
+  uint64_t seed = 0;
+  uint32_t pass = 0;
+  uint32_t width = 0, height = 0;
+  bool temporal = false;  // the previous pass's history exists and is used
+};
+
+// Bitterli et al. 2020's neighbour test: normals within 25 degrees, distances from the camera within 10%. It
+// looks at shading points only (never at samples), so skipping a neighbour keeps the estimate unbiased.
+CHD bool restir_similar(const RestirShading& a, const RestirShading& b) {
+  return a.valid && b.valid && dot(a.frame.n, b.frame.n) >= 0.906307787f &&
+         std::fabs(a.depth - b.depth) <= 0.1f * a.depth;
+}
+
+constexpr uint64_t kRestirStageTemporal = 1, kRestirStageSpatial = 2;
+constexpr int kRestirMaxNeighbors = 32;
+
+// Stage 1 for one pixel: the camera path (path.h's stages through `tracer`) to its shading point, which is
+// recorded in `v`, and on (emission, longer paths: L and the filter weight); RIS over the light candidates at
+// the shading point, then temporal reuse of the previous pass's final reservoir at the pixel (prev_v, prev_r)
+// into `out`. Counts closest-hit and shadow rays.
+template <class Tracer>
+CHD void restir_primary(const SceneView& s, const Tracer& tracer, const RestirPass& p, uint32_t px, uint32_t py,
+                        const RestirVertex& prev_v, const Reservoir& prev_r, RestirVertex& v, Reservoir& out, RGB& L,
+                        float& weight, uint32_t& rays, uint32_t& shadow_rays) {
+  PathState st;
+  path_start(s, p.pp, px, py, p.pass, st);
+  const uint32_t pix = st.pixel;
+  v = RestirVertex();
+  float travelled = 0.f;
+  while (st.active) {
+    Hit hit;
+    tracer.intersect(st.ray, hit);
+    ++rays;
+    ShadowRay sr;
+    if (!v.valid && hit.valid() && st.depth + 1 < p.pp.max_depth) {
+      SurfaceHit sh = make_surface_hit(s, st.ray, hit);
+      SurfaceHit shm = sh;
+      if (!material_is_delta(surface_material(s, shm))) {
+        v.sh = sh;
+        v.wo = -st.ray.d;
+        v.beta = st.beta * segment_transmittance(s, st.ray.d, hit.t, sh);
+        v.depth = travelled + hit.t;
+        v.valid = true;
+        // Emission here and the BSDF sample onwards as the path tracer; its light sample is not traced
+        // (ReSTIR estimates the direct light here), and the emitters the BSDF sample reaches through a
+        // non-delta lobe are left to ReSTIR too.
+        path_shade(s, p.pp, st, hit, sr);
+        st.nee_only = st.active && !st.prev_delta;
+        continue;
+      }
+    }
+    if (hit.valid()) travelled += hit.t;
+    path_shade(s, p.pp, st, hit, sr);
+    if (sr.active) {
+      ++shadow_rays;
+      path_shadow(st, sr, tracer.occluded(sr.ray));
+    }
+  }
+  L = st.L;
+  weight = st.weight;
+
+  PCG32 rng(kRestirStageTemporal, hash3(p.seed, p.pass, pix));
+  RestirShading q = restir_shading(s, v);
+  out = restir_initial(s, q, p.rp.candidates, rng);
+  if (p.temporal && q.valid) {
+    RestirShading prev = restir_shading(s, prev_v);
+    if (restir_similar(q, prev)) {
+      const RestirShading* vs[2] = {&q, &prev};
+      Reservoir in[2] = {out, prev_r};
+      float c[2] = {out.c, minf(prev_r.c, p.rp.history * float(p.rp.candidates))};
+      out = restir_combine(s, vs, in, c, 2, rng);
+    }
+  }
+}
+
+// Stage 2 for one pixel: spatial reuse of the stage-1 reservoirs (`temporal`, all pixels, finished) of up to k
+// neighbours into `out` (the next pass's history), then one shadow ray to the resampled light point; adds the
+// direct light to L.
+template <class Tracer>
+CHD void restir_spatial(const SceneView& s, const Tracer& tracer, const RestirPass& p, uint32_t px, uint32_t py,
+                        const RestirVertex* vert, const Reservoir* temporal, Reservoir& out, RGB& L,
+                        uint32_t& shadow_rays) {
+  const uint32_t W = p.width, H = p.height, pix = py * W + px;
+  PCG32 rng(kRestirStageSpatial, hash3(p.seed, p.pass, pix));
+  RestirShading shade[1 + kRestirMaxNeighbors];
+  const RestirShading* vs[1 + kRestirMaxNeighbors];
+  Reservoir in[1 + kRestirMaxNeighbors];
+  float c[1 + kRestirMaxNeighbors];
+  shade[0] = restir_shading(s, vert[pix]);
+  out = temporal[pix];
+  if (shade[0].valid && p.rp.neighbors > 0) {
+    int n = 1;
+    vs[0] = &shade[0];
+    in[0] = out;
+    c[0] = out.c;
+    const uint32_t k_max = p.rp.neighbors < uint32_t(kRestirMaxNeighbors) ? p.rp.neighbors : kRestirMaxNeighbors;
+    for (uint32_t k = 0; k < k_max; ++k) {
+      // A neighbour uniformly in the disk of the reuse radius around the pixel.
+      Vec2f d = square_to_concentric_disk(Vec2f(rng.next_float(), rng.next_float())) * p.rp.radius;
+      int nx = int(px) + int(std::floor(d.x + 0.5f)), ny = int(py) + int(std::floor(d.y + 0.5f));
+      if (nx < 0 || ny < 0 || nx >= int(W) || ny >= int(H) || (nx == int(px) && ny == int(py))) continue;
+      const uint32_t q = uint32_t(ny) * W + uint32_t(nx);
+      shade[n] = restir_shading(s, vert[q]);
+      if (!restir_similar(shade[0], shade[n])) continue;
+      vs[n] = &shade[n];
+      in[n] = temporal[q];
+      c[n] = temporal[q].c;
+      ++n;
+    }
+    if (n > 1) out = restir_combine(s, vs, in, c, n, rng);
+  }
+  if (!out.has_sample()) return;
+  Vec3f wi;
+  float dist = kInf;
+  RGB g = restir_contribution(s, shade[0], out.y, wi, dist);
+  if (is_black(g)) return;
+  ++shadow_rays;
+  if (!tracer.occluded(restir_shadow_ray(s, shade[0], out.y, wi))) L += g * out.W;
 }
 
 }  // namespace caustica

@@ -47,4 +47,11 @@ std::unique_ptr<WavefrontRenderer> make_cpu_vcm_wavefront(std::shared_ptr<Scene>
   });
 }
 
+std::unique_ptr<WavefrontRenderer> make_cpu_restir_wavefront(std::shared_ptr<Scene> scene,
+                                                             const RestirWavefrontParams& p, const CpuAccel* accel) {
+  return std::make_unique<CpuWavefront>(std::move(scene), accel, [&](const CpuBackend& b, std::string name) {
+    return std::make_unique<RestirWavefrontRenderer<CpuBackend>>(b, std::move(name), p);
+  });
+}
+
 }  // namespace caustica

@@ -9,6 +9,7 @@
 
 #include "../scene/scene.h"
 #include "path.h"
+#include "restir.h"
 #include "vcm.h"
 
 namespace caustica {
@@ -79,5 +80,13 @@ struct VcmWavefrontParams {
 };
 std::unique_ptr<WavefrontRenderer> make_cpu_vcm_wavefront(std::shared_ptr<Scene> scene, const VcmWavefrontParams& p,
                                                           const CpuAccel* accel);
+
+// What the restir driver needs beyond the scene (RenderOptions of restir, resolved).
+struct RestirWavefrontParams {
+  PathParams pp;    // max_depth, rr_depth, seed, sampler (jitter on)
+  RestirParams rp;
+};
+std::unique_ptr<WavefrontRenderer> make_cpu_restir_wavefront(std::shared_ptr<Scene> scene,
+                                                             const RestirWavefrontParams& p, const CpuAccel* accel);
 
 }  // namespace caustica

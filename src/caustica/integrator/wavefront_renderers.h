@@ -8,6 +8,7 @@
 #include "render.h"
 #include "wavefront_path.h"
 #include "wavefront_photon.h"
+#include "wavefront_restir.h"
 #include "wavefront_vcm.h"
 
 namespace caustica {
@@ -80,6 +81,27 @@ class VcmWavefrontRenderer final : public WavefrontRenderer {
   WavefrontVcm<B> wf_;
   float r0_;
   std::string name_;
+};
+
+template <class B>
+class RestirWavefrontRenderer final : public WavefrontRenderer {
+ public:
+  RestirWavefrontRenderer(const B& b, std::string name, const RestirWavefrontParams& p)
+      : wf_(b, p), name_(std::move(name)), W_(b.scene().camera.width), H_(b.scene().camera.height) {}
+  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
+    return wf_.render_pass(pass, cancel, stats);
+  }
+  std::vector<float> image(int64_t) const override {
+    Film f(W_, H_);
+    wf_.film(f.sum, f.odd);
+    return f.image();
+  }
+  std::string device_name() const override { return name_; }
+
+ private:
+  WavefrontRestir<B> wf_;
+  std::string name_;
+  int W_, H_;
 };
 
 // A renderer that owns a backend (and what the backend needs) and forwards every call to the renderer built

@@ -200,6 +200,13 @@ std::unique_ptr<WavefrontRenderer> make_cuda_vcm_wavefront(std::shared_ptr<Scene
   });
 }
 
+std::unique_ptr<WavefrontRenderer> make_cuda_restir_wavefront(std::shared_ptr<Scene> scene,
+                                                              const RestirWavefrontParams& p, int device) {
+  return std::make_unique<CudaWavefront>(std::move(scene), device, [&](const CudaBackend& b, std::string name) {
+    return std::make_unique<RestirWavefrontRenderer<CudaBackend>>(b, std::move(name), p);
+  });
+}
+
 double cuda_trace_rays(const Scene& scene, const std::vector<Ray>& rays, bool any_hit, std::vector<Hit>& hits,
                        int repeats, int device) {
   select_cuda_device(device);

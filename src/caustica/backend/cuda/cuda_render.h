@@ -37,6 +37,10 @@ std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Sc
 std::unique_ptr<WavefrontRenderer> make_cuda_vcm_wavefront(std::shared_ptr<Scene> scene, const VcmWavefrontParams& p,
                                                            int device);
 
+// restir on CUDA device `device` (integrator/wavefront_restir.h).
+std::unique_ptr<WavefrontRenderer> make_cuda_restir_wavefront(std::shared_ptr<Scene> scene,
+                                                              const RestirWavefrontParams& p, int device);
+
 // Ray queries on CUDA device `device` over the portable BVH, for the accelerator tests and bench_bvh:
 // closest hits of `rays` (any_hit false) or occlusion (any_hit true: hits[i].prim != ~0u marks an occluded
 // ray), copied back to `hits`. Returns the seconds of one traversal kernel, the best of `repeats` (CUDA

@@ -31,6 +31,11 @@ std::unique_ptr<WavefrontRenderer> make_cuda_vcm_wavefront(std::shared_ptr<Scene
   no_cuda();
 }
 
+std::unique_ptr<WavefrontRenderer> make_cuda_restir_wavefront(std::shared_ptr<Scene>, const RestirWavefrontParams&,
+                                                              int) {
+  no_cuda();
+}
+
 double cuda_trace_rays(const Scene&, const std::vector<Ray>&, bool, std::vector<Hit>&, int, int) { no_cuda(); }
 
 }  // namespace caustica
