@@ -42,6 +42,27 @@ const char* kScene = R"({
   ]
 })";
 
+// Mean and standard error per channel of n independent RGB samples sample(i).
+template <typename Sample>
+void mean_and_se(int n, Sample sample, RGB& mean, RGB& se) {
+  double sum[3] = {0, 0, 0}, sq[3] = {0, 0, 0};
+  for (int i = 0; i < n; ++i) {
+    RGB x = sample(i);
+    const float c[3] = {x.x, x.y, x.z};
+    for (int k = 0; k < 3; ++k) {
+      sum[k] += c[k];
+      sq[k] += double(c[k]) * c[k];
+    }
+  }
+  float m[3], e[3];
+  for (int k = 0; k < 3; ++k) {
+    m[k] = float(sum[k] / n);
+    e[k] = float(std::sqrt(std::max(0.0, sq[k] / n - (sum[k] / n) * (sum[k] / n)) / n));
+  }
+  mean = RGB(m[0], m[1], m[2]);
+  se = RGB(e[0], e[1], e[2]);
+}
+
 struct Fixture {
   std::shared_ptr<Scene> scene = Scene::build(load_json_scene_text(kScene, "restir-test.json"));
   const SceneView& s = scene->view();
@@ -67,58 +88,34 @@ struct Fixture {
   // mean and standard error over n samples.
   void nee(const RestirShading& v, int n, RGB& mean, RGB& se) const {
     PCG32 rng(3, 17);
-    double sum[3] = {0, 0, 0}, sq[3] = {0, 0, 0};
-    for (int i = 0; i < n; ++i) {
-      Vec2f u(rng.next_float(), rng.next_float());
-      float pmf;
-      uint32_t li = s.light_sampler.sample_reuse(u, pmf);
-      LightSample ls;
-      RGB x(0.f);
-      if (sample_light(s, s.lights[li], v.p_front, u, ls)) {
-        Vec3f wi = v.frame.to_local(ls.wi);
-        x = v.beta * bsdf_eval(v.m, v.wo, wi) * ls.Li * (abs_cos_theta(wi) / (pmf * ls.pdf));
-      }
-      const float c[3] = {x.x, x.y, x.z};
-      for (int k = 0; k < 3; ++k) {
-        sum[k] += c[k];
-        sq[k] += double(c[k]) * c[k];
-      }
-    }
-    float m[3], e[3];
-    for (int k = 0; k < 3; ++k) {
-      m[k] = float(sum[k] / n);
-      e[k] = float(std::sqrt(std::max(0.0, sq[k] / n - (sum[k] / n) * (sum[k] / n)) / n));
-    }
-    mean = RGB(m[0], m[1], m[2]);
-    se = RGB(e[0], e[1], e[2]);
+    mean_and_se(
+        n,
+        [&](int) {
+          Vec2f u(rng.next_float(), rng.next_float());
+          float pmf;
+          uint32_t li = s.light_sampler.sample_reuse(u, pmf);
+          LightSample ls;
+          if (!sample_light(s, s.lights[li], v.p_front, u, ls)) return RGB(0.f);
+          Vec3f wi = v.frame.to_local(ls.wi);
+          return v.beta * bsdf_eval(v.m, v.wo, wi) * ls.Li * (abs_cos_theta(wi) / (pmf * ls.pdf));
+        },
+        mean, se);
   }
 };
 
 // Mean and standard error of g_q(y) W over `trials` reservoirs made by `make`.
 template <typename Make>
 void reservoir_estimate(const SceneView& s, const RestirShading& q, int trials, Make make, RGB& mean, RGB& se) {
-  double sum[3] = {0, 0, 0}, sq[3] = {0, 0, 0};
-  for (int t = 0; t < trials; ++t) {
-    Reservoir r = make(t);
-    RGB x(0.f);
-    if (r.has_sample()) {
-      Vec3f wi;
-      float dist;
-      x = restir_contribution(s, q, r.y, wi, dist) * r.W;
-    }
-    const float c[3] = {x.x, x.y, x.z};
-    for (int k = 0; k < 3; ++k) {
-      sum[k] += c[k];
-      sq[k] += double(c[k]) * c[k];
-    }
-  }
-  float m[3], e[3];
-  for (int k = 0; k < 3; ++k) {
-    m[k] = float(sum[k] / trials);
-    e[k] = float(std::sqrt(std::max(0.0, sq[k] / trials - (sum[k] / trials) * (sum[k] / trials)) / trials));
-  }
-  mean = RGB(m[0], m[1], m[2]);
-  se = RGB(e[0], e[1], e[2]);
+  mean_and_se(
+      trials,
+      [&](int t) {
+        Reservoir r = make(t);
+        if (!r.has_sample()) return RGB(0.f);
+        Vec3f wi;
+        float dist;
+        return restir_contribution(s, q, r.y, wi, dist) * r.W;
+      },
+      mean, se);
 }
 
 // |a - b| within 5 standard errors of the difference, per channel (independent estimates).
