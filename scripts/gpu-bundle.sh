@@ -33,6 +33,8 @@ B=.gpu/bundle
 rm -rf "$B" && mkdir -p "$B/bin" "$B/lib" "$B/python"
 cp build/py312/caustica_tests build/py312/caustica_bench_bvh "$B/bin/"
 cp -r python/caustica "$B/python/"
+# FLIP for `caustica study realtime --device cuda` (the GPU machine's Python has numpy and matplotlib, not this).
+.gpu/venv312/bin/pip install -q --no-deps --target "$B/python" flip-evaluator==1.7
 find "$B/python" -name __pycache__ -prune -exec rm -rf {} +
 cp build/py312/_native*.so "$B/python/caustica/"
 strip "$B"/bin/caustica_* "$B"/python/caustica/_native*.so
@@ -65,6 +67,10 @@ for args in "--integrator path --sort-materials" "--integrator sppm --photons 50
 done
 step $B/bin/caustica_bench_bvh cornell 1920 1080 2>&1 | tee "$OUT/bvh.txt"
 step python3 bench/bench_gpu.py --no-results 2>&1 | tee "$OUT/bench.txt"
+# The real-time study on the GPU (docs/realtime-study.md): spp per FLIP threshold, throughput at 1080p.
+step timeout 300 python3 -m caustica.cli study realtime cornell --device cuda --max-spp 64 --seeds 2 \
+  --ref-spp 4096 --out /tmp/realtime 2>&1 | tail -n 40 | tee "$OUT/study.txt"
+cp /tmp/realtime/report.md "$OUT/study-report.md"  # the device tool returns at most 8 files from $OUT
 EOF
 printf '#!/bin/sh\nexec python3 -m caustica.cli "$@"\n' > "$B/bin/caustica"
 chmod +x "$B/run-gpu-checks.sh" "$B/bin/caustica"

@@ -41,6 +41,9 @@ def integrators() -> list[str]:
 
 
 DEVICES = ("cpu", "cuda")
+# The integrators with a wavefront driver: they run with device="cuda" and with wavefront=True (the native
+# RenderOptions check in render.cpp holds the same list; tests/python/test_study.py compares the two).
+CUDA_INTEGRATORS = ("path", "sppm", "pppm", "light", "bdpt", "bpm", "vcm", "upg", "restir")
 
 
 def _cpu_name() -> str:
@@ -74,10 +77,14 @@ def devices() -> list[dict]:
     return out
 
 
-def _check_device(device: str) -> None:
+def _check_device_name(device: str) -> None:
     if not isinstance(device, str) or not (device in DEVICES or
                                            (device.startswith("cuda:") and device[5:].isdigit())):
         raise InputError(f"unknown device '{device}' (allowed: cpu, cuda, cuda:N)")
+
+
+def _check_device(device: str) -> None:
+    _check_device_name(device)
     if device == "cpu":
         return
     devs, why = cuda_status()

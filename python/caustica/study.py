@@ -9,7 +9,7 @@
 `realtime` answers: for each integrator, how many samples per pixel (passes, for the photon
 integrators) bring the mean FLIP error against a converged reference below each threshold, and
 how long a 1920x1080 frame with that many samples takes at the throughput measured on this
-machine, compared with the 16.7 ms of a 60 Hz frame.
+machine's CPU or GPU (`device`), compared with the 16.7 ms of a 60 Hz frame.
 
 Method (also written into every report):
   * The scene is rendered at a small size (default: the scene's aspect ratio at 1/64 of the
@@ -33,11 +33,19 @@ Method (also written into every report):
     not reached by the cap: extrapolated with the log-log least-squares slope of the last three
     points (marked), unless that slope is flatter than -0.1 (then: not reached).
   * Throughput: samples (camera paths per pixel times pixels; photon integrators: passes times
-    pixels) per second of render time, the best over the seeds of the renders at the largest
-    two spp (fixed costs amortised; the best because load from other work only slows renders).
+    pixels) per second of render time. `throughput_at="small"` (the CPU's default): the best over
+    the seeds of the curve's renders at the largest two spp (fixed costs amortised; the best
+    because load from other work only slows renders), scaled to 1080p by pixel count.
+    `throughput_at="1080p"` (the GPU's default: a GPU needs about a million paths in flight to be
+    busy, which the small size does not give it, so pixel-count scaling does not hold there):
+    renders of `throughput_spp` passes at the scene's aspect with 1920x1080's pixel count, the
+    best of max(2, seeds) renders (the first also warms the device up).
   * Frame time at 1920x1080 = spp needed x 2 073 600 / throughput; speed-up still missing =
     frame time / 16.7 ms (below 1: fast enough already).
-  * GPU: caustica has no GPU backend yet; the report says so and gives CPU figures only.
+  * Device: `device="cuda"` renders the reference, the curves and the throughput renders on the
+    GPU (the integrators the CUDA backend runs: _api.CUDA_INTEGRATORS; a reference integrator it
+    does not run renders on the CPU). The noise per spp does not depend on the device (the
+    drivers share their sampling code; CPU/GPU parity tests), the throughput does.
 """
 from __future__ import annotations
 
@@ -65,8 +73,20 @@ DEFAULT_MAX_SPP = 256
 DEFAULT_SEEDS = 3
 DEFAULT_REF_SPP = 4096
 REF_SEED = 1_000_003
-GPU_NOTE = ("caustica has no GPU backend yet: all throughput figures are from the CPU renderer on this machine; "
-            "no GPU figures are given.")
+THROUGHPUT_AT = ("small", "1080p")
+DEFAULT_THROUGHPUT_SPP = 4
+
+
+def device_note(device: str, description: str, throughput_size: Sequence[int], measured_at_target: bool) -> str:
+    """One paragraph for the report and the command line: where the figures come from."""
+    tw, th = throughput_size
+    how = (f"measured at {tw}x{th}" if measured_at_target
+           else "measured at the small size and scaled to 1080p by pixel count")
+    if device == "cpu":
+        return (f"Renders on the CPU ({description}); throughput {how}. These are CPU figures: caustica's CUDA "
+                f"backend runs {', '.join(_api.CUDA_INTEGRATORS)} on NVIDIA GPUs, and `--device cuda` runs this "
+                "study there (throughput measured at 1080p).")
+    return f"Renders on {device} ({description}), the CUDA backend's wavefront drivers; throughput {how}."
 
 
 # ------------------------------------------------------------------------------------------- metrics
@@ -169,6 +189,7 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
              ref_integrator: str = "path", out: Union[str, os.PathLike, None] = None, flip_mode: str = "ldr",
              threads: int = 0, max_depth: Optional[int] = None, sampler: Optional[str] = None,
              camera: Optional[str] = None, params: Optional[dict] = None, fresh_ref: bool = False,
+             device: str = "cpu", throughput_at: Optional[str] = None, throughput_spp: int = DEFAULT_THROUGHPUT_SPP,
              log: Optional[Callable[[str], None]] = None, command: Optional[str] = None) -> dict:
     """The real-time noise study of `scene` (a built-in name or a scene file).
 
@@ -178,6 +199,9 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
     (`ref_integrator` at `ref_spp`, cached under `out`/reference when `out` is given) and the throughput,
     and from them, for each threshold, the spp needed, the frame time at 1920x1080 and the speed-up still
     missing for 16.7 ms (see the module's docstring for the method and its assumptions).
+    `device`: "cpu" (default), "cuda" or "cuda:N" (default integrators there: those the CUDA backend runs).
+    `throughput_at`: "small" (scale the curve renders' throughput by pixel count; the CPU's default) or
+    "1080p" (measure it with renders of `throughput_spp` passes at 1920x1080's pixel count; the GPU's default).
 
     Returns a dict: "table" (a list of dicts, one per integrator and threshold: integrator, threshold,
     spp_needed (None when not reached), how, samples_per_s, samples_per_s_1080p (frames of 1 spp per
@@ -185,14 +209,30 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
     seconds}]}), "throughput", "reference", "settings", "machine", "commit", "foreign_cores" (CPU other
     work took meanwhile), and "report" (the report's path, when `out` is given: report.md, plots as PNG
     and SVG, results.json)."""
+    _api._check_device_name(device)
+    on_gpu = device != "cpu"
     all_integrators = _api.integrators()
-    integ = list(all_integrators) if integrators is None else _check_list(
-        "integrators", integrators, lambda v: isinstance(v, str), "integrator names")
+    integ = [i for i in all_integrators if not on_gpu or i in _api.CUDA_INTEGRATORS] if integrators is None \
+        else _check_list("integrators", integrators, lambda v: isinstance(v, str), "integrator names")
     for i in integ + [ref_integrator]:
         if _api.split_integrator_variant(i)[0] not in all_integrators:
             raise InputError(f"unknown integrator '{i}' (allowed: {', '.join(all_integrators)}; variants: "
                              "ppm+adaptive, sppm+adaptive, pppm+adaptive)")
     integ = list(dict.fromkeys(integ))
+    if on_gpu:
+        for i in integ:
+            b, variant = _api.split_integrator_variant(i)
+            if b not in _api.CUDA_INTEGRATORS:
+                raise InputError(f"integrator '{i}' does not run on device '{device}' (allowed there: "
+                                 f"{', '.join(_api.CUDA_INTEGRATORS)})")
+            if variant:
+                raise InputError(f"integrator '{i}': adaptive photon tracing runs on the CPU only, not on "
+                                 f"device '{device}'")
+    if throughput_at is None:
+        throughput_at = "1080p" if on_gpu else "small"
+    if throughput_at not in THROUGHPUT_AT:
+        raise InputError(f"throughput_at: expected 'small' or '1080p', got {throughput_at!r}")
+    throughput_spp = _pos_int("throughput_spp", throughput_spp)
     thr = _check_list("thresholds", thresholds,
                       lambda v: isinstance(v, (int, float, np.floating)) and 0 < v < 1, "numbers in (0, 1)")
     thr = sorted({float(t) for t in thr}, reverse=True)
@@ -206,13 +246,17 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
             raise InputError(f"size: expected (width, height), got {size!r}")
         size = (_pos_int("width", size[0]), _pos_int("height", size[1]))
     sid = _scene_id(scene)
+    _api._check_device(device)  # after the checks above: "no GPU here" is not the first thing to say
+    description = next((d["description"] for d in _api.devices()
+                        if d["name"] == ("cuda:0" if device == "cuda" else device)), device)
     say = log or (lambda msg: None)
 
     base = _api.load_scene(scene, camera=camera, params=params)
     w, h = size if size is not None else default_size(base.width, base.height)
     sc = _api.load_scene(base, width=w, height=h)
     pixels = w * h
-    common = dict(threads=threads, max_depth=max_depth, sampler=sampler)
+    tw, th = default_size(base.width, base.height, TARGET_PIXELS)
+    common = dict(threads=threads, max_depth=max_depth, sampler=sampler, device=device)
     started = _dt.datetime.now(_dt.timezone.utc)
     commit = _commit()
 
@@ -241,12 +285,14 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
         say(f"reference: {ref_integrator}, {ref_spp} spp at {w}x{h} ...")
         t = _time.perf_counter()
         ref_base, ref_variant = _api.split_integrator_variant(ref_integrator)
-        r = _api.render_job(sc, integrator=ref_base, spp=ref_spp, seed=REF_SEED, **common, **ref_variant)
+        ref_device = device if ref_base in _api.CUDA_INTEGRATORS and not ref_variant else "cpu"
+        r = _api.render_job(sc, integrator=ref_base, spp=ref_spp, seed=REF_SEED, **dict(common, device=ref_device),
+                            **ref_variant)
         if r.interrupted:
             raise KeyboardInterrupt
         ref = r.image
         ref_meta = dict(ref_key, seconds=_time.perf_counter() - t, commit=commit, date=started.isoformat(),
-                        mean=float(np.mean(ref)))
+                        mean=float(np.mean(ref)), device=ref_device)
         say(f"  done in {ref_meta['seconds']:.1f} s")
         if ref_path is not None:
             _api.write_image(ref_path, ref)
@@ -267,8 +313,8 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
         for spp in levels:
             fl, rm, secs, rates = [], [], [], []
             for seed in range(1, seeds + 1):
-                base, variant = _api.split_integrator_variant(it)
-                r = _api.render_job(sc, integrator=base, spp=spp, seed=seed, **common, **variant)
+                name_, variant = _api.split_integrator_variant(it)
+                r = _api.render_job(sc, integrator=name_, spp=spp, seed=seed, **common, **variant)
                 if r.interrupted:
                     raise KeyboardInterrupt
                 s = max(float(r.stats["seconds"]), 1e-9)
@@ -283,6 +329,22 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
         curves[it] = rows
         top = rows[-2:] if len(rows) >= 2 else rows
         throughput[it] = float(max(r["samples_per_s"] for r in top))
+    # --- throughput at 1080p's pixel count (a GPU is not busy at the small size)
+    throughput_renders = {}
+    if throughput_at == "1080p":
+        big = _api.load_scene(base, width=tw, height=th)
+        for it in integ:
+            name_, variant = _api.split_integrator_variant(it)
+            rates = []
+            for seed in range(1, max(2, seeds) + 1):
+                r = _api.render_job(big, integrator=name_, spp=throughput_spp, seed=seed, **common, **variant)
+                if r.interrupted:
+                    raise KeyboardInterrupt
+                rates.append(r.stats["passes"] * tw * th / max(float(r.stats["seconds"]), 1e-9))
+            throughput[it] = float(max(rates))
+            throughput_renders[it] = rates
+            say(f"  {it:6s} at {tw}x{th}: {throughput[it] / 1e6:.2f} M samples/s ({throughput_spp} passes, best of "
+                f"{len(rates)})")
     wall = _time.perf_counter() - wall0
     foreign = max(0.0, (_cpu_busy_seconds() - busy0) - (_own_cpu_seconds() - own0)) / max(wall, 1e-9)
 
@@ -303,12 +365,17 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
 
     res = {"scene": os.fspath(scene), "table": table, "curves": curves, "throughput": throughput,
            "reference": ref_meta, "machine": _machine(), "commit": commit, "date": started.isoformat(),
-           "foreign_cores": foreign, "cores": os.cpu_count(), "gpu": None, "gpu_note": GPU_NOTE,
+           "foreign_cores": foreign, "cores": os.cpu_count(), "device": device, "device_description": description,
+           "gpu": description if on_gpu else None,
+           "device_note": device_note(device, description, (tw, th), throughput_at == "1080p"),
+           "throughput_renders": throughput_renders,
            "settings": {"integrators": integ, "thresholds": thr, "size": [w, h], "target_size": list(TARGET_SIZE),
                         "frame_ms": FRAME_MS, "max_spp": max_spp, "levels": levels, "seeds": seeds,
                         "ref_spp": ref_spp, "ref_integrator": ref_integrator, "flip_mode": flip_mode,
                         "flip_ppd": 67.0, "threads": threads, "max_depth": max_depth, "sampler": sampler,
-                        "camera": camera, "params": params},
+                        "camera": camera, "params": params, "device": device, "throughput_at": throughput_at,
+                        "throughput_size": [tw, th] if throughput_at == "1080p" else [w, h],
+                        "throughput_spp": throughput_spp if throughput_at == "1080p" else None},
            "command": command, "report": None}
     if out is not None:
         res["report"] = write_report(res, out)
@@ -388,11 +455,29 @@ def _plots(res: dict, out: str) -> list[str]:
     ax.text(FRAME_MS, ax.get_ylim()[1], " 16.7 ms", va="top", ha="left", fontsize=8)
     for t in st["thresholds"]:
         ax.axhline(t, color="0.6", lw=0.8, ls="--")
-    ax.set_xlabel("estimated frame time at 1920x1080 on this machine's CPU (ms)")
+    where = "CPU" if st.get("device", "cpu") == "cpu" else "GPU"
+    ax.set_xlabel(f"estimated frame time at 1920x1080 on this machine's {where} (ms)")
     ax.set_ylabel("mean FLIP")
-    ax.set_title(f"{os.path.basename(res['scene'])}: mean FLIP vs frame time (CPU)", fontsize=10)
+    ax.set_title(f"{os.path.basename(res['scene'])}: mean FLIP vs frame time ({where})", fontsize=10)
     written += _save_plot(plt, fig, ax, out, "flip_vs_frame_time")
     return written
+
+
+def _passes(n: int) -> str:
+    return f"{n} pass" if n == 1 else f"{n} passes"
+
+
+def _throughput_method(st: dict, w: int, h: int) -> str:
+    tw, th = st["throughput_size"]
+    if st["throughput_at"] == "1080p":
+        return (f"Throughput was measured at {tw}x{th} ({tw * th} pixels: the scene's aspect at 1920x1080's pixel "
+                f"count) with renders of {_passes(st['throughput_spp'])}, not scaled from the small size: a GPU needs "
+                "about a million paths in flight to be busy, so its throughput grows with the resolution.")
+    return (f"Throughput (samples per second) is measured at that size and scaled to 1920x1080 ({TARGET_PIXELS} "
+            "pixels) by pixel count, i.e. the cost of a frame is taken as proportional to its pixels (the photon "
+            "integrators trace one photon path per pixel per pass by default, so their cost scales likewise); "
+            "per-render fixed costs at the small size make the throughput, and so the frame times, slightly "
+            "pessimistic. (`--throughput-at 1080p` measures at 1080p instead.)")
 
 
 def write_report(res: dict, out: Union[str, os.PathLike]) -> str:
@@ -410,7 +495,9 @@ def write_report(res: dict, out: Union[str, os.PathLike]) -> str:
                    "|---|" + "---:|" * len(st["levels"])]
     for it, rows in res["curves"].items():
         curve_lines.append(f"| {it} | " + " | ".join(f"{r['flip']:.4f}" for r in rows) + " |")
-    tp_lines = ["| integrator | samples/s at " + f"{w}x{h}" + " | 1-spp frames/s at 1920x1080 |", "|---|---:|---:|"]
+    tw, th = st["throughput_size"]
+    at_target = st["throughput_at"] == "1080p"
+    tp_lines = ["| integrator | samples/s at " + f"{tw}x{th}" + " | 1-spp frames/s at 1920x1080 |", "|---|---:|---:|"]
     for it, v in res["throughput"].items():
         tp_lines.append(f"| {it} | {_fmt_rate(v)} | {v / TARGET_PIXELS:.2f} |")
     md = f"""# Real-time noise study: `{os.path.basename(res['scene'])}`
@@ -420,7 +507,7 @@ Date: {res['date'][:16].replace('T', ' ')} UTC; commit {res['commit']}; machine:
 Other work on the machine took {res['foreign_cores']:.2f} of {res['cores']} cores on average during the
 measurements{" — **timings are noisy**" if res['foreign_cores'] > 0.1 else ""}.
 
-**GPU:** {res['gpu_note']}
+**Device:** {res['device_note']}
 
 ## Result
 
@@ -441,12 +528,8 @@ reference, 1: the largest difference FLIP measures).
 
 ## Method
 
-- **Size.** Rendered at {w}x{h} ({w * h} pixels) and scaled to 1920x1080 ({TARGET_PIXELS} pixels) by pixel
-  count. spp needed is taken as measured: per-pixel noise depends on the samples per pixel, not on the
-  resolution. Throughput (samples per second) is assumed independent of the resolution, i.e. the cost of a
-  frame is proportional to its pixels (the photon integrators trace one photon path per pixel per pass by
-  default, so their cost scales likewise). Per-render fixed costs at the small size make the throughput, and
-  so the frame times, slightly pessimistic.
+- **Size.** Rendered at {w}x{h} ({w * h} pixels) for the noise; spp needed is taken as measured there:
+  per-pixel noise depends on the samples per pixel, not on the resolution. {_throughput_method(st, w, h)}
 - **FLIP at the small size.** Mean FLIP ({st['flip_mode'].upper()}, `caustica.metrics.flip`) is evaluated on
   the small image at FLIP's default {st['flip_ppd']:.0f} pixels per degree: as if the small image were shown
   with the pixel density of the 1080p display, so that FLIP's spatial filters see the per-pixel noise at the
@@ -462,8 +545,9 @@ reference, 1: the largest difference FLIP measures).
   "≤ 1": already at 1 spp; not reached by the cap ({st['max_spp']}): extrapolated along the log-log
   least-squares line of the last three points (marked), or "not reached" when that line is flatter than a
   slope of -0.1.
-- **Throughput.** Camera samples (photon integrators: passes × pixels) per second of render time; the best
-  over the seeds of the renders at the two largest spp.
+- **Throughput.** Camera samples (photon integrators: passes × pixels) per second of render time; {
+  f"the best of {max(2, st['seeds'])} renders of {_passes(st['throughput_spp'])} at {tw}x{th}" if at_target else
+  "the best over the seeds of the renders at the two largest spp"}.
 - **Frame time** at 1920x1080 = spp needed × {TARGET_PIXELS} / throughput.
 
 ## Measurements

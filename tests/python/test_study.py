@@ -35,7 +35,8 @@ def test_realtime_study_tiny(tmp_path, capsys):
     assert "| integrator | mean FLIP ≤ | spp needed |" in printed
     report = (out / "report.md").read_text()
     assert "| integrator | mean FLIP ≤ | spp needed | throughput (samples/s) |" in report
-    assert "no GPU backend" in report
+    assert "**Device:** Renders on the CPU" in report and "`--device cuda` runs this study there" in report
+    assert "scaled to 1920x1080" in report
     for f in ("flip_vs_spp.png", "flip_vs_spp.svg", "flip_vs_frame_time.png", "results.json"):
         assert (out / f).stat().st_size > 0, f
     assert (out / "flip_vs_spp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -68,7 +69,66 @@ def test_realtime_study_tiny(tmp_path, capsys):
     assert [c["spp"] for c in r3["curves"]["sppm+adaptive"]] == [1, 2]
 
 
+def test_realtime_throughput_measured_at_1080p(tmp_path):
+    """throughput_at="1080p" measures samples/s with renders at the scene's aspect at 1920x1080's pixel count
+    (the GPU's default; here on the CPU) and the frame times follow from that figure."""
+    res = caustica.study.realtime("cornell", integrators=["path"], size=(24, 24), max_spp=2, seeds=1, ref_spp=64,
+                                  thresholds=[0.3], throughput_at="1080p", throughput_spp=1, out=tmp_path / "rt")
+    st = res["settings"]
+    assert st["throughput_at"] == "1080p" and st["throughput_size"] == [1440, 1440]   # square: 1440^2 = 1920*1080
+    rates = res["throughput_renders"]["path"]
+    assert len(rates) == 2 and res["throughput"]["path"] == max(rates)                 # max(2, seeds) renders
+    row = res["table"][0]
+    assert row["samples_per_s"] == res["throughput"]["path"]
+    assert row["frame_ms"] == pytest.approx(1000 * row["spp_needed"] * 1920 * 1080 / row["samples_per_s"])
+    report = (tmp_path / "rt" / "report.md").read_text()
+    assert "measured at 1440x1440" in report and "samples/s at 1440x1440" in report
+
+
+def test_cuda_integrators_are_the_wavefront_ones():
+    """_api.CUDA_INTEGRATORS (what `study --device cuda` offers) is exactly the set the native options check
+    lets run on the wavefront drivers, which are the drivers --device cuda runs."""
+    tiny = caustica.load_scene("cornell", width=8, height=8)
+    for name in caustica.integrators():
+        try:
+            caustica.render_job(tiny, integrator=name, spp=1, wavefront=True)
+            runs = True
+        except caustica.InputError as e:
+            assert "--wavefront runs" in str(e), e
+            runs = False
+        assert runs == (name in caustica._api.CUDA_INTEGRATORS), name
+
+
+def test_study_device_errors():
+    """Integrators the CUDA backend lacks are named before a missing GPU is; without a GPU, --device cuda is
+    one line saying so."""
+    with pytest.raises(caustica.InputError, match="integrator 'pm' does not run on device 'cuda'"):
+        caustica.study.realtime("cornell", integrators=["path", "pm"], device="cuda")
+    with pytest.raises(caustica.InputError, match="adaptive photon tracing runs on the CPU only"):
+        caustica.study.realtime("cornell", integrators=["sppm+adaptive"], device="cuda")
+    with pytest.raises(caustica.InputError, match="unknown device 'tpu'"):
+        caustica.study.realtime("cornell", device="tpu")
+    with pytest.raises(caustica.InputError, match="throughput_at: expected 'small' or '1080p'"):
+        caustica.study.realtime("cornell", throughput_at="4k")
+    if not caustica._api.cuda_status()[0]:
+        with pytest.raises(caustica.InputError, match="device 'cuda' is not available"):
+            caustica.study.realtime("cornell", integrators=["path"], device="cuda")
+
+
+@pytest.mark.skipif(not caustica._api.cuda_status()[0], reason="needs a CUDA device (none here: the CPU study "
+                    "runs in test_realtime_study_tiny)")
+def test_realtime_study_on_gpu(tmp_path):
+    """On a GPU: the study renders there and measures throughput at 1080p by default."""
+    res = caustica.study.realtime("cornell", integrators=["path", "sppm"], size=(24, 24), max_spp=4, seeds=1,
+                                  ref_spp=256, thresholds=[0.3], device="cuda", out=tmp_path / "rt")
+    assert res["settings"]["throughput_at"] == "1080p" and res["gpu"]
+    assert res["reference"]["device"] == "cuda"
+    assert "Renders on cuda" in (tmp_path / "rt" / "report.md").read_text()
+
+
 @pytest.mark.parametrize("argv", [
+    ["study", "realtime", "cornell", "--device", "cuda", "--integrators", "pm"],
+    ["study", "realtime", "cornell", "--throughput-at", "4k"],
     ["study", "realtime", "no-such-scene"],
     ["study", "realtime", "cornell", "--integrators", "bogus"],
     ["study", "realtime", "cornell", "--thresholds", "1.5"],

@@ -81,6 +81,14 @@ def add_parser(sub):
     r.add_argument("--camera", default=None, help="a named camera of the scene file")
     r.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
                    help="Mitsuba XML $NAME substitution (repeatable)")
+    r.add_argument("--device", default="cpu",
+                   help="cpu (default), cuda or cuda:N: render on the GPU (default integrators there: "
+                        f"{', '.join(_api.CUDA_INTEGRATORS)})")
+    r.add_argument("--throughput-at", choices=S.THROUGHPUT_AT, default=None,
+                   help="small: the small renders' throughput scaled to 1080p by pixel count (the CPU's default); "
+                        "1080p: measured at 1920x1080's pixel count (the GPU's default)")
+    r.add_argument("--throughput-spp", type=_pos("--throughput-spp"), default=S.DEFAULT_THROUGHPUT_SPP,
+                   help=f"passes per 1080p throughput render (default {S.DEFAULT_THROUGHPUT_SPP})")
     r.add_argument("--quiet", action="store_true", help="no progress lines")
     return p
 
@@ -99,6 +107,7 @@ def run(a) -> int:
                          max_spp=a.max_spp, seeds=a.seeds, ref_spp=a.ref_spp, ref_integrator=a.ref_integrator,
                          out=out, flip_mode=a.flip_mode, threads=a.threads, max_depth=a.max_depth,
                          sampler=a.sampler, camera=a.camera, params=dict(a.param) or None, fresh_ref=a.fresh_ref,
+                         device=a.device, throughput_at=a.throughput_at, throughput_spp=a.throughput_spp,
                          log=log, command=command)
     seen = set()
     for w in caught:
@@ -106,5 +115,5 @@ def run(a) -> int:
             seen.add(str(w.message))
             print(f"caustica: warning: {w.message}", file=sys.stderr)
     print(S.format_table(res["table"]))
-    print(f"\n{S.GPU_NOTE}\nreport: {res['report']}")
+    print(f"\n{res['device_note']}\nreport: {res['report']}")
     return 0
