@@ -327,7 +327,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     from light candidates and reused across passes and neighbouring pixels, unbiased; the rest path traced):
     `restir_candidates` light candidates per pixel and pass (default 32), `restir_neighbors` spatial neighbours
     (default 5, 0: no spatial reuse), `restir_radius` their radius in pixels (default 30), `restir_history`
-    the temporal confidence cap in multiples of the candidates (default 20, 0: no temporal reuse).
+    the temporal confidence cap in multiples of the candidates (default 20, 0: no temporal reuse); those not
+    given come from the scene's (JSON "integrator": "restir_candidates", ...), then the defaults.
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
     Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
     `target_error` with `reference` (a path to an .exr/.pfm or an (H, W, 3) array) stops when
@@ -390,7 +391,11 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
             raise InputError(f"{name} must be a non-negative integer, got {v!r}")
     targets = _targets(scene, target_error, reference, target_noise)
-    restir = _restir_options(integrator, restir_candidates, restir_neighbors, restir_radius, restir_history)
+    restir_given = dict(restir_candidates=restir_candidates, restir_neighbors=restir_neighbors,
+                        restir_radius=restir_radius, restir_history=restir_history)
+    if integrator == "restir":  # the scene's restir_* (JSON "integrator") where not given
+        restir_given = {key: scene.integrator_defaults.get(key) if v is None else v for key, v in restir_given.items()}
+    restir = _restir_options(integrator, *restir_given.values())
     job = _native.RenderJob(scene, integrator=integrator, spp=spp_i, time=float(time or 0.0), seed=int(seed),
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
                             sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),

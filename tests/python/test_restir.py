@@ -147,6 +147,52 @@ def test_stats_and_scene_default(tmp_path):
     assert r.stats["integrator"] == "restir" and r.stats["passes"] == 2 and r.image.max() > 0
 
 
+def _scene_with(integrator_block):
+    import json
+    with open(SCENE) as f:
+        d = json.load(f)
+    d["integrator"] = integrator_block
+    return caustica.load_dict(d, base_dir=os.path.dirname(SCENE))
+
+
+def test_json_scene_options(tmp_path):
+    """A JSON scene's restir_* keys are the defaults of its renders: the same image as the options given in
+    Python; options given in Python override them; another integrator ignores them; export keeps them."""
+    keys = dict(restir_candidates=8, restir_neighbors=0, restir_radius=12, restir_history=0)
+    scene = _scene_with({"type": "restir", **keys})
+    assert {k: scene.integrator_defaults[k] for k in keys} == keys
+    plain = _scene_with({})
+    a = caustica.render(scene, spp=2, seed=3)
+    b = caustica.render(plain, integrator="restir", spp=2, seed=3, **keys)
+    c = caustica.render(plain, integrator="restir", spp=2, seed=3)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    d = caustica.render(scene, spp=2, seed=3, restir_candidates=32, restir_neighbors=5, restir_radius=30,
+                        restir_history=20)
+    assert np.array_equal(d, c)
+    untyped = _scene_with(dict(keys))  # no type: path renders ignore them, restir renders take them
+    assert caustica.render_job(untyped, spp=1).stats["integrator"] == "path"
+    assert np.array_equal(caustica.render(untyped, integrator="restir", spp=2, seed=3), a)
+    caustica.export_scene(scene, tmp_path / "out.json")
+    again = caustica.load_scene(tmp_path / "out.json")
+    assert {k: again.integrator_defaults[k] for k in keys} == keys
+
+
+@pytest.mark.parametrize("block, message", [
+    ({"type": "path", "restir_candidates": 8},
+     "/integrator/restir_candidates: applies to integrator 'restir', but /integrator/type is 'path'"),
+    ({"type": "restir", "restir_candidates": 0}, "/integrator/restir_candidates: expected an integer in [1, 1024]"),
+    ({"restir_neighbors": 2.5}, "/integrator/restir_neighbors: expected an integer in [0, 32]"),
+    ({"restir_radius": 0.5}, "/integrator/restir_radius: expected a number of pixels in [1, 10000]"),
+    ({"restir_history": -1}, "/integrator/restir_history: expected a number in [0, 1000000]"),
+    ({"restir_history": "long"}, "/integrator/restir_history"),
+    ({"restir_bogus": 1}, "/integrator/restir_bogus"),
+])
+def test_json_scene_bad_options(block, message):
+    with pytest.raises(caustica.InputError) as e:
+        _scene_with(block)
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
 @pytest.mark.parametrize("kw, message", [
     (dict(restir_candidates=0), "--restir-candidates must be an integer in [1, 1024], got 0"),
     (dict(restir_neighbors=33), "--restir-neighbors must be an integer in [0, 32], got 33"),

@@ -29,6 +29,15 @@ const std::vector<std::string>& integrator_names() {
   return names;
 }
 
+std::string restir_option_expected(const std::string& name, double v) {
+  const bool integer = v == std::floor(v);
+  if (name == "candidates") return integer && v >= 1 && v <= 1024 ? "" : "an integer in [1, 1024]";
+  if (name == "neighbors") return integer && v >= 0 && v <= 32 ? "" : "an integer in [0, 32]";
+  if (name == "radius") return v >= 1 && v <= 1e4 ? "" : "a number of pixels in [1, 10000]";
+  if (name == "history") return v >= 0 && v <= 1e6 ? "" : "a number in [0, 1000000] (0: no temporal reuse)";
+  return "one of candidates, neighbors, radius, history";
+}
+
 std::vector<float> Film::image() const {
   std::vector<float> img(size_t(width) * height * 3, 0.f);
   for (size_t i = 0; i < size_t(width) * height; ++i) {
@@ -104,15 +113,15 @@ void RenderJob::validate(const RenderOptions& o) {
     if (uses_wavefront(o))
       throw InputError("--photon-sampling adaptive runs on the CPU driver only (not with --wavefront or --device cuda)");
   }
-  if (o.restir_candidates < 1 || o.restir_candidates > 1024)
-    throw InputError("--restir-candidates must be an integer in [1, 1024], got " + std::to_string(o.restir_candidates));
-  if (o.restir_neighbors < 0 || o.restir_neighbors > 32)
-    throw InputError("--restir-neighbors must be an integer in [0, 32], got " + std::to_string(o.restir_neighbors));
-  if (!(o.restir_radius >= 1.f && o.restir_radius <= 1e4f))
-    throw InputError("--restir-radius must be a number of pixels in [1, 10000], got " + std::to_string(o.restir_radius));
-  if (!(o.restir_history >= 0.f && o.restir_history <= 1e6f))
-    throw InputError("--restir-history must be a number in [0, 1000000] (0: no temporal reuse), got " +
-                     std::to_string(o.restir_history));
+  auto check_restir = [](const char* name, double v, const std::string& shown) {
+    std::string expected = restir_option_expected(name, v);
+    if (!expected.empty())
+      throw InputError(std::string("--restir-") + name + " must be " + expected + ", got " + shown);
+  };
+  check_restir("candidates", o.restir_candidates, std::to_string(o.restir_candidates));
+  check_restir("neighbors", o.restir_neighbors, std::to_string(o.restir_neighbors));
+  check_restir("radius", o.restir_radius, std::to_string(o.restir_radius));
+  check_restir("history", o.restir_history, std::to_string(o.restir_history));
   {
     const RenderOptions d;
     if (o.integrator != "restir" && (o.restir_candidates != d.restir_candidates ||

@@ -101,6 +101,11 @@ struct RenderStats {
 // Names of the integrators this build offers (the registry).
 const std::vector<std::string>& integrator_names();
 
+// The restir options' ranges, shared by RenderOptions' check and the JSON scene loader: for `name`
+// ("candidates", "neighbors", "radius", "history") and value v, an empty string when v is allowed, else
+// what is expected ("an integer in [1, 1024]", ...).
+std::string restir_option_expected(const std::string& name, double v);
+
 // Accumulated radiance per pixel, with the odd passes also kept apart so that
 // the two half images (even passes, odd passes) give a per-pixel variance
 // estimate: for N samples split evenly, E[(A - B)^2] = 4 Var(mean of N)

@@ -594,7 +594,8 @@ int parse_max_depth(const Ctx& c, const json& j, const std::string& path) {
 void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
   const std::string p = "/integrator";
   check_keys(c, j, p, {"type", "spp", "time", "max_depth", "rr_depth", "sampler", "photons", "radius", "alpha", "k",
-                       "photon_sampling"});
+                       "photon_sampling", "restir_candidates", "restir_neighbors", "restir_radius",
+                       "restir_history"});
   SceneDesc::IntegratorDefaults& in = d.integrator;
   if (j.contains("type")) {
     in.type = str(c, j["type"], p + "/type");
@@ -640,6 +641,20 @@ void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
     in.photon_sampling = str(c, j["photon_sampling"], p + "/photon_sampling");
     if (in.photon_sampling != "uniform" && in.photon_sampling != "adaptive")
       c.fail(p + "/photon_sampling", "unknown photon sampling '" + in.photon_sampling + "' (allowed: uniform, adaptive)");
+  }
+  // restir's options (RenderOptions::restir_*; their ranges are restir_option_expected's).
+  for (const char* name : {"candidates", "neighbors", "radius", "history"}) {
+    const std::string key = std::string("restir_") + name, kp = p + "/" + key;
+    if (!j.contains(key)) continue;
+    if (!in.type.empty() && in.type != "restir")
+      c.fail(kp, "applies to integrator 'restir', but /integrator/type is '" + in.type + "'");
+    double v = numd(c, j[key], kp);
+    std::string expected = restir_option_expected(name, v);
+    if (!expected.empty()) c.fail(kp, "expected " + expected);
+    if (key == "restir_candidates") in.restir_candidates = int(v);
+    else if (key == "restir_neighbors") in.restir_neighbors = int(v);
+    else if (key == "restir_radius") in.restir_radius = float(v);
+    else in.restir_history = float(v);
   }
 }
 
