@@ -11,6 +11,7 @@
 """
 from ._api import (
     InputError,
+    RenderError,
     RenderResult,
     Scene,
     SceneError,
@@ -36,7 +37,7 @@ from . import study  # caustica.study.realtime(...): spp and frame time for a FL
 from .converge import converge
 
 __all__ = [
-    "InputError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
+    "InputError", "RenderError", "RenderResult", "Scene", "SceneError", "SceneWarning", "__version__", "builtin_scenes",
     "cuda_status", "default_scene_name", "describe",
     "devices", "export_scene", "integrators", "load_dict", "load_scene", "load_scene_desc", "read_image",
     "render", "render_job", "write_image", "metrics", "converge",

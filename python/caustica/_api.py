@@ -246,6 +246,16 @@ class RenderResult:
     strategies: dict = field(default_factory=dict)  # name -> (H, W, 3), with strategy_images=True
 
 
+class RenderError(RuntimeError):
+    """A render that failed midway (out of memory, a device error). `partial` is a RenderResult with the image
+    of the passes completed before the failure (stats["passes"] of them; interrupted=True), or None when the
+    first pass failed."""
+
+    def __init__(self, message: str, partial: Optional[RenderResult] = None):
+        super().__init__(message)
+        self.partial = partial
+
+
 def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, spp: Optional[int] = None,
                     time: Optional[float] = None, rr_depth: Optional[int] = None, sampler: Optional[str] = None,
                     photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
@@ -355,7 +365,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     untextured triangle area lights); stats["lanes"] is 8 when it ran, 0 when paths were
     traced one at a time. The image is bit-identical either way; lanes=False is for comparisons.
     Options left as None come from the scene's integrator defaults (see resolve_options);
-    stats["integrator"] names the integrator used."""
+    stats["integrator"] names the integrator used. A render that fails midway (out of memory, a device error)
+    raises RenderError, whose `partial` holds the image of the passes completed before (None if none)."""
     _check_device(device)
     scene = load_scene(scene)
     until_target = spp is None and time is None and (target_error is not None or target_noise is not None)
@@ -421,6 +432,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
         job.cancel()
         while not job.wait(poll):
             pass
+    except RuntimeError as e:  # the render thread failed; keep the passes it completed
+        stats = dict(job.stats(), integrator=integrator)
+        partial = RenderResult(image=job.image(), stats=stats, interrupted=True) if stats["passes"] > 0 else None
+        raise RenderError(str(e), partial) from None
     stats = job.stats()
     stats["integrator"] = integrator
     if progress is not None and not interrupted:

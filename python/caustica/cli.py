@@ -321,6 +321,7 @@ def cmd_render(a) -> int:
         for o in outputs:
             _api.write_image(o, image, exposure=a.exposure)
 
+    failed = None
     try:
         res = _api.render_job(scene, integrator=integrator, spp=spp, time=seconds, seed=a.seed,
                               threads=a.threads, max_depth=a.max_depth, rr_depth=o["rr_depth"],
@@ -335,8 +336,18 @@ def cmd_render(a) -> int:
                               jitter=not a.no_jitter, lanes=not a.no_lanes, photon_sampling=a.photon_sampling,
                               restir_candidates=a.restir_candidates, restir_neighbors=a.restir_neighbors,
                               restir_radius=a.restir_radius, restir_history=a.restir_history)
+    except _api.RenderError as e:
+        failed = e
     finally:
         prog.close()
+    if failed is not None:  # keep what the render had (as an interrupted render does), then fail
+        if failed.partial is None:
+            raise failed
+        write_all(failed.partial.image)
+        n = failed.partial.stats["passes"]
+        print(f"caustica: error: the render failed after {n} pass{'' if n == 1 else 'es'}: {failed}; wrote the image "
+              f"of those passes to {', '.join(outputs)}", file=sys.stderr)
+        return 1
     st = res.stats
     write_all(res.image)
     for name, img in res.strategies.items():

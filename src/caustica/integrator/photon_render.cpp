@@ -268,7 +268,16 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   }
   // PPM keeps the measurement points of its first pass (Hachisuka et al. 2008,
   // Sec. 4.1) and re-estimates only their direct light; SPPM and PPPM draw new ones.
-  std::vector<double> direct_backup = direct_;
+  // A pass that is cancelled or fails (an exception: out of memory) leaves direct_ as it was, so the image
+  // stays that of the complete passes before it (RenderJob keeps it for the caller either way).
+  struct RestoreDirect {
+    std::vector<double>& current;
+    std::vector<double> saved;
+    bool commit = false;
+    ~RestoreDirect() {
+      if (!commit) current.swap(saved);
+    }
+  } restore{direct_, direct_};
   trace_visible_points(abs_pass);
   // A photon stored after k segments completes a path of k + 1 segments with a
   // visible point at the camera's first hit: limit photon paths to max_depth - 1
@@ -280,16 +289,14 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
       adaptive_ ? trace_photons_adaptive(abs_pass, photon_depth, rmax, cancel)
                 : trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
                                 photon_depth, false, &cancel);
-  if (cancel.load()) {
-    direct_.swap(direct_backup);
-    return false;
-  }
+  if (cancel.load()) return false;
   traced_ += photons_per_pass_;
   PhotonHashGrid grid;
   // Cells of twice the largest radius: a query sphere then overlaps at most 2x2x2 cells.
   grid.build(photons, v.bounds, 2.f * rmax, opt_.stochastic_hash, hash3(opt_.seed, uint64_t(abs_pass), 0x9d));
   const PhotonGridView gv = grid.view();
   const double inv_np = 1.0 / double(photons_per_pass_);
+  restore.commit = true;  // the gather below only computes (no allocation, no cancel check)
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
     for (int y = r.begin(); y < r.end(); ++y)
       for (int x = 0; x < W_ * K_; ++x) {

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <condition_variable>
 #include <new>
 #include <stdexcept>
@@ -353,12 +354,18 @@ void RenderJob::render_pass(const Accel& accel, int64_t pass) {
 
 void RenderJob::run() {
   auto t0 = std::chrono::steady_clock::now();
+  // A test hook (tests/python/test_render_failure.py): CAUSTICA_TEST_FAIL_AT_PASS=N makes pass N fail as an
+  // out-of-memory or device error would, to check that the passes before it are kept.
+  const char* fail_env = std::getenv("CAUSTICA_TEST_FAIL_AT_PASS");
+  const int64_t fail_at = fail_env && *fail_env ? std::strtoll(fail_env, nullptr, 10) : -1;
   try {
     int threads = opt_.threads > 0 ? opt_.threads : tbb::this_task_arena::max_concurrency();
     tbb::task_arena arena(threads);
     BVHAccel bvh{&scene_->view()};
     for (int64_t pass = 0;; ++pass) {
       if (opt_.spp > 0 && pass >= opt_.spp) break;
+      if (pass == fail_at)
+        throw std::runtime_error("pass " + std::to_string(pass) + " failed (CAUSTICA_TEST_FAIL_AT_PASS)");
       double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (opt_.time > 0.0 && elapsed >= opt_.time) break;
       if (cancel_.load()) break;
