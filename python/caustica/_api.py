@@ -281,23 +281,41 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
 PHOTON_SAMPLINGS = ("uniform", "adaptive")
 
 
-# Variants compared as integrators of their own: "sppm+adaptive" is sppm with photon_sampling="adaptive".
-VARIANTS = {"adaptive": ("photon_sampling", "adaptive", ("ppm", "sppm", "pppm"))}
+# Variants compared as integrators of their own ("sppm+adaptive" is sppm with photon_sampling="adaptive"; several
+# combine: "restir+nohistory+nospatial"): name -> (the options it sets, the integrators it applies to, whether the
+# wavefront/CUDA drivers run it).
+VARIANTS = {
+    "adaptive": ({"photon_sampling": "adaptive"}, ("ppm", "sppm", "pppm"), False),
+    "nohistory": ({"restir_history": 0.0}, ("restir",), True),
+    "nospatial": ({"restir_neighbors": 0}, ("restir",), True),
+}
+
+
+def variant_names() -> list[str]:
+    """Every integrator+variant name (for messages and help)."""
+    return [f"{b}+{v}" for v, (_, bases, _) in VARIANTS.items() for b in bases]
 
 
 def split_integrator_variant(name: str) -> tuple[str, dict]:
-    """'sppm+adaptive' -> ('sppm', {'photon_sampling': 'adaptive'}); a plain name -> (name, {}). Comparisons
-    (caustica.converge, caustica.study.realtime) take such variants as integrators of their own."""
-    base, plus, variant = name.partition("+")
-    if not plus:
-        return name, {}
-    if variant not in VARIANTS:
-        raise InputError(f"unknown integrator variant '+{variant}' in '{name}' (allowed: "
-                         f"{', '.join('+' + v for v in VARIANTS)})")
-    key, value, bases = VARIANTS[variant]
-    if base not in bases:
-        raise InputError(f"'+{variant}' applies to {', '.join(bases)}, got '{name}'")
-    return base, {key: value}
+    """'sppm+adaptive' -> ('sppm', {'photon_sampling': 'adaptive'}); 'restir+nohistory+nospatial' -> ('restir',
+    {'restir_history': 0.0, 'restir_neighbors': 0}); a plain name -> (name, {}). Comparisons (caustica.converge,
+    caustica.study.realtime) take such variants as integrators of their own."""
+    base, *variants = name.split("+")
+    options = {}
+    for variant in variants:
+        if variant not in VARIANTS:
+            raise InputError(f"unknown integrator variant '+{variant}' in '{name}' (allowed: "
+                             f"{', '.join(variant_names())})")
+        opts, bases, _ = VARIANTS[variant]
+        if base not in bases:
+            raise InputError(f"'+{variant}' applies to {', '.join(bases)}, got '{name}'")
+        options.update(opts)
+    return base, options
+
+
+def variant_on_gpu(name: str) -> bool:
+    """Whether the wavefront/CUDA drivers run every variant in `name` (adaptive photon tracing: CPU only)."""
+    return all(VARIANTS[v][2] for v in name.split("+")[1:] if v in VARIANTS)
 
 
 def _photon_sampling(v) -> str:
@@ -402,11 +420,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
             raise InputError(f"{name} must be a non-negative integer, got {v!r}")
     targets = _targets(scene, target_error, reference, target_noise)
-    restir_given = dict(restir_candidates=restir_candidates, restir_neighbors=restir_neighbors,
-                        restir_radius=restir_radius, restir_history=restir_history)
-    if integrator == "restir":  # the scene's restir_* (JSON "integrator") where not given
-        restir_given = {key: scene.integrator_defaults.get(key) if v is None else v for key, v in restir_given.items()}
-    restir = _restir_options(integrator, *restir_given.values())
+    restir = restir_job_options(scene, integrator, restir_candidates, restir_neighbors, restir_radius,
+                                restir_history)
     job = _native.RenderJob(scene, integrator=integrator, spp=spp_i, time=float(time or 0.0), seed=int(seed),
                             threads=int(threads), max_depth=md, rr_depth=_positive_int("rr_depth", rr_depth),
                             sampler=sampler, accel=accel, photons=int(photons or 0), radius=float(radius or 0.0),
@@ -442,6 +457,16 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
         progress(stats)
     return RenderResult(image=job.image(), stats=stats, interrupted=interrupted,
                         strategies=job.strategy_images() if strategy_images else {})
+
+
+def restir_job_options(scene, integrator, candidates=None, neighbors=None, radius=None, history=None) -> dict:
+    """The restir_* keyword arguments of a native RenderJob: those given, then (for restir) the scene's (JSON
+    "integrator": "restir_candidates", ...); checked."""
+    given = dict(restir_candidates=candidates, restir_neighbors=neighbors, restir_radius=radius,
+                 restir_history=history)
+    if integrator == "restir":
+        given = {key: scene.integrator_defaults.get(key) if v is None else v for key, v in given.items()}
+    return _restir_options(integrator, *given.values())
 
 
 def _restir_options(integrator, candidates, neighbors, radius, history) -> dict:

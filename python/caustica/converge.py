@@ -47,7 +47,8 @@ LABELS = {"mse": "MSE", "rmse": "RMSE", "relmse": "relMSE", "mape": "MAPE", "ssi
 REFERENCE_SEED = 1_000_003  # make_reference's default seed: far from converge's (0), so the noise is independent
 SNAPSHOT_MEMORY = 1 << 30    # snapshots beyond this many bytes (per integrator) go to a temporary directory
 RENDER_OPTIONS = ("threads", "max_depth", "rr_depth", "sampler", "accel", "photons", "radius", "alpha", "k",
-                  "stochastic_hash", "photon_sampling")
+                  "stochastic_hash", "photon_sampling", "restir_candidates", "restir_neighbors", "restir_radius",
+                  "restir_history")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -207,7 +208,11 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
                              radius=float(r or 0.0), alpha=float(o["alpha"]),
                              stochastic_hash=bool(opts.get("stochastic_hash", False)),
                              photon_sampling=_api._photon_sampling(o["photon_sampling"]),
-                             k=_api._positive_int("k", o["k"]))
+                             k=_api._positive_int("k", o["k"]),
+                             **_api.restir_job_options(scene, integrator, *(
+                                 opts.get(key) if integrator == "restir" else None  # the others ignore them
+                                 for key in ("restir_candidates", "restir_neighbors", "restir_radius",
+                                             "restir_history"))))
 
 
 def _metric_names(metrics) -> list[str]:
@@ -233,7 +238,7 @@ def _integrator_names(integrators) -> list[str]:
         base, _ = _api.split_integrator_variant(i)
         if base not in allowed:
             raise InputError(f"unknown integrator '{i}' (allowed: {', '.join(allowed)}; variants: "
-                             "ppm+adaptive, sppm+adaptive, pppm+adaptive)")
+                             f"{', '.join(_api.variant_names())})")
     return names
 
 

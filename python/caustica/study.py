@@ -217,15 +217,15 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
     for i in integ + [ref_integrator]:
         if _api.split_integrator_variant(i)[0] not in all_integrators:
             raise InputError(f"unknown integrator '{i}' (allowed: {', '.join(all_integrators)}; variants: "
-                             "ppm+adaptive, sppm+adaptive, pppm+adaptive)")
+                             f"{', '.join(_api.variant_names())})")
     integ = list(dict.fromkeys(integ))
     if on_gpu:
         for i in integ:
-            b, variant = _api.split_integrator_variant(i)
+            b, _ = _api.split_integrator_variant(i)
             if b not in _api.CUDA_INTEGRATORS:
                 raise InputError(f"integrator '{i}' does not run on device '{device}' (allowed there: "
                                  f"{', '.join(_api.CUDA_INTEGRATORS)})")
-            if variant:
+            if not _api.variant_on_gpu(i):
                 raise InputError(f"integrator '{i}': adaptive photon tracing runs on the CPU only, not on "
                                  f"device '{device}'")
     if throughput_at is None:
@@ -285,7 +285,7 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
         say(f"reference: {ref_integrator}, {ref_spp} spp at {w}x{h} ...")
         t = _time.perf_counter()
         ref_base, ref_variant = _api.split_integrator_variant(ref_integrator)
-        ref_device = device if ref_base in _api.CUDA_INTEGRATORS and not ref_variant else "cpu"
+        ref_device = device if ref_base in _api.CUDA_INTEGRATORS and _api.variant_on_gpu(ref_integrator) else "cpu"
         r = _api.render_job(sc, integrator=ref_base, spp=ref_spp, seed=REF_SEED, **dict(common, device=ref_device),
                             **ref_variant)
         if r.interrupted:

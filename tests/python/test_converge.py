@@ -127,6 +127,27 @@ def test_adaptive_variant_is_compared_as_an_integrator(reference):
             caustica.converge("cornell", integrators=bad, time=1, reference=ref)
 
 
+def test_restir_variants_are_compared_as_integrators(reference):
+    # "restir+nohistory+nospatial" runs restir with restir_history=0 and restir_neighbors=0 under its own label;
+    # its final image is the one caustica.render gives for the passes it did with those options.
+    ref, _ = reference
+    assert caustica._api.split_integrator_variant("restir+nohistory+nospatial") == (
+        "restir", {"restir_history": 0.0, "restir_neighbors": 0})
+    log = caustica.converge("cornell", integrators="path,restir+nohistory+nospatial", time=0.4, reference=ref,
+                            metrics="relmse", checkpoints=[0.2], width=SIZE, height=SIZE, as_frame=False,
+                            restir_candidates=4)  # restir's option: path ignores it
+    assert log.header["integrators"] == ["path", "restir+nohistory+nospatial"]
+    last = [r for r in log if r["integrator"] == "restir+nohistory+nospatial"][-1]
+    scene = caustica.load_scene("cornell", width=SIZE, height=SIZE)
+    img = caustica.render(scene, integrator="restir", spp=last["passes"], restir_history=0, restir_neighbors=0,
+                          restir_candidates=4)
+    assert last["relmse"] == pytest.approx(caustica.metrics.relmse(img, ref), rel=1e-5)
+    default = caustica.render(scene, integrator="restir", spp=last["passes"])
+    assert caustica.metrics.relmse(default, ref) != pytest.approx(last["relmse"], rel=1e-5)
+    with pytest.raises(caustica.InputError, match="'\\+nohistory' applies to restir, got 'path\\+nohistory'"):
+        caustica.converge("cornell", integrators="path+nohistory", time=1, reference=ref)
+
+
 def test_python_api_dataframe(reference):
     pd = pytest.importorskip("pandas")
     df = caustica.converge("cornell", integrators=["path"], time=0.3, reference=caustica.read_image(reference[0]),

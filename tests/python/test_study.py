@@ -110,9 +110,9 @@ def test_study_device_errors():
         caustica.study.realtime("cornell", device="tpu")
     with pytest.raises(caustica.InputError, match="throughput_at: expected 'small' or '1080p'"):
         caustica.study.realtime("cornell", throughput_at="4k")
-    if not caustica._api.cuda_status()[0]:
+    if not caustica._api.cuda_status()[0]:  # restir's variants run on the GPU: past the checks above
         with pytest.raises(caustica.InputError, match="device 'cuda' is not available"):
-            caustica.study.realtime("cornell", integrators=["path"], device="cuda")
+            caustica.study.realtime("cornell", integrators=["path", "restir+nohistory"], device="cuda")
 
 
 @pytest.mark.skipif(not caustica._api.cuda_status()[0], reason="needs a CUDA device (none here: the CPU study "

@@ -51,8 +51,8 @@ def add_parser(sub):
                                         "or render a reference (--make-reference)")
     p.add_argument("scene", help="a built-in scene name or a scene file")
     p.add_argument("--integrators", default="path,sppm",
-                   help=f"comma-separated, of: {', '.join(_api.integrators())}, and ppm+adaptive, sppm+adaptive, "
-                        "pppm+adaptive (adaptive photon tracing) (default: path,sppm)")
+                   help=f"comma-separated, of: {', '.join(_api.integrators())}, and the variants "
+                        f"{', '.join(_api.variant_names())} (default: path,sppm)")
     p.add_argument("--time", type=_seconds, default=None,
                    help="seconds per integrator (default 60); with --make-reference, the reference's budget")
     p.add_argument("--reference", default=None, help="the reference image (.exr/.pfm; its .json sidecar is read)")

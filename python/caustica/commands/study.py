@@ -56,8 +56,8 @@ def add_parser(sub):
                                   "report with plots into --out.")
     r.add_argument("scene", help="a built-in scene name or a scene file")
     r.add_argument("--integrators", nargs="+", default=None, metavar="NAME",
-                   help=f"integrators to study (default: all: {', '.join(_api.integrators())}); also "
-                        "ppm+adaptive, sppm+adaptive, pppm+adaptive (adaptive photon tracing)")
+                   help=f"integrators to study (default: all: {', '.join(_api.integrators())}); also the variants "
+                        f"{', '.join(_api.variant_names())}")
     r.add_argument("--thresholds", nargs="+", default=list(S.THRESHOLDS), metavar="FLIP",
                    type=_type("--thresholds", float, lambda v: 0 < v < 1 and math.isfinite(v), "numbers in (0, 1)"),
                    help=f"mean FLIP thresholds (default: {' '.join(map(str, S.THRESHOLDS))})")
