@@ -26,6 +26,7 @@
 
 #include "../backend/backend.h"
 #include "path.h"
+#include "wavefront_film.h"
 #include "wavefront_render.h"
 
 namespace caustica {
@@ -37,7 +38,8 @@ class WavefrontPath {
   using Buffer = typename B::template Buffer<T>;
 
   WavefrontPath(const B& backend, const PathParams& pp, const WavefrontOptions& opt, uint32_t num_materials)
-      : b_(backend), pp_(pp), opt_(opt), num_materials_(num_materials) {
+      : b_(backend), pp_(pp), opt_(opt), num_materials_(num_materials),
+        film_(backend, uint32_t(backend.scene().camera.width) * uint32_t(backend.scene().camera.height)) {
     const Camera& c = b_.scene().camera;
     n_ = uint32_t(c.width) * uint32_t(c.height);
     states_.resize(n_);
@@ -47,23 +49,11 @@ class WavefrontPath {
     queue2_.resize(n_);
     flags_.resize(n_);
     scan_.resize(n_);
-    sum_.resize(size_t(n_) * 4);
-    odd_.resize(size_t(n_) * 4);
     if (opt_.sort_materials) keys_.resize(n_);
     if (opt_.cache_first_bounce) cache_.resize(n_);
-    clear_film();
   }
 
   uint32_t pixels() const { return n_; }
-
-  void clear_film() {
-    double* sum = sum_.data();
-    double* odd = odd_.data();
-    b_.parallel_for(4 * n_, CAUSTICA_KERNEL(uint32_t i) {
-      sum[i] = 0.0;
-      odd[i] = 0.0;
-    });
-  }
 
   // Renders sample `sample_index` of every pixel into the film. Returns false when `cancel` was set
   // midway: the film is then unchanged.
@@ -146,33 +136,22 @@ class WavefrontPath {
       }
     }
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
-    // Accumulate: slot i is pixel i (the film's layout: r, g, b, weight per pixel).
-    double* sum = sum_.data();
-    double* odd = odd_.data();
+    // Accumulate: slot i is pixel i.
+    double* sum = film_.sum();
+    double* odd = film_.odd();
     const bool odd_pass = (sample_index & 1u) != 0;
     b_.parallel_for(n, CAUSTICA_KERNEL(uint32_t i) {
       const PathState& st = states[i];
       bool ok = isfinite3(st.L);
       flags[i] = ok ? 0u : 1u;
-      if (!ok) return;
-      double w = double(st.weight);
-      double c[4] = {double(st.L.x) * w, double(st.L.y) * w, double(st.L.z) * w, w};
-      for (int j = 0; j < 4; ++j) {
-        sum[4 * size_t(i) + j] += c[j];
-        if (odd_pass) odd[4 * size_t(i) + j] += c[j];
-      }
+      if (ok) film_add(sum, odd, odd_pass, i, st.L, st.weight);
     });
     stats.invalid = b_.exclusive_scan(flags, scan, n);
     return true;
   }
 
   // The film's sums (4 doubles per pixel: r, g, b, weight) over all passes and over odd passes.
-  void film(std::vector<double>& sum, std::vector<double>& odd) const {
-    sum.resize(size_t(n_) * 4);
-    odd.resize(size_t(n_) * 4);
-    b_.to_host(sum_, sum.data(), sum.size());
-    b_.to_host(odd_, odd.data(), odd.size());
-  }
+  void film(std::vector<double>& sum, std::vector<double>& odd) const { film_.to_host(sum, odd); }
 
  private:
   const B& b_;
@@ -184,7 +163,7 @@ class WavefrontPath {
   Buffer<Hit> hits_, cache_;
   Buffer<ShadowRay> shadow_;
   Buffer<uint32_t> queue_, queue2_, flags_, scan_, keys_, sort_k_, sort_v_;
-  Buffer<double> sum_, odd_;
+  WavefrontFilm<B> film_;
   bool cache_valid_ = false;
 };
 

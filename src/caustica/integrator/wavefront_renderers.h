@@ -13,12 +13,14 @@
 
 namespace caustica {
 
-template <class B>
-class PathWavefrontRenderer final : public WavefrontRenderer {
+// The renderers of the drivers that add one sample per pixel and pass to a WavefrontFilm (wavefront_film.h): their
+// image is the film's, as the CPU path tracer's (render.h's Film).
+template <class Driver>
+class FilmWavefrontRenderer : public WavefrontRenderer {
  public:
-  PathWavefrontRenderer(const B& b, std::string name, const PathParams& pp, const WavefrontOptions& opt,
-                        uint32_t num_materials)
-      : wf_(b, pp, opt, num_materials), name_(std::move(name)), W_(b.scene().camera.width), H_(b.scene().camera.height) {}
+  template <class B, class... Args>
+  FilmWavefrontRenderer(const B& b, std::string name, const Args&... args)
+      : wf_(b, args...), name_(std::move(name)), W_(b.scene().camera.width), H_(b.scene().camera.height) {}
   bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
     return wf_.render_pass(pass, cancel, stats);
   }
@@ -27,16 +29,27 @@ class PathWavefrontRenderer final : public WavefrontRenderer {
     wf_.film(f.sum, f.odd);
     return f.image();
   }
-  bool film(std::vector<double>& sum, std::vector<double>& odd) const override {
-    wf_.film(sum, odd);
-    return true;
-  }
   std::string device_name() const override { return name_; }
 
+ protected:
+  Driver wf_;
+
  private:
-  WavefrontPath<B> wf_;
   std::string name_;
   int W_, H_;
+};
+
+// The path tracer also hands its film out (the half images of --target-noise).
+template <class B>
+class PathWavefrontRenderer final : public FilmWavefrontRenderer<WavefrontPath<B>> {
+ public:
+  PathWavefrontRenderer(const B& b, std::string name, const PathParams& pp, const WavefrontOptions& opt,
+                        uint32_t num_materials)
+      : FilmWavefrontRenderer<WavefrontPath<B>>(b, std::move(name), pp, opt, num_materials) {}
+  bool film(std::vector<double>& sum, std::vector<double>& odd) const override {
+    this->wf_.film(sum, odd);
+    return true;
+  }
 };
 
 template <class B>
@@ -84,25 +97,7 @@ class VcmWavefrontRenderer final : public WavefrontRenderer {
 };
 
 template <class B>
-class RestirWavefrontRenderer final : public WavefrontRenderer {
- public:
-  RestirWavefrontRenderer(const B& b, std::string name, const RestirWavefrontParams& p)
-      : wf_(b, p), name_(std::move(name)), W_(b.scene().camera.width), H_(b.scene().camera.height) {}
-  bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) override {
-    return wf_.render_pass(pass, cancel, stats);
-  }
-  std::vector<float> image(int64_t) const override {
-    Film f(W_, H_);
-    wf_.film(f.sum, f.odd);
-    return f.image();
-  }
-  std::string device_name() const override { return name_; }
-
- private:
-  WavefrontRestir<B> wf_;
-  std::string name_;
-  int W_, H_;
-};
+using RestirWavefrontRenderer = FilmWavefrontRenderer<WavefrontRestir<B>>;
 
 // A renderer that owns a backend (and what the backend needs) and forwards every call to the renderer built
 // over it; enter() runs first (the CUDA backend makes its device current there).

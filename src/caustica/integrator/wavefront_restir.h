@@ -17,6 +17,7 @@
 
 #include "../backend/backend.h"
 #include "restir.h"
+#include "wavefront_film.h"
 #include "wavefront_render.h"
 
 namespace caustica {
@@ -27,7 +28,9 @@ class WavefrontRestir {
   template <class T>
   using Buffer = typename B::template Buffer<T>;
 
-  WavefrontRestir(const B& backend, const RestirWavefrontParams& p) : b_(backend), p_(p) {
+  WavefrontRestir(const B& backend, const RestirWavefrontParams& p)
+      : b_(backend), p_(p),
+        film_(backend, uint32_t(backend.scene().camera.width) * uint32_t(backend.scene().camera.height)) {
     const Camera& c = b_.scene().camera;
     W_ = uint32_t(c.width);
     H_ = uint32_t(c.height);
@@ -42,19 +45,6 @@ class WavefrontRestir {
     rays_.resize(n_);
     shadow_.resize(n_);
     invalid_.resize(n_);
-    sum_.resize(size_t(n_) * 4);
-    odd_.resize(size_t(n_) * 4);
-    clear_film();
-  }
-
-  // (A member function: nvcc takes no extended __device__ lambda in a constructor.)
-  void clear_film() {
-    double* sum = sum_.data();
-    double* odd = odd_.data();
-    b_.parallel_for(4 * n_, CAUSTICA_KERNEL(uint32_t i) {
-      sum[i] = 0.0;
-      odd[i] = 0.0;
-    });
   }
 
   // Renders pass `pass`; false when `cancel` was set between the stages (the film and history are then
@@ -89,28 +79,15 @@ class WavefrontRestir {
                      rays[i], shadow[i]);
     });
     if (cancel && cancel->load(std::memory_order_relaxed)) return false;
-    double* sum = sum_.data();
-    double* odd = odd_.data();
+    double* sum = film_.sum();
+    double* odd = film_.odd();
     const bool odd_pass = (pass & 1u) != 0;
     b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
       RGB Li = L[i];
       restir_spatial(s, tracer, p, i % W, i / W, vert, temporal, fin[i], Li, shadow[i]);
       bool ok = isfinite3(Li);
       invalid[i] = ok ? 0u : 1u;
-      if (!ok) return;
-      const double w = double(weight[i]);
-      double* a = sum + 4 * size_t(i);
-      a[0] += double(Li.x) * w;
-      a[1] += double(Li.y) * w;
-      a[2] += double(Li.z) * w;
-      a[3] += w;
-      if (odd_pass) {
-        double* o = odd + 4 * size_t(i);
-        o[0] += double(Li.x) * w;
-        o[1] += double(Li.y) * w;
-        o[2] += double(Li.z) * w;
-        o[3] += w;
-      }
+      if (ok) film_add(sum, odd, odd_pass, i, Li, weight[i]);
     });
     std::swap(prev_vert_, vert_);
     std::swap(prev_res_, final_);
@@ -121,12 +98,7 @@ class WavefrontRestir {
     return true;
   }
 
-  void film(std::vector<double>& sum, std::vector<double>& odd) const {
-    sum.resize(size_t(n_) * 4);
-    odd.resize(size_t(n_) * 4);
-    b_.to_host(sum_, sum.data(), sum.size());
-    b_.to_host(odd_, odd.data(), odd.size());
-  }
+  void film(std::vector<double>& sum, std::vector<double>& odd) const { film_.to_host(sum, odd); }
 
  private:
   uint64_t sum_counts(const Buffer<uint32_t>& counts) const {
@@ -146,7 +118,7 @@ class WavefrontRestir {
   Buffer<RGB> L_;
   Buffer<float> weight_;
   Buffer<uint32_t> rays_, shadow_, invalid_;
-  Buffer<double> sum_, odd_;
+  WavefrontFilm<B> film_;
 };
 
 }  // namespace caustica
