@@ -30,7 +30,13 @@ struct PathParams {
   uint64_t seed = 0;
   SamplerType sampler = SamplerType::kSobol;
   bool jitter = true;  // false: every sample through the pixel centre, weight 1 (camera rays repeat per pass)
+  bool light_bvh = false;  // choose lights by the light BVH (light/light_bvh.h) instead of by power alone
 };
+
+// The probability that next-event estimation from reference point p chooses `light`.
+CHD float path_light_pmf(const SceneView& s, const PathParams& pp, Vec3f p, uint32_t light) {
+  return pp.light_bvh ? light_bvh_pmf(s.light_bvh, p, light) : s.light_sampler.pmf[light];
+}
 
 struct PathState {
   Ray ray;
@@ -76,15 +82,15 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
 // Emission of the area light at sh reached by the ray that ends there (the BSDF sample of the previous
 // vertex, or the camera ray): MIS-weighted against light sampling unless that ray came from a delta
 // lobe or the camera. Also called per lane by the lane-parallel driver (path_lanes.cpp).
-CHD void path_add_emission(const SceneView& s, const SurfaceHit& sh, Vec3f wo_world, Vec3f prev_p, float prev_pdf,
-                           bool prev_delta, RGB beta, RGB& L) {
+CHD void path_add_emission(const SceneView& s, const PathParams& pp, const SurfaceHit& sh, Vec3f wo_world,
+                           Vec3f prev_p, float prev_pdf, bool prev_delta, RGB beta, RGB& L) {
   if (sh.light < 0) return;
   const Light& l = s.lights[sh.light];
   RGB Le = area_radiance(s, l, sh.ng, wo_world, sh.uv);
   if (is_black(Le)) return;
   float w = 1.f;
   if (!prev_delta) {
-    float lp = s.light_sampler.pmf[sh.light] * light_pdf(s, l, prev_p, sh.p, sh.ng);
+    float lp = path_light_pmf(s, pp, prev_p, uint32_t(sh.light)) * light_pdf(s, l, prev_p, sh.p, sh.ng);
     w = power_heuristic(prev_pdf, lp);
   }
   L += beta * Le * w;
@@ -98,7 +104,8 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
       const Light& env = s.lights[s.environment_light];
       float w = 1.f;
       if (!st.prev_delta) {
-        float light_pdf_sa = s.light_sampler.pmf[s.environment_light] * environment_pdf(s, env, st.ray.d);
+        float light_pdf_sa = path_light_pmf(s, pp, st.prev_p, uint32_t(s.environment_light)) *
+                             environment_pdf(s, env, st.ray.d);
         w = power_heuristic(st.prev_pdf, light_pdf_sa);
       }
       st.L += st.beta * environment_radiance(s, env, st.ray.d) * w;
@@ -110,7 +117,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   Vec3f wo_world = -st.ray.d;
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
 
-  if (!st.nee_only) path_add_emission(s, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
+  if (!st.nee_only) path_add_emission(s, pp, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
   st.nee_only = false;
   if (st.depth >= pp.max_depth) { st.active = false; return; }
 
@@ -128,11 +135,11 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   // One 2D sample chooses the light (u.x, then remapped) and the point on it.
   Vec2f u_light2 = st.sampler.next_2d();
   if (s.num_lights > 0 && !material_is_delta(m)) {
-    float pmf;
-    uint32_t li = s.light_sampler.sample_reuse(u_light2, pmf);
-    const Light& l = s.lights[li];
+    float pmf = 0.f;
+    int32_t li = pp.light_bvh ? light_bvh_sample(s.light_bvh, p_front, u_light2, pmf)
+                              : int32_t(s.light_sampler.sample_reuse(u_light2, pmf));
     LightSample ls;
-    if (sample_light(s, l, p_front, u_light2, ls)) {
+    if (li >= 0 && sample_light(s, s.lights[li], p_front, u_light2, ls)) {
       Vec3f wi = frame.to_local(ls.wi);
       RGB f = bsdf_eval(m, wo, wi);
       if (!is_black(f)) {

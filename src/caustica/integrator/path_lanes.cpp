@@ -20,6 +20,7 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
     if (why) *why = w;
     return false;
   };
+  if (pp.light_bvh) return fail("the light BVH (the lanes choose lights by power)");
   for (uint32_t i = 0; i < s.num_lights; ++i) {
     const Light& l = s.lights[i];
     if (l.type != LightType::kTriangle) return fail("a light other than a triangle area light");
@@ -183,7 +184,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
       if (light[i] >= 0) {
         SurfaceHit sh = make_surface_hit(s, r, h);
         RGB Li = get(L, i);
-        path_add_emission(s, sh, -r.d, get(prev_p, i), prev_pdf[i], prev_delta[i] != 0, get(beta, i), Li);
+        path_add_emission(s, pp, sh, -r.d, get(prev_p, i), prev_pdf[i], prev_delta[i] != 0, get(beta, i), Li);
         set(L, i, Li);
       }
     }

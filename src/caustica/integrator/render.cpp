@@ -131,6 +131,10 @@ void RenderJob::validate(const RenderOptions& o) {
       throw InputError("--restir-candidates, --restir-neighbors, --restir-radius and --restir-history apply to "
                        "integrator 'restir', got '" + o.integrator + "'");
   }
+  if (o.light_sampler != "power" && o.light_sampler != "bvh")
+    throw InputError("unknown light sampler '" + o.light_sampler + "' (allowed: power, bvh)");
+  if (o.light_sampler == "bvh" && o.integrator != "path")
+    throw InputError("--light-sampler bvh applies to integrator 'path', got '" + o.integrator + "'");
   if (o.accel != "auto" && o.accel != "embree" && o.accel != "small" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: auto, embree, small, bvh)");
   if (o.strategy_images && !is_vcm_integrator(o.integrator))
@@ -279,6 +283,7 @@ PathParams RenderJob::path_params() const {
   pp.seed = opt_.seed;
   pp.sampler = opt_.sampler;
   pp.jitter = opt_.jitter;
+  pp.light_bvh = opt_.light_sampler == "bvh";
   return pp;
 }
 

@@ -55,6 +55,9 @@ struct RenderOptions {
   int restir_neighbors = 5;
   float restir_radius = 30.f;
   float restir_history = 20.f;
+  // path: how next-event estimation chooses a light: "power" (in proportion to power: an alias table) or "bvh"
+  // (by the light BVH's importance from the shading point, light/light_bvh.h).
+  std::string light_sampler = "power";
   // light, bdpt, bpm, vcm: keep one image per strategy (Veach 1997 Fig. 10.3): connections (s, t) of paths
   // up to kStrategyMaxLength segments, merges per camera vertex (VcmIntegrator::strategy_images).
   bool strategy_images = false;

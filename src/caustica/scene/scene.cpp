@@ -1,5 +1,6 @@
 #include "scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 
@@ -259,6 +260,127 @@ MeshDesc disk_mesh() {
   return m;
 }
 
+// ---- The light BVH (light/light_bvh.h; pbrt-v4 Sec. 12.6.3): its nodes built on the host.
+struct LightBoundsHost {
+  Bounds3 b;
+  Vec3f w{0, 0, 1};
+  float cos_o = 1.f, cos_e = 0.f, phi = 0.f;
+  bool two_sided = false;
+};
+
+// pbrt-v4's DirectionCone::Union: the smallest cone (from the two axes' plane) holding both cones.
+void cone_union(Vec3f wa, float cos_a, Vec3f wb, float cos_b, Vec3f& w, float& cos_o) {
+  auto angle = [](float c) { return std::acos(std::clamp(c, -1.f, 1.f)); };
+  const float ta = angle(cos_a), tb = angle(cos_b), td = angle(dot(wa, wb));
+  if (std::min(td + tb, kPi) <= ta) { w = wa; cos_o = cos_a; return; }
+  if (std::min(td + ta, kPi) <= tb) { w = wb; cos_o = cos_b; return; }
+  const float to = 0.5f * (ta + td + tb);
+  Vec3f wr = cross(wa, wb);
+  if (to >= kPi || length_sq(wr) == 0.f) { w = wa; cos_o = -1.f; return; }
+  wr = normalize(wr);
+  const float tr = to - ta;  // rotate wa towards wb by tr about wr (Rodrigues)
+  w = normalize(wa * std::cos(tr) + cross(wr, wa) * std::sin(tr) + wr * (dot(wr, wa) * (1.f - std::cos(tr))));
+  cos_o = std::cos(to);
+}
+
+LightBoundsHost merge_bounds(const LightBoundsHost& a, const LightBoundsHost& b) {
+  if (!(a.phi > 0.f)) return b;
+  if (!(b.phi > 0.f)) return a;
+  LightBoundsHost m;
+  m.b = a.b;
+  m.b.extend(b.b);
+  cone_union(a.w, a.cos_o, b.w, b.cos_o, m.w, m.cos_o);
+  m.cos_e = std::min(a.cos_e, b.cos_e);
+  m.phi = a.phi + b.phi;
+  m.two_sided = a.two_sided || b.two_sided;
+  return m;
+}
+
+// pbrt-v4's M_Omega: the solid-angle measure of the directions the cone (theta_o) and its spread (theta_e) cover.
+float cone_measure(float cos_o, float cos_e) {
+  const float to = std::acos(std::clamp(cos_o, -1.f, 1.f)), te = std::acos(std::clamp(cos_e, -1.f, 1.f));
+  const float tw = std::min(to + te, kPi), so = std::sin(to);
+  return 2.f * kPi * (1.f - cos_o) + 0.5f * kPi * (2.f * tw * so - std::cos(to - 2.f * tw) - 2.f * to * so + cos_o);
+}
+
+float surface_area(const Bounds3& b) {
+  const Vec3f d = b.hi - b.lo;
+  return 2.f * (d.x * d.y + d.y * d.z + d.z * d.x);
+}
+
+// Builds the subtree over items [begin, end) (light index, bounds); pbrt-v4's split: over the three axes, 12
+// buckets of the centroids, the cost phi * M_Omega * surface area (times the box's aspect for the axis).
+void build_light_bvh_node(std::vector<std::pair<uint32_t, LightBoundsHost>>& items, size_t begin, size_t end,
+                          uint64_t trail, int depth, Scene& s) {
+  LightBoundsHost all;
+  Bounds3 cb;
+  for (size_t i = begin; i < end; ++i) {
+    all = merge_bounds(all, items[i].second);
+    cb.extend(items[i].second.b.centroid());
+  }
+  const uint32_t index = uint32_t(s.light_bvh_nodes.size());
+  LightBvhNode node;
+  node.lo = all.b.lo;
+  node.hi = all.b.hi;
+  node.w = all.w;
+  node.cos_o = all.cos_o;
+  node.cos_e = all.cos_e;
+  node.phi = all.phi;
+  node.flags = all.two_sided ? LightBvhNode::kTwoSided : 0u;
+  if (end - begin == 1) {
+    node.flags |= LightBvhNode::kLeaf;
+    node.child = items[begin].first;
+    s.light_bvh_nodes.push_back(node);
+    s.light_bvh_trail[items[begin].first] = trail;
+    return;
+  }
+  s.light_bvh_nodes.push_back(node);
+  size_t mid = begin + (end - begin) / 2;
+  constexpr int kBuckets = 12;
+  const Vec3f ext = all.b.hi - all.b.lo, cext = cb.hi - cb.lo;
+  const float max_ext = std::max(ext.x, std::max(ext.y, ext.z));
+  float best = kInf;
+  int best_dim = -1, best_split = -1;
+  for (int dim = 0; dim < 3 && depth < 60; ++dim) {
+    if (!(cext[dim] > 0.f)) continue;
+    auto bucket_of = [&](const LightBoundsHost& lb) {
+      int k = int(kBuckets * (lb.b.centroid()[dim] - cb.lo[dim]) / cext[dim]);
+      return std::clamp(k, 0, kBuckets - 1);
+    };
+    LightBoundsHost buckets[kBuckets];
+    for (size_t i = begin; i < end; ++i) {
+      LightBoundsHost& bk = buckets[bucket_of(items[i].second)];
+      bk = merge_bounds(bk, items[i].second);
+    }
+    const float kr = ext[dim] > 0.f ? max_ext / ext[dim] : 1.f;
+    auto cost = [&](const LightBoundsHost& lb) {
+      return lb.phi > 0.f ? lb.phi * cone_measure(lb.cos_o, lb.cos_e) * kr * surface_area(lb.b) : 0.f;
+    };
+    for (int split = 0; split < kBuckets - 1; ++split) {
+      LightBoundsHost lo_b, hi_b;
+      bool lo_any = false, hi_any = false;
+      for (int k = 0; k <= split; ++k) lo_b = merge_bounds(lo_b, buckets[k]), lo_any |= buckets[k].phi > 0.f;
+      for (int k = split + 1; k < kBuckets; ++k) hi_b = merge_bounds(hi_b, buckets[k]), hi_any |= buckets[k].phi > 0.f;
+      if (!lo_any || !hi_any) continue;
+      const float c = cost(lo_b) + cost(hi_b);
+      if (c < best) {
+        best = c;
+        best_dim = dim;
+        best_split = split;
+      }
+    }
+    if (best_dim == dim) {
+      auto it = std::partition(items.begin() + long(begin), items.begin() + long(end),
+                               [&](const auto& x) { return bucket_of(x.second) <= best_split; });
+      mid = size_t(it - items.begin());
+    }
+  }
+  if (mid == begin || mid == end) mid = begin + (end - begin) / 2;
+  build_light_bvh_node(items, begin, mid, trail, depth + 1, s);
+  s.light_bvh_nodes[index].child = uint32_t(s.light_bvh_nodes.size());
+  build_light_bvh_node(items, mid, end, trail | (uint64_t(1) << depth), depth + 1, s);
+}
+
 // Walker/Vose alias table over non-negative weights.
 void build_alias(const std::vector<float>& w, std::vector<float>& prob, std::vector<uint32_t>& alias,
                  std::vector<float>& pmf) {
@@ -484,6 +606,56 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     power.push_back(p);
   }
   if (!s.lights.empty()) build_alias(power, s.alias_prob, s.alias_index, s.light_pmf);
+  {
+    const SceneView& v = s.view_;
+    std::vector<std::pair<uint32_t, LightBoundsHost>> items;
+    s.light_bvh_trail.assign(s.lights.size(), 0);
+    s.light_bvh_where.assign(s.lights.size(), kLightNotSampled);
+    for (uint32_t i = 0; i < s.lights.size(); ++i) {
+      const Light& l = s.lights[i];
+      if (light_is_infinite(l)) {
+        s.light_bvh_where[i] = kLightInfinite;
+        s.light_bvh_infinite.push_back(i);
+        continue;
+      }
+      if (!(power[i] > 0.f)) continue;
+      LightBoundsHost lb;
+      lb.phi = power[i];
+      lb.cos_e = 0.f;  // area lights emit over the hemisphere about a normal; points in every direction
+      switch (l.type) {
+        case LightType::kTriangle: {
+          const Vec3f p0 = s.positions[s.indices[3 * l.prim]], p1 = s.positions[s.indices[3 * l.prim + 1]],
+                      p2 = s.positions[s.indices[3 * l.prim + 2]];
+          lb.b.extend(p0);
+          lb.b.extend(p1);
+          lb.b.extend(p2);
+          lb.w = normalize(cross(p1 - p0, p2 - p0));
+          lb.cos_o = 1.f;
+          lb.two_sided = l.two_sided != 0;
+          break;
+        }
+        case LightType::kSphere: {
+          lb.b = sphere_bounds(s.spheres[l.prim - v.num_triangles]);
+          lb.cos_o = -1.f;
+          break;
+        }
+        case LightType::kSpot:
+          lb.b.extend(l.p);
+          lb.w = l.dir;
+          lb.cos_o = l.cos_falloff_start;
+          lb.cos_e = std::cos(std::acos(std::clamp(l.cos_total, -1.f, 1.f)) -
+                              std::acos(std::clamp(l.cos_falloff_start, -1.f, 1.f)));
+          break;
+        default:  // point
+          lb.b.extend(l.p);
+          lb.cos_o = -1.f;
+          break;
+      }
+      s.light_bvh_where[i] = kLightInBvh;
+      items.emplace_back(i, lb);
+    }
+    if (!items.empty()) build_light_bvh_node(items, 0, items.size(), 0, 0, s);
+  }
   s.update_view();
   s.accel_ = std::make_unique<CpuAccel>(s.view_);
   if (s.accel_->kind() != CpuAccel::Kind::kEmbree) s.embree_ = std::make_unique<CpuAccel>(s.view_, CpuAccel::Kind::kEmbree);
@@ -593,6 +765,12 @@ void Scene::update_view() {
   v.lights = lights.data();
   v.num_lights = uint32_t(lights.size());
   v.light_sampler = {alias_prob.data(), alias_index.data(), light_pmf.data(), uint32_t(light_pmf.size())};
+  v.light_bvh.nodes = light_bvh_nodes.data();
+  v.light_bvh.num_nodes = uint32_t(light_bvh_nodes.size());
+  v.light_bvh.trail = light_bvh_trail.data();
+  v.light_bvh.where = light_bvh_where.data();
+  v.light_bvh.infinite = light_bvh_infinite.data();
+  v.light_bvh.num_infinite = uint32_t(light_bvh_infinite.size());
   v.bsphere_center = v.bounds.centroid();
   v.bsphere_radius = 0.5f * length(v.bounds.diagonal());
   v.bvh = bvh.view();

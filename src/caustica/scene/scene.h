@@ -43,6 +43,9 @@ class Scene {
   std::vector<Light> lights;
   std::vector<float> alias_prob, light_pmf;
   std::vector<uint32_t> alias_index;
+  std::vector<LightBvhNode> light_bvh_nodes;
+  std::vector<uint64_t> light_bvh_trail;
+  std::vector<uint32_t> light_bvh_where, light_bvh_infinite;
   BVH bvh;
 
  private:

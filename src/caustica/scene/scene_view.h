@@ -9,6 +9,7 @@
 #include "../geometry/shapes.h"
 #include "../light/envmap.h"
 #include "../light/light.h"
+#include "../light/light_bvh.h"
 #include "../texture/texture.h"
 #include "../material/material.h"
 
@@ -70,6 +71,7 @@ struct SceneView {
   const Light* lights = nullptr;
   uint32_t num_lights = 0;
   LightSamplerView light_sampler;
+  LightBvhView light_bvh;  // the spatial light selection (--light-sampler bvh; light/light_bvh.h)
   int32_t environment_light = -1;  // index into lights, or -1
   const TextureView* textures = nullptr;
   uint32_t num_textures = 0;

@@ -55,6 +55,10 @@ class DeviceScene {
     v.light_sampler.prob = upload(sc.alias_prob);
     v.light_sampler.alias = upload(sc.alias_index);
     v.light_sampler.pmf = upload(sc.light_pmf);
+    v.light_bvh.nodes = upload(sc.light_bvh_nodes);
+    v.light_bvh.trail = upload(sc.light_bvh_trail);
+    v.light_bvh.where = upload(sc.light_bvh_where);
+    v.light_bvh.infinite = upload(sc.light_bvh_infinite);
     // Texels: one device copy per distinct host array (the environment map shares its texture's).
     std::vector<TextureView> tex = sc.textures;
     for (TextureView& t : tex) t.rgba = texels(t);
