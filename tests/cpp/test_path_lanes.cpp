@@ -245,3 +245,40 @@ TEST(PathLanes, BitIdenticalOnTwoSidedSpheresShadingNormalsThinLensAndPortableBv
   EXPECT_EQ(m.differing, 0) << m.differing << " of " << m.pixels_compared << " differ; first " << m.first;
   EXPECT_EQ(rs, rl);
 }
+
+// The light BVH (--light-sampler bvh) in lanes: each lane chooses its light from its own shading point, as
+// path_shade does. Twelve small one-sided lamps facing every way make a BVH several levels deep, with
+// points that some subtrees cannot light (importance 0).
+TEST(PathLanes, BitIdenticalWithTheLightBvh) {
+  if (!path_lanes_available()) GTEST_SKIP() << "this CPU has no AVX2: the lanes do not run here";
+  SceneDesc d = varied_cornell();
+  const int white = d.add_material("lamp", make_diffuse(RGB(0.5f)));
+  for (int k = 0; k < 12; ++k) {
+    const float a = 0.5236f * float(k);
+    const Vec3f c(0.7f * std::cos(a), -0.2f + 0.05f * float(k % 4), 0.7f * std::sin(a));
+    const Vec3f t(-std::sin(a), 0.f, std::cos(a));  // the lamp's plane holds t and the vertical
+    MeshDesc m;
+    const Vec3f up(0.f, 0.08f, 0.f);
+    // Winding alternates so that half face the box's centre and half face the walls.
+    if (k % 2) m.positions = {c - t * 0.08f, c + t * 0.08f, c + up};
+    else m.positions = {c + t * 0.08f, c - t * 0.08f, c + up};
+    m.indices = {0, 1, 2};
+    d.meshes.push_back(m);
+    ShapeDesc lamp;
+    lamp.type = ShapeType::kMesh;
+    lamp.mesh = int(d.meshes.size()) - 1;
+    lamp.material = white;
+    lamp.emission = RGB(1.f + float(k), 2.f, 8.f - 0.5f * float(k));
+    d.shapes.push_back(lamp);
+  }
+  std::shared_ptr<Scene> sc = Scene::build(d);
+  ASSERT_GE(sc->view().light_bvh.num_nodes, 7u);  // at least three levels
+  PathParams pp;
+  pp.light_bvh = true;
+  pp.seed = 9;
+  pp.max_depth = 8;
+  pp.rr_depth = 3;
+  expect_bit_identical(d, pp, 4);
+  pp.sampler = SamplerType::kIndependent;
+  expect_bit_identical(d, pp, 3);
+}

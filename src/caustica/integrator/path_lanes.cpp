@@ -20,7 +20,6 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
     if (why) *why = w;
     return false;
   };
-  if (pp.light_bvh) return fail("the light BVH (the lanes choose lights by power)");
   for (uint32_t i = 0; i < s.num_lights; ++i) {
     const Light& l = s.lights[i];
     if (l.type != LightType::kTriangle) return fail("a light other than a triangle area light");
@@ -235,9 +234,15 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
       for (int i = 0; i < kWidth; ++i) {
         if (!lane_s.v[i]) continue;
         Vec2f u(ulx_s.v[i], uly[i]);
-        float pm;
-        uint32_t li = s.light_sampler.sample_reuse(u, pm);
+        float pm = 0.f;
+        // The same choice as path_shade's: by power, or by the light BVH's importance from p_front.
+        const int32_t li = pp.light_bvh ? light_bvh_sample(s.light_bvh, get(p_front, i), u, pm)
+                                        : int32_t(s.light_sampler.sample_reuse(u, pm));
         ulx_s.v[i] = u.x;
+        if (li < 0) {  // no light can reach p_front: pmf 0 masks the lane out below
+          pmf_s.v[i] = 0.f;
+          continue;
+        }
         pmf_s.v[i] = pm;
         const Light& l = s.lights[li];
         Vec3f a, b, c;
@@ -266,7 +271,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
       F light_pdf = d2 / (c * (0.5f * length(e)));  // triangle_area
       F c_emit = dot(nl, -wi_world);                // area_le
       M emits = (c_emit > 0.f) | (light_two_sided & (c_emit < 0.f));
-      M ok = lane & (d2 != 0.f) & (c != 0.f) & (light_pdf > 0.f) & emits & ~is_black(Le);
+      M ok = lane & (pmf > 0.f) & (d2 != 0.f) & (c != 0.f) & (light_pdf > 0.f) & emits & ~is_black(Le);
       // bsdf_eval / bsdf_pdf of `diffuse` (with bsdf_side's flip of wi).
       V3 wi = frame.to_local(wi_world);
       F wi_z = wi.z * side;
