@@ -1,17 +1,18 @@
 #!/usr/bin/env python3
-"""What the light BVH gains: path tracing with light_sampler="power" against "bvh" at equal samples and by time to
-equal error.
+"""What the light BVH gains: path tracing (or restir) with light_sampler="power" against "bvh" at equal samples and
+by time to equal error.
 
 For each scene: a reference (power sampler, --ref-spp, its own seed), then per sampler --seeds renders of --spp
 samples (after a warm-up render), alternating the samplers; relMSE against the reference averaged over the seeds,
 render seconds the median. Time to equal relMSE, bvh / power = (relMSE_bvh x t_bvh) / (relMSE_power x t_power)
-(relMSE falls as 1/samples): below 1, the BVH reaches the power sampler's error sooner. The power sampler runs
-the lane-parallel driver where the scene allows (stats["lanes"]); the BVH always runs the scalar one. Printed and
-appended to bench/RESULTS.md unless --no-append.
+(relMSE falls as 1/samples): below 1, the BVH reaches the power sampler's error sooner. Both samplers run the
+lane-parallel driver where the scene allows (stats["lanes"]; path only). The reference is path traced whatever
+--integrator is. Printed and appended to bench/RESULTS.md unless --no-append.
 
 Usage:
     .venv/bin/python bench/bench_light_sampler.py                 # about 3 minutes on 2 cores
     .venv/bin/python bench/bench_light_sampler.py --scenes cornell --spp 32 --no-append
+    .venv/bin/python bench/bench_light_sampler.py --integrator restir --scenes many-lights
 """
 from __future__ import annotations
 
@@ -41,6 +42,7 @@ def main() -> int:
     ap.add_argument("--scenes", nargs="+", default=["many-lights", "cornell", "smallvcm-spheres"])
     ap.add_argument("--size", default="256x192", help="WxH for many-lights (the built-in scenes keep theirs)")
     ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--integrator", choices=("path", "restir"), default="path")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--ref-spp", type=int, default=1024)
     ap.add_argument("--no-append", action="store_true")
@@ -55,11 +57,11 @@ def main() -> int:
         ref = caustica.render(scene, spp=a.ref_spp, seed=100003)
         res = {}
         for ls in ("power", "bvh"):
-            caustica.render_job(scene, spp=1, seed=0, light_sampler=ls)  # warm-up
+            caustica.render_job(scene, integrator=a.integrator, spp=1, seed=0, light_sampler=ls)  # warm-up
             res[ls] = {"err": [], "t": [], "lanes": 0}
         for seed in range(1, a.seeds + 1):
             for ls in ("power", "bvh"):
-                r = caustica.render_job(scene, spp=a.spp, seed=seed, light_sampler=ls)
+                r = caustica.render_job(scene, integrator=a.integrator, spp=a.spp, seed=seed, light_sampler=ls)
                 res[ls]["err"].append(relmse(r.image, ref))
                 res[ls]["t"].append(float(r.stats["seconds"]))
                 res[ls]["lanes"] = r.stats["lanes"]
@@ -68,18 +70,19 @@ def main() -> int:
         ratio = (e["bvh"] * t["bvh"]) / (e["power"] * t["power"])
         label = f"many-lights {w}x{h}" if name == "many-lights" else name
         print(f"{label}: power relMSE {e['power']:.4g} in {t['power']:.3f} s (lanes {res['power']['lanes']}), "
-              f"bvh relMSE {e['bvh']:.4g} in {t['bvh']:.3f} s; time to equal relMSE bvh/power {ratio:.3f}",
+              f"bvh relMSE {e['bvh']:.4g} in {t['bvh']:.3f} s (lanes {res['bvh']['lanes']}); time to equal relMSE bvh/power {ratio:.3f}",
               flush=True)
         rows.append([label, str(a.spp), f"{e['power']:.4g}", f"{t['power']:.3f}", str(res["power"]["lanes"]),
-                     f"{e['bvh']:.4g}", f"{t['bvh']:.3f}", f"{e['power'] / e['bvh']:.2f}", f"{ratio:.3f}"])
+                     f"{e['bvh']:.4g}", f"{t['bvh']:.3f}", str(res["bvh"]["lanes"]), f"{e['power'] / e['bvh']:.2f}",
+                     f"{ratio:.3f}"])
     if not a.no_append:
-        append_block("bench_light_sampler.py", started, com, "light BVH against the power sampler (path)",
-                     f"Settings: path tracing, {a.spp} spp, seeds 1..{a.seeds} per sampler (alternating, after a "
-                     f"warm-up render each), all threads; relMSE against a power-sampler reference of {a.ref_spp} "
-                     "spp (its own seed), averaged over the seeds; seconds: median render time. Time to equal "
+        append_block("bench_light_sampler.py", started, com, f"light BVH against the power sampler ({a.integrator})",
+                     f"Settings: {a.integrator} (default options), {a.spp} spp, seeds 1..{a.seeds} per sampler (alternating, after a "
+                     f"warm-up render each), all threads; relMSE against a path-traced power-sampler reference of "
+                     f"{a.ref_spp} spp (its own seed), averaged over the seeds; seconds: median render time. Time to equal "
                      "relMSE bvh / power = (relMSE x seconds) ratio; below 1: the BVH is ahead.",
                      ["scene", "spp", "power relMSE", "power (s)", "power lanes", "bvh relMSE", "bvh (s)",
-                      "relMSE power / bvh", "time to equal relMSE, bvh / power"], rows)
+                      "bvh lanes", "relMSE power / bvh", "time to equal relMSE, bvh / power"], rows)
     return 0
 
 

@@ -259,12 +259,13 @@ class RenderError(RuntimeError):
 def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, spp: Optional[int] = None,
                     time: Optional[float] = None, rr_depth: Optional[int] = None, sampler: Optional[str] = None,
                     photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
-                    k: Optional[int] = None, photon_sampling: Optional[str] = None) -> dict:
+                    k: Optional[int] = None, photon_sampling: Optional[str] = None,
+                    light_sampler: Optional[str] = None) -> dict:
     """Options given explicitly win; the rest come from the scene's integrator defaults (JSON
     "integrator"), then from caustica's own defaults (path, 16 spp, rr_depth 5, sobol, alpha 0.7
     (0.75 for bpm and vcm, Georgiev et al. 2012), k 50, photon_sampling "uniform"). spp and time go
     together: giving either ignores both of the scene's. The scene's photon_sampling applies to ppm,
-    sppm and pppm only."""
+    sppm and pppm only, its light_sampler to LIGHT_SAMPLER_INTEGRATORS only (default "power")."""
     dflt = scene.integrator_defaults
     if spp is None and time is None:
         spp, time = dflt.get("spp"), dflt.get("time")
@@ -275,10 +276,14 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
                 photons=pick(photons, "photons", None), radius=pick(radius, "radius", None),
                 alpha=pick(alpha, "alpha", 0.75 if integrator in ("bpm", "vcm") else 0.7), k=pick(k, "k", 50),
                 photon_sampling=photon_sampling if photon_sampling is not None else
-                dflt.get("photon_sampling", "uniform") if integrator in ("ppm", "sppm", "pppm") else "uniform")
+                dflt.get("photon_sampling", "uniform") if integrator in ("ppm", "sppm", "pppm") else "uniform",
+                light_sampler=light_sampler if light_sampler is not None else
+                dflt.get("light_sampler", "power") if integrator in LIGHT_SAMPLER_INTEGRATORS else "power")
 
 
 PHOTON_SAMPLINGS = ("uniform", "adaptive")
+# Those that take light_sampler="bvh" (render.cpp's light_sampler_applies): their camera paths' light samples.
+LIGHT_SAMPLER_INTEGRATORS = ("path", "restir", "pm", "ppm", "sppm", "pppm")
 
 
 # Variants compared as integrators of their own ("sppm+adaptive" is sppm with photon_sampling="adaptive"; several
@@ -288,6 +293,7 @@ VARIANTS = {
     "adaptive": ({"photon_sampling": "adaptive"}, ("ppm", "sppm", "pppm"), False),
     "nohistory": ({"restir_history": 0.0}, ("restir",), True),
     "nospatial": ({"restir_neighbors": 0}, ("restir",), True),
+    "bvh": ({"light_sampler": "bvh"}, LIGHT_SAMPLER_INTEGRATORS, True),
 }
 
 
@@ -339,7 +345,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                lanes: bool = True, photon_sampling: Optional[str] = None,
                restir_candidates: Optional[int] = None, restir_neighbors: Optional[int] = None,
                restir_radius: Optional[float] = None, restir_history: Optional[float] = None,
-               light_sampler: str = "power") -> RenderResult:
+               light_sampler: Optional[str] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -358,9 +364,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     (default 5, 0: no spatial reuse), `restir_radius` their radius in pixels (default 30), `restir_history`
     the temporal confidence cap in multiples of the candidates (default 20, 0: no temporal reuse); those not
     given come from the scene's (JSON "integrator": "restir_candidates", ...), then the defaults.
-    `light_sampler` (path): how next-event estimation chooses a light: "power" (default: in proportion to its
-    power) or "bvh" (by a light BVH's importance from the shading point, pbrt-v4's BVHLightSampler: far fewer
-    wasted samples in scenes of many lights; the lane-parallel driver then steps aside).
+    `light_sampler` (path, restir, pm, ppm, sppm, pppm): how next-event estimation from camera paths (and
+    restir's candidates) chooses a light: "power" (default: the scene's, else in proportion to its power) or
+    "bvh" (by a light BVH's importance from the shading point, pbrt-v4's BVHLightSampler: far fewer wasted
+    samples in scenes of many lights). Photons still leave the lights in proportion to power.
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
     Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
     `target_error` with `reference` (a path to an .exr/.pfm or an (H, W, 3) array) stops when
@@ -392,7 +399,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     _check_device(device)
     scene = load_scene(scene)
     until_target = spp is None and time is None and (target_error is not None or target_noise is not None)
-    o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k, photon_sampling)
+    o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k, photon_sampling,
+                        light_sampler)
     integrator, spp, time, rr_depth, sampler = o["integrator"], o["spp"], o["time"], o["rr_depth"], o["sampler"]
     if photon_sampling is None and (wavefront or device != "cpu"):
         o["photon_sampling"] = "uniform"  # the scene's choice, where the driver has only uniform tracing
@@ -434,7 +442,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             wavefront=bool(wavefront), compaction=bool(compaction),
                             sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
                             jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(o["photon_sampling"]),
-                            light_sampler=_light_sampler(light_sampler), **restir, **targets)
+                            light_sampler=_light_sampler(o["light_sampler"]), **restir, **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()

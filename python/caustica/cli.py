@@ -157,9 +157,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="ppm, sppm, pppm: how photon paths are drawn: uniform (independent paths) or adaptive "
                         "(Markov chains on the paths' visibility, Hachisuka & Jensen 2011) (default: the scene's, "
                         "else uniform)")
-    r.add_argument("--light-sampler", default="power",
-                   help="path: how next-event estimation chooses a light: power (default) or bvh (a light BVH's "
-                        "importance from the shading point; for scenes of many lights)")
+    r.add_argument("--light-sampler", default=None, metavar="{power,bvh}",
+                   help="path, restir, pm, ppm, sppm, pppm: how next-event estimation from camera paths (and "
+                        "restir's candidates) chooses a light: power (in proportion to power) or bvh (a "
+                        "light BVH's importance from the shading point; for scenes of many lights) (default: the "
+                        "scene's, else power)")
     r.add_argument("--restir-candidates", type=_positive_int("--restir-candidates"), default=None,
                    help="restir: light candidates per pixel and pass (default 32)")
     r.add_argument("--restir-neighbors", type=_nonneg_int("--restir-neighbors"), default=None,
@@ -290,7 +292,8 @@ def cmd_render(a) -> int:
     _check_choice("accelerator", a.accel, _api.ACCELS)
     if a.photon_sampling is not None:
         _check_choice("photon sampling", a.photon_sampling, _api.PHOTON_SAMPLINGS)
-    _check_choice("light sampler", a.light_sampler, _api.LIGHT_SAMPLERS)
+    if a.light_sampler is not None:
+        _check_choice("light sampler", a.light_sampler, _api.LIGHT_SAMPLERS)
     _api._check_device(a.device)
     if a.filter is not None:
         _check_choice("filter", a.filter, _api.FILTERS)

@@ -48,7 +48,7 @@ REFERENCE_SEED = 1_000_003  # make_reference's default seed: far from converge's
 SNAPSHOT_MEMORY = 1 << 30    # snapshots beyond this many bytes (per integrator) go to a temporary directory
 RENDER_OPTIONS = ("threads", "max_depth", "rr_depth", "sampler", "accel", "photons", "radius", "alpha", "k",
                   "stochastic_hash", "photon_sampling", "restir_candidates", "restir_neighbors", "restir_radius",
-                  "restir_history")
+                  "restir_history", "light_sampler")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -183,7 +183,8 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
     opts = {**opts, **variant}
     o = _api.resolve_options(scene, integrator, None, time, opts.get("rr_depth"), opts.get("sampler"),
                              opts.get("photons"), opts.get("radius"), opts.get("alpha"), opts.get("k"),
-                             opts.get("photon_sampling"))
+                             opts.get("photon_sampling"),
+                             opts.get("light_sampler") if integrator in _api.LIGHT_SAMPLER_INTEGRATORS else None)  # the others ignore it
     if o["sampler"] not in _api.SAMPLERS:
         raise InputError(f"unknown sampler '{o['sampler']}' (allowed: {', '.join(_api.SAMPLERS)})")
     accel = opts.get("accel") or "auto"
@@ -209,6 +210,7 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
                              stochastic_hash=bool(opts.get("stochastic_hash", False)),
                              photon_sampling=_api._photon_sampling(o["photon_sampling"]),
                              k=_api._positive_int("k", o["k"]),
+                             light_sampler=_api._light_sampler(o["light_sampler"]),
                              **_api.restir_job_options(scene, integrator, *(
                                  opts.get(key) if integrator == "restir" else None  # the others ignore them
                                  for key in ("restir_candidates", "restir_neighbors", "restir_radius",

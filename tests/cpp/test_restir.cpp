@@ -173,7 +173,7 @@ TEST(Restir, CandidateOverDensityIsTheNeeEstimate) {
     LightSample ls;
     bool nee_ok = sample_light(s, s.lights[li], q.p_front, u2, ls);
     RGB g_direct;
-    bool ok = restir_candidate(s, q, u, y, pdf, g_direct);
+    bool ok = restir_candidate(s, q, false, u, y, pdf, g_direct);
     ASSERT_EQ(ok, nee_ok && ls.pdf > 0.f);
     if (!ok) continue;
     ASSERT_EQ(uint32_t(y.light), li);
@@ -193,15 +193,20 @@ TEST(Restir, CandidateOverDensityIsTheNeeEstimate) {
   for (int k = 0; k < 6; ++k) EXPECT_GT(kinds_seen[k], 0) << "light type " << k << " never sampled";
 }
 
+// Candidates chosen by power and by the light BVH's importance from the shading point (a source density that
+// differs from point to point): the same expectation.
 TEST(Restir, InitialReservoirIsUnbiased) {
   Fixture f;
-  for (uint32_t M : {1u, 4u, 32u}) {
-    RestirShading q = f.point(Vec3f(0.3f, 2.f, 2.f), Vec3f(-0.2f, 0.f, 0.4f), RGB(0.5f, 1.f, 2.f));
-    RGB ref, ref_se, est, est_se;
-    f.nee(q, 1000000, ref, ref_se);
-    PCG32 rng(11, M);
-    reservoir_estimate(f.s, q, 200000 / M, [&](int) { return restir_initial(f.s, q, M, rng); }, est, est_se);
-    expect_agree(est, est_se, ref, ref_se, "RIS");
+  RestirShading q = f.point(Vec3f(0.3f, 2.f, 2.f), Vec3f(-0.2f, 0.f, 0.4f), RGB(0.5f, 1.f, 2.f));
+  RGB ref, ref_se;
+  f.nee(q, 1000000, ref, ref_se);
+  for (bool bvh : {false, true}) {
+    for (uint32_t M : {1u, 4u, 32u}) {
+      RGB est, est_se;
+      PCG32 rng(11, M);
+      reservoir_estimate(f.s, q, 200000 / M, [&](int) { return restir_initial(f.s, q, M, bvh, rng); }, est, est_se);
+      expect_agree(est, est_se, ref, ref_se, bvh ? "RIS, light BVH" : "RIS");
+    }
   }
 }
 
@@ -229,19 +234,24 @@ TEST(Restir, CombinedReservoirsAreUnbiased) {
     EXPECT_EQ(restir_target(f.s, q, y), 0.f);
     EXPECT_GT(restir_target(f.s, n3, y), 0.f);
   }
-  RGB ref, ref_se, est, est_se;
+  RGB ref, ref_se;
   f.nee(q, 1000000, ref, ref_se);
-  PCG32 rng(21, 4);
   const RestirShading* vs[4] = {&q, &n1, &n2, &n3};
-  reservoir_estimate(f.s, q, 100000,
-                     [&](int) {
-                       Reservoir in[4] = {restir_initial(f.s, q, 8, rng), restir_initial(f.s, n1, 4, rng),
-                                          restir_initial(f.s, n2, 16, rng), restir_initial(f.s, n3, 8, rng)};
-                       float c[4] = {in[0].c, in[1].c, in[2].c, in[3].c * 3.f};
-                       return restir_combine(f.s, vs, in, c, 4, rng);
-                     },
-                     est, est_se);
-  expect_agree(est, est_se, ref, ref_se, "spatial");
+  // Each neighbour's candidates by power, then by the light BVH from its own point (the source densities
+  // differ between the inputs; the combination weighs them by targets alone).
+  for (bool bvh : {false, true}) {
+    RGB est, est_se;
+    PCG32 rng(21, 4);
+    reservoir_estimate(f.s, q, 100000,
+                       [&](int) {
+                         Reservoir in[4] = {restir_initial(f.s, q, 8, bvh, rng), restir_initial(f.s, n1, 4, bvh, rng),
+                                            restir_initial(f.s, n2, 16, bvh, rng), restir_initial(f.s, n3, 8, bvh, rng)};
+                         float c[4] = {in[0].c, in[1].c, in[2].c, in[3].c * 3.f};
+                         return restir_combine(f.s, vs, in, c, 4, rng);
+                       },
+                       est, est_se);
+    expect_agree(est, est_se, ref, ref_se, bvh ? "spatial, light BVH" : "spatial");
+  }
 }
 
 TEST(Restir, ChainedReuseIsUnbiased) {
@@ -261,7 +271,7 @@ TEST(Restir, ChainedReuseIsUnbiased) {
                        Reservoir prev;
                        const RestirShading* pv = nullptr;
                        for (const RestirShading* v : chain) {
-                         Reservoir fresh = restir_initial(f.s, *v, 4, rng);
+                         Reservoir fresh = restir_initial(f.s, *v, 4, false, rng);
                          if (!pv) {
                            prev = fresh;
                          } else {

@@ -120,6 +120,7 @@ nb::dict integrator_defaults(const SceneDesc& d) {
   if (in.alpha > 0.f) r["alpha"] = in.alpha;
   if (in.k > 0) r["k"] = in.k;
   if (!in.photon_sampling.empty()) r["photon_sampling"] = in.photon_sampling;
+  if (!in.light_sampler.empty()) r["light_sampler"] = in.light_sampler;
   if (in.restir_candidates >= 0) r["restir_candidates"] = in.restir_candidates;
   if (in.restir_neighbors >= 0) r["restir_neighbors"] = in.restir_neighbors;
   if (in.restir_radius >= 0.f) r["restir_radius"] = in.restir_radius;

@@ -153,6 +153,7 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
   PathParams pp;
   pp.seed = opt_.seed;
   pp.sampler = opt_.sampler;
+  const bool light_bvh = opt_.light_sampler == "bvh";
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
     for (int y = r.begin(); y < r.end(); ++y)
       for (int x = 0; x < W_; ++x) {
@@ -161,7 +162,7 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
         RGB L(0.f);
         size_t i = size_t(y) * W_ + x;
         Ray camera_ray = st.ray;
-        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L);
+        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L, light_bvh);
         if (kind_ != Kind::kPPM) vp_[i] = vp;
         else if (abs_pass == opt_.pass_offset)
           trace_measurement_points(v, accel, camera_ray, max_depth_, &vp_[i * K_], K_);
@@ -208,6 +209,7 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
   PathParams pp;
   pp.seed = opt_.seed;
   pp.sampler = opt_.sampler;
+  const bool light_bvh = opt_.light_sampler == "bvh";
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
     std::vector<uint32_t> idx(size_t(opt_.k));
     std::vector<float> d2(size_t(opt_.k));
@@ -216,7 +218,7 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
         PathState st;
         path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
         RGB L(0.f);
-        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L);
+        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L, light_bvh);
         if (vp.valid) {
           const Material& m = vp.material;
           Frame frame(vp.ns);

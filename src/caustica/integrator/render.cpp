@@ -30,6 +30,12 @@ const std::vector<std::string>& integrator_names() {
   return names;
 }
 
+bool light_sampler_applies(const std::string& integrator) {
+  for (const char* n : {"path", "restir", "pm", "ppm", "sppm", "pppm"})
+    if (integrator == n) return true;
+  return false;
+}
+
 std::string restir_option_expected(const std::string& name, double v) {
   const bool integer = v == std::floor(v);
   if (name == "candidates") return integer && v >= 1 && v <= 1024 ? "" : "an integer in [1, 1024]";
@@ -133,8 +139,9 @@ void RenderJob::validate(const RenderOptions& o) {
   }
   if (o.light_sampler != "power" && o.light_sampler != "bvh")
     throw InputError("unknown light sampler '" + o.light_sampler + "' (allowed: power, bvh)");
-  if (o.light_sampler == "bvh" && o.integrator != "path")
-    throw InputError("--light-sampler bvh applies to integrator 'path', got '" + o.integrator + "'");
+  if (o.light_sampler == "bvh" && !light_sampler_applies(o.integrator))
+    throw InputError("--light-sampler bvh applies to integrators path, restir, pm, ppm, sppm, pppm, got '" +
+                     o.integrator + "'");
   if (o.accel != "auto" && o.accel != "embree" && o.accel != "small" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: auto, embree, small, bvh)");
   if (o.strategy_images && !is_vcm_integrator(o.integrator))
@@ -254,6 +261,7 @@ void RenderJob::make_integrator() {
     p.alpha = opt_.alpha;
     p.pass_offset = opt_.pass_offset;
     p.stochastic_hash = opt_.stochastic_hash;
+    p.light_bvh = opt_.light_sampler == "bvh";
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_photon_wavefront(scene_, p, dev)
                           : make_cpu_photon_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());

@@ -55,8 +55,9 @@ struct RenderOptions {
   int restir_neighbors = 5;
   float restir_radius = 30.f;
   float restir_history = 20.f;
-  // path: how next-event estimation chooses a light: "power" (in proportion to power: an alias table) or "bvh"
-  // (by the light BVH's importance from the shading point, light/light_bvh.h).
+  // path, restir, pm, ppm, sppm, pppm: how next-event estimation from camera paths (and restir's candidates)
+  // chooses a light: "power" (in proportion to power: an alias table) or "bvh" (by the light BVH's importance
+  // from the shading point, light/light_bvh.h; light_sampler_applies).
   std::string light_sampler = "power";
   // light, bdpt, bpm, vcm: keep one image per strategy (Veach 1997 Fig. 10.3): connections (s, t) of paths
   // up to kStrategyMaxLength segments, merges per camera vertex (VcmIntegrator::strategy_images).
@@ -108,6 +109,10 @@ const std::vector<std::string>& integrator_names();
 // ("candidates", "neighbors", "radius", "history") and value v, an empty string when v is allowed, else
 // what is expected ("an integer in [1, 1024]", ...).
 std::string restir_option_expected(const std::string& name, double v);
+
+// Whether `integrator` takes light_sampler "bvh": those whose camera paths choose lights for next-event
+// estimation from a shading point (path, restir, and the photon mappers' visible points: pm, ppm, sppm, pppm).
+bool light_sampler_applies(const std::string& integrator);
 
 // Accumulated radiance per pixel, with the odd passes also kept apart so that
 // the two half images (even passes, odd passes) give a per-pixel variance

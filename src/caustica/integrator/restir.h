@@ -210,11 +210,17 @@ CHD Ray restir_shadow_ray(const SceneView& s, const RestirShading& v, const Ligh
 
 // One light-sampling candidate at v: the point, its density in the domain's measure, and its unshadowed
 // contribution g (restir_contribution's value, computed from the light sample without evaluating the light
-// again; false: none).
-CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, LightPoint& y, float& pdf, RGB& g) {
+// again; false: none). The light is chosen by power, or with light_bvh by the light BVH's importance from
+// v.p_front (light/light_bvh.h): RIS needs only that the source density be positive wherever the target is,
+// which the BVH's conservative bounds keep, and the reuse passes never re-evaluate it.
+CHD bool restir_candidate(const SceneView& s, const RestirShading& v, bool light_bvh, Vec2f u, LightPoint& y,
+                          float& pdf, RGB& g) {
   if (s.num_lights == 0) return false;
-  float pmf;
-  uint32_t li = s.light_sampler.sample_reuse(u, pmf);
+  float pmf = 0.f;
+  const int32_t chosen = light_bvh ? light_bvh_sample(s.light_bvh, v.p_front, u, pmf)
+                                   : int32_t(s.light_sampler.sample_reuse(u, pmf));
+  if (chosen < 0) return false;
+  const uint32_t li = uint32_t(chosen);
   const Light& l = s.lights[li];
   LightSample ls;
   if (!sample_light(s, l, v.p_front, u, ls)) return false;
@@ -246,7 +252,7 @@ CHD bool restir_candidate(const SceneView& s, const RestirShading& v, Vec2f u, L
 }
 
 // RIS over M light-sampling candidates at v (a reservoir of confidence M, even if none succeeded).
-CHD Reservoir restir_initial(const SceneView& s, const RestirShading& v, uint32_t M, PCG32& rng) {
+CHD Reservoir restir_initial(const SceneView& s, const RestirShading& v, uint32_t M, bool light_bvh, PCG32& rng) {
   Reservoir r;
   if (!v.valid) return r;
   for (uint32_t i = 0; i < M; ++i) {
@@ -255,7 +261,7 @@ CHD Reservoir restir_initial(const SceneView& s, const RestirShading& v, uint32_
     LightPoint x;
     float pdf;
     RGB g;
-    if (!restir_candidate(s, v, u, x, pdf, g)) continue;
+    if (!restir_candidate(s, v, light_bvh, u, x, pdf, g)) continue;
     float ph = luminance(g);
     if (ph > 0.f && ph < kInf) r.update(x, ph / (float(M) * pdf), ph, u_pick);
   }
@@ -352,7 +358,7 @@ CHD void restir_primary(const SceneView& s, const Tracer& tracer, const RestirPa
 
   PCG32 rng(kRestirStageTemporal, hash3(p.seed, p.pass, pix));
   RestirShading q = restir_shading(s, v);
-  out = restir_initial(s, q, p.rp.candidates, rng);
+  out = restir_initial(s, q, p.rp.candidates, p.pp.light_bvh, rng);
   if (p.temporal && q.valid) {
     RestirShading prev = restir_shading(s, prev_v);
     if (restir_similar(q, prev)) {

@@ -25,10 +25,11 @@ struct VisiblePoint {
 
 // Follows a camera ray through specular bounces to the first non-specular
 // surface, adding emission seen along the way (no MIS: the specular chain has no
-// light-sampling alternative) and NEE at the visible point. Returns the point.
+// light-sampling alternative) and NEE at the visible point, its light chosen by power or, with light_bvh, by
+// the light BVH's importance from the point (light/light_bvh.h). Returns the point.
 template <typename Tracer>
 CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, RGB beta, Sampler& smp,
-                              uint32_t max_depth, RGB& L) {
+                              uint32_t max_depth, RGB& L, bool light_bvh = false) {
   VisiblePoint vp;
   for (uint32_t depth = 1; depth <= max_depth; ++depth) {
     Hit hit;
@@ -48,11 +49,13 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
     if (!material_is_delta(m)) {
       // Direct light by NEE (photons of the first hit are not stored).
       if (depth < max_depth && s.num_lights > 0) {
-        float pmf;
-        const Light& l = s.lights[s.light_sampler.sample(u_l, pmf)];
+        float pmf = 0.f;
         Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
+        Vec2f u_choice(u_l, 0.f);
+        const int32_t li = light_bvh ? light_bvh_sample(s.light_bvh, p_front, u_choice, pmf)
+                                     : int32_t(s.light_sampler.sample(u_l, pmf));
         LightSample ls;
-        if (sample_light(s, l, p_front, u_l2, ls)) {
+        if (li >= 0 && sample_light(s, s.lights[li], p_front, u_l2, ls)) {
           RGB f = bsdf_eval(m, wo, frame.to_local(ls.wi));
           if (!is_black(f)) {
             Vec3f o = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);

@@ -237,11 +237,12 @@ class WavefrontPhoton {
       pp.sampler = p_.sampler;
       VisiblePoint* vp = vp_.data();
       double* lpass = lpass_.data();
+      const bool light_bvh = p_.light_bvh;
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
         PathState st;
         path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
         RGB L(0.f);
-        vp[i] = trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L);
+        vp[i] = trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L, light_bvh);
         bool ok = isfinite3(L);
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });

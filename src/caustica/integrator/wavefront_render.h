@@ -66,6 +66,7 @@ struct PhotonWavefrontParams {
   float alpha = 0.7f;
   int64_t pass_offset = 0;
   bool stochastic_hash = false;
+  bool light_bvh = false;  // the visible points' light sample chosen by the light BVH (--light-sampler bvh)
 };
 std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
                                                              const PhotonWavefrontParams& p, const CpuAccel* accel);

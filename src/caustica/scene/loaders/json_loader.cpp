@@ -595,7 +595,7 @@ void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
   const std::string p = "/integrator";
   check_keys(c, j, p, {"type", "spp", "time", "max_depth", "rr_depth", "sampler", "photons", "radius", "alpha", "k",
                        "photon_sampling", "restir_candidates", "restir_neighbors", "restir_radius",
-                       "restir_history"});
+                       "restir_history", "light_sampler"});
   SceneDesc::IntegratorDefaults& in = d.integrator;
   if (j.contains("type")) {
     in.type = str(c, j["type"], p + "/type");
@@ -641,6 +641,15 @@ void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
     in.photon_sampling = str(c, j["photon_sampling"], p + "/photon_sampling");
     if (in.photon_sampling != "uniform" && in.photon_sampling != "adaptive")
       c.fail(p + "/photon_sampling", "unknown photon sampling '" + in.photon_sampling + "' (allowed: uniform, adaptive)");
+  }
+  if (j.contains("light_sampler")) {
+    const std::string kp = p + "/light_sampler";
+    in.light_sampler = str(c, j["light_sampler"], kp);
+    if (in.light_sampler != "power" && in.light_sampler != "bvh")
+      c.fail(kp, "unknown light sampler '" + in.light_sampler + "' (allowed: power, bvh)");
+    if (!in.type.empty() && !light_sampler_applies(in.type))
+      c.fail(kp, "applies to integrators path, restir, pm, ppm, sppm, pppm, but /integrator/type is '" + in.type +
+                     "'");
   }
   // restir's options (RenderOptions::restir_*; their ranges are restir_option_expected's).
   for (const char* name : {"candidates", "neighbors", "radius", "history"}) {
