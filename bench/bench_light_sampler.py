@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""What the light BVH gains: path tracing (or restir) with light_sampler="power" against "bvh" at equal samples and
-by time to equal error.
+"""What the light BVH gains: path tracing (or restir, sppm, bdpt, vcm) with light_sampler="power" against "bvh" at
+equal samples and by time to equal error.
 
 For each scene: a reference (power sampler, --ref-spp, its own seed), then per sampler --seeds renders of --spp
 samples (after a warm-up render), alternating the samplers; relMSE against the reference averaged over the seeds,
@@ -42,7 +42,7 @@ def main() -> int:
     ap.add_argument("--scenes", nargs="+", default=["many-lights", "cornell", "smallvcm-spheres"])
     ap.add_argument("--size", default="256x192", help="WxH for many-lights (the built-in scenes keep theirs)")
     ap.add_argument("--spp", type=int, default=16)
-    ap.add_argument("--integrator", choices=("path", "restir"), default="path")
+    ap.add_argument("--integrator", choices=("path", "restir", "sppm", "bdpt", "vcm"), default="path")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--ref-spp", type=int, default=1024)
     ap.add_argument("--no-append", action="store_true")

@@ -283,7 +283,7 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
 
 PHOTON_SAMPLINGS = ("uniform", "adaptive")
 # Those that take light_sampler="bvh" (render.cpp's light_sampler_applies): their camera paths' light samples.
-LIGHT_SAMPLER_INTEGRATORS = ("path", "restir", "pm", "ppm", "sppm", "pppm")
+LIGHT_SAMPLER_INTEGRATORS = ("path", "restir", "pm", "ppm", "sppm", "pppm", "bdpt", "vcm", "upg")
 
 
 # Variants compared as integrators of their own ("sppm+adaptive" is sppm with photon_sampling="adaptive"; several
@@ -364,10 +364,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     (default 5, 0: no spatial reuse), `restir_radius` their radius in pixels (default 30), `restir_history`
     the temporal confidence cap in multiples of the candidates (default 20, 0: no temporal reuse); those not
     given come from the scene's (JSON "integrator": "restir_candidates", ...), then the defaults.
-    `light_sampler` (path, restir, pm, ppm, sppm, pppm): how next-event estimation from camera paths (and
-    restir's candidates) chooses a light: "power" (default: the scene's, else in proportion to its power) or
+    `light_sampler` (path, restir, pm, ppm, sppm, pppm, bdpt, vcm, upg): how next-event estimation from camera
+    paths (and restir's candidates) chooses a light: "power" (default: the scene's, else in proportion to its power) or
     "bvh" (by a light BVH's importance from the shading point, pbrt-v4's BVHLightSampler: far fewer wasted
-    samples in scenes of many lights). Photons still leave the lights in proportion to power.
+    samples in scenes of many lights). Photons and light subpaths still leave the lights in proportion to power.
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
     Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
     `target_error` with `reference` (a path to an .exr/.pfm or an (H, W, 3) array) stops when

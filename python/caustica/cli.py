@@ -158,7 +158,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "(Markov chains on the paths' visibility, Hachisuka & Jensen 2011) (default: the scene's, "
                         "else uniform)")
     r.add_argument("--light-sampler", default=None, metavar="{power,bvh}",
-                   help="path, restir, pm, ppm, sppm, pppm: how next-event estimation from camera paths (and "
+                   help="path, restir, pm, ppm, sppm, pppm, bdpt, vcm, upg: how next-event estimation from camera "
+                        "paths (and "
                         "restir's candidates) chooses a light: power (in proportion to power) or bvh (a "
                         "light BVH's importance from the shading point; for scenes of many lights) (default: the "
                         "scene's, else power)")

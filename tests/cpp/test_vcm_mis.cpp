@@ -25,11 +25,14 @@ struct V {
 
 float g_rev_scale = 1.f;  // perturbation for the sensitivity test
 bool g_upg_rules = true;  // false: upg's merge terms as vcm's (for the sensitivity test)
+bool g_nee_ratio = true;  // false: NEE's emission density without pick / nee_pick (for the sensitivity test)
 
 struct TestPath {
   std::vector<V> x;  // x[0] light, x[k] camera
   bool point_light = false;
-  float light_area = 0.7f, pick = 0.4f;
+  // pick: the light subpath's (power) selection probability; nee_pick: next-event estimation's from x_1 (the
+  // light BVH's, vcm_nee_pick; equal to pick with the power sampler).
+  float light_area = 0.7f, pick = 0.4f, nee_pick = 0.4f;
   Vec3f forward;
   float a_pix = 1e-3f;
 };
@@ -57,7 +60,7 @@ float emission_pdf_w(const TestPath& P) {  // without the pick probability
 VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
   const bool upg = p.mode == VcmMode::kUpg;
   float dpa = P.point_light ? 1.f : 1.f / P.light_area;
-  VcmMis m = vcm_light_start_mis(p, dpa * P.pick, emission_pdf_w(P) * P.pick,
+  VcmMis m = vcm_light_start_mis(p, dpa * P.nee_pick, emission_pdf_w(P) * P.pick,
                                  P.point_light ? 1.f : cosv(P, 0, P.x[1].p), P.point_light);
   for (int i = 1; i <= j; ++i) {
     vcm_after_segment(p, m, dist(P, i - 1, i), cosv(P, i, P.x[i - 1].p), true);
@@ -101,7 +104,7 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
     // s = 0: the camera subpath hits the light.
     if (!P.point_light) {  // x_1 may be delta: a camera path through a mirror hits the light
       VcmMis c = camera_state(p, P, 0);
-      sum += vcm_weight_hit(p, c, P.pick / P.light_area, emission_pdf_w(P) * P.pick), ++n;
+      sum += vcm_weight_hit(p, c, P.nee_pick / P.light_area, emission_pdf_w(P) * P.pick), ++n;
     }
     // s = 1: next-event estimation at x_1.
     if (!P.x[1].delta) {
@@ -110,8 +113,9 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
       float cos_l = P.point_light ? 1.f : cosv(P, 0, P.x[1].p);
       float direct_pdf_w = P.point_light ? d * d : d * d / (cos_l * P.light_area);
       float dir = P.point_light ? 0.f : pdf_w(P, 1, P.x[0].p);
-      sum += vcm_weight_nee(p, c, P.pick, direct_pdf_w, emission_pdf_w(P), cos_l, cosv(P, 1, P.x[0].p), dir,
-                            pdf_w(P, 1, P.x[2].p), cam_vm(p, P, 1));
+      float ratio = g_nee_ratio ? P.pick / P.nee_pick : 1.f;  // as vcm_camera_nee passes it
+      sum += vcm_weight_nee(p, c, P.nee_pick, direct_pdf_w, emission_pdf_w(P) * ratio, cos_l, cosv(P, 1, P.x[0].p),
+                            dir, pdf_w(P, 1, P.x[2].p), cam_vm(p, P, 1));
       ++n;
     }
     // 2 <= s <= k - 1: light vertex x_{s-1} to camera vertex x_s.
@@ -269,4 +273,32 @@ TEST(VcmMis, WrongBookkeepingIsDetected) {
   double bad = weight_sum(p, P);
   g_rev_scale = 1.f;
   EXPECT_GT(std::fabs(bad - 1.0), 1e-3);
+}
+
+// The light BVH (--light-sampler bvh): next-event estimation picks the light with another probability than the
+// light subpath did (here anywhere from 0.01 to 1 against the subpath's 0.4). With each strategy's own pick
+// in its densities, as vcm.h passes them, the weights of BDPT, VCM and upg still sum to one; without NEE's
+// pick ratio they do not.
+TEST(VcmMis, LightBvhPicksWeightsSumToOne) {
+  PCG32 r(23, 7);
+  int broken = 0, n_paths = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    int k = 2 + int(r.next_u32() % 6);
+    bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
+    float radius = std::pow(10.f, -4.f + 4.f * r.next_float());
+    TestPath P = random_path(r, k, point, true);
+    P.nee_pick = 0.01f + 0.99f * r.next_float();
+    const VcmMode modes[3] = {VcmMode::kBpt, VcmMode::kVcm, VcmMode::kUpg};
+    VcmParams p = params(modes[trial % 3], balance, radius);
+    int n = 0;
+    double s = weight_sum(p, P, &n);
+    if (n == 0) continue;
+    EXPECT_NEAR(s, 1.0, 1e-4) << "trial " << trial << " k " << k << " nee_pick " << P.nee_pick;
+    if (P.x[1].delta || std::fabs(P.nee_pick - P.pick) < 0.05f) continue;
+    g_nee_ratio = false;
+    broken += std::fabs(weight_sum(p, P) - 1.0) > 1e-3;
+    g_nee_ratio = true;
+    ++n_paths;
+  }
+  EXPECT_GT(broken, n_paths / 2) << broken << " of " << n_paths;
 }

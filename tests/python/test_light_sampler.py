@@ -93,6 +93,24 @@ def test_photon_mappers_visible_points_keep_the_expectation(integrator, wavefron
     assert np.std(per["bvh"][:, 0]) < np.std(per["power"][:, 0])  # and less spread between seeds
 
 
+@pytest.mark.parametrize("integrator, wavefront", [("bdpt", False), ("vcm", False), ("vcm", True), ("upg", False)])
+@pytest.mark.parametrize("which", ["many-lights", "large-emitters"])
+def test_bidirectional_keep_the_expectation(which, integrator, wavefront):
+    # bdpt, vcm and upg with next-event estimation choosing lights by the BVH while light subpaths start by power:
+    # every MIS ratio between the two strategies takes each one's own pick (vcm_nee_pick). Paths of up to 3
+    # segments (NEE, emitters hit, light tracing, connections and merges all weigh in). Same expectation.
+    scene = caustica.load_scene(SCENE, width=32, height=24) if which == "many-lights" else caustica.load_dict(LARGE)
+    opts = dict(integrator=integrator, spp=2, max_depth=3, wavefront=wavefront)
+    per = {ls: np.array([quadrant_means(caustica.render(scene, seed=seed, light_sampler=ls, **opts))
+                         for seed in range(SEEDS)])
+           for ls in ("power", "bvh")}
+    for q in range(4):
+        m_p, se_p = mean_and_se(per["power"][:, q])
+        m_b, se_b = mean_and_se(per["bvh"][:, q])
+        se = np.hypot(se_p, se_b)
+        assert abs(m_b - m_p) <= 5 * se, (q, m_b, m_p, se)  # 5 standard errors of the difference
+
+
 @pytest.mark.parametrize("integrator", ["sppm", "pppm"])
 def test_photon_wavefront_gives_the_cpu_drivers_image(integrator):
     # The wavefront photon driver's visible points choose lights by the BVH as the CPU driver's do: the same
@@ -160,8 +178,9 @@ def test_errors(tmp_path, capsys):
     with pytest.raises(caustica.InputError, match="unknown light sampler 'tree' \\(allowed: power, bvh\\)"):
         caustica.render("cornell", spp=1, light_sampler="tree")
     with pytest.raises(caustica.InputError) as e:
-        caustica.render("cornell", integrator="vcm", spp=1, light_sampler="bvh")
-    assert str(e.value) == "--light-sampler bvh applies to integrators path, restir, pm, ppm, sppm, pppm, got 'vcm'"
+        caustica.render("cornell", integrator="bpm", spp=1, light_sampler="bvh")
+    assert str(e.value) == ("--light-sampler bvh applies to integrators path, restir, pm, ppm, sppm, pppm, bdpt, vcm, "
+                            "upg, got 'bpm'")
     assert cli.main(["render", "cornell", "--light-sampler", "tree", "-o", str(tmp_path / "x.exr")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "light sampler" in err[0] and "power, bvh" in err[0], err
@@ -191,11 +210,11 @@ def test_json_scene_option(tmp_path):
     c = caustica.render(plain, spp=2, seed=3)
     assert np.array_equal(a, b) and not np.array_equal(a, c)
     assert np.array_equal(caustica.render(scene, spp=2, seed=3, light_sampler="power"), c)
-    untyped = _scene_with({"light_sampler": "bvh"})  # no type: path and sppm take it, bdpt renders ignore it
+    untyped = _scene_with({"light_sampler": "bvh"})  # no type: path and sppm take it, bpm renders ignore it
     assert np.array_equal(caustica.render(untyped, spp=2, seed=3), a)
     assert np.array_equal(caustica.render(untyped, integrator="sppm", spp=2, seed=3),
                           caustica.render(plain, integrator="sppm", spp=2, seed=3, light_sampler="bvh"))
-    assert caustica.render_job(untyped, integrator="bdpt", spp=1).stats["integrator"] == "bdpt"
+    assert caustica.render_job(untyped, integrator="bpm", spp=1).stats["integrator"] == "bpm"
     caustica.export_scene(scene, tmp_path / "out.json")
     assert caustica.load_scene(tmp_path / "out.json").integrator_defaults["light_sampler"] == "bvh"
     out = tmp_path / "cli.exr"  # the command line takes the scene's too, and --light-sampler overrides it
@@ -208,9 +227,9 @@ def test_json_scene_option(tmp_path):
 
 
 @pytest.mark.parametrize("block, message", [
-    ({"type": "bdpt", "light_sampler": "bvh"},
-     "/integrator/light_sampler: applies to integrators path, restir, pm, ppm, sppm, pppm, but /integrator/type is "
-     "'bdpt'"),
+    ({"type": "light", "light_sampler": "bvh"},
+     "/integrator/light_sampler: applies to integrators path, restir, pm, ppm, sppm, pppm, bdpt, vcm, upg, but "
+     "/integrator/type is 'light'"),
     ({"light_sampler": "tree"}, "/integrator/light_sampler: unknown light sampler 'tree' (allowed: power, bvh)"),
     ({"light_sampler": 1}, "/integrator/light_sampler"),
 ])
@@ -232,6 +251,6 @@ def test_converge_variant(tmp_path):
     last = [r for r in log if r["integrator"] == "path+bvh"][-1]
     img = caustica.render(scene, spp=last["passes"], light_sampler="bvh")
     assert last["relmse"] == pytest.approx(caustica.metrics.relmse(img, ref), rel=1e-5)
-    with pytest.raises(caustica.InputError, match="'\\+bvh' applies to path, restir, pm, ppm, sppm, pppm, got "
-                                                  "'vcm\\+bvh'"):
-        caustica.converge(SCENE, integrators="vcm+bvh", time=1, reference=ref)
+    with pytest.raises(caustica.InputError, match="'\\+bvh' applies to path, restir, pm, ppm, sppm, pppm, bdpt, vcm, "
+                                                  "upg, got 'bpm\\+bvh'"):
+        caustica.converge(SCENE, integrators="bpm+bvh", time=1, reference=ref)

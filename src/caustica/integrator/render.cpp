@@ -30,10 +30,20 @@ const std::vector<std::string>& integrator_names() {
   return names;
 }
 
+namespace {
+const char* const kLightSamplerIntegrators[] = {"path", "restir", "pm", "ppm", "sppm", "pppm", "bdpt", "vcm", "upg"};
+}
+
 bool light_sampler_applies(const std::string& integrator) {
-  for (const char* n : {"path", "restir", "pm", "ppm", "sppm", "pppm"})
+  for (const char* n : kLightSamplerIntegrators)
     if (integrator == n) return true;
   return false;
+}
+
+std::string light_sampler_integrators() {
+  std::string list;
+  for (const char* n : kLightSamplerIntegrators) list += (list.empty() ? "" : ", ") + std::string(n);
+  return list;
 }
 
 std::string restir_option_expected(const std::string& name, double v) {
@@ -140,7 +150,7 @@ void RenderJob::validate(const RenderOptions& o) {
   if (o.light_sampler != "power" && o.light_sampler != "bvh")
     throw InputError("unknown light sampler '" + o.light_sampler + "' (allowed: power, bvh)");
   if (o.light_sampler == "bvh" && !light_sampler_applies(o.integrator))
-    throw InputError("--light-sampler bvh applies to integrators path, restir, pm, ppm, sppm, pppm, got '" +
+    throw InputError("--light-sampler bvh applies to integrators " + light_sampler_integrators() + ", got '" +
                      o.integrator + "'");
   if (o.accel != "auto" && o.accel != "embree" && o.accel != "small" && o.accel != "bvh")
     throw InputError("unknown accelerator '" + o.accel + "' (allowed: auto, embree, small, bvh)");

@@ -55,7 +55,7 @@ struct RenderOptions {
   int restir_neighbors = 5;
   float restir_radius = 30.f;
   float restir_history = 20.f;
-  // path, restir, pm, ppm, sppm, pppm: how next-event estimation from camera paths (and restir's candidates)
+  // light_sampler_applies' integrators: how next-event estimation from camera paths (and restir's candidates)
   // chooses a light: "power" (in proportion to power: an alias table) or "bvh" (by the light BVH's importance
   // from the shading point, light/light_bvh.h; light_sampler_applies).
   std::string light_sampler = "power";
@@ -111,8 +111,10 @@ const std::vector<std::string>& integrator_names();
 std::string restir_option_expected(const std::string& name, double v);
 
 // Whether `integrator` takes light_sampler "bvh": those whose camera paths choose lights for next-event
-// estimation from a shading point (path, restir, and the photon mappers' visible points: pm, ppm, sppm, pppm).
+// estimation from a shading point (path, restir, the photon mappers' visible points: pm, ppm, sppm, pppm, and
+// the bidirectional integrators with next-event estimation: bdpt, vcm, upg); the list, comma-separated.
 bool light_sampler_applies(const std::string& integrator);
+std::string light_sampler_integrators();
 
 // Accumulated radiance per pixel, with the odd passes also kept apart so that
 // the two half images (even passes, odd passes) give a per-pixel variance

@@ -74,6 +74,9 @@ struct VcmParams {
   float vm_factor = 0.f;    // mis(eta_VCM), 0 without merging   (report Sec. 5.1)
   float vc_factor = 0.f;    // mis(1 / eta_VCM), 0 without connections
   float vm_norm = 0.f;      // 1 / (pi r^2 N_VM)
+  // Next-event estimation (s = 1) chooses its light by the light BVH from the camera vertex (light/light_bvh.h)
+  // instead of by power; light subpaths still start in proportion to power. See vcm_nee_pick.
+  bool light_bvh = false;
   CHD bool use_vc() const { return mode == VcmMode::kBpt || mode == VcmMode::kVcm || mode == VcmMode::kUpg; }
   // Merge-like strategies in the MIS sums (merges, or upg's gathers).
   CHD bool use_vm() const { return mode == VcmMode::kBpm || mode == VcmMode::kVcm || mode == VcmMode::kUpg; }
@@ -83,6 +86,14 @@ struct VcmParams {
 };
 
 CHD float vcm_mis(const VcmParams& p, float x) { return p.balance ? x : x * x; }
+
+// The probability that next-event estimation from surface point x chooses `light` (power_pick: its probability
+// by power). With the light BVH the s = 1 strategy's density of a path's light vertex differs from the light
+// subpath's (which chose the light by power): every MIS ratio between the two uses each one's own pick. The
+// BVH's reference point is the vertex's surface point itself, the same whichever subpath reached it.
+CHD float vcm_nee_pick(const SceneView& s, const VcmParams& p, Vec3f x, uint32_t light, float power_pick) {
+  return p.light_bvh ? light_bvh_pmf(s.light_bvh, x, light) : power_pick;
+}
 
 // Fills the factors for a pass with radius r (eta_VCM = N pi r^2, report Eq. 20).
 CHD void vcm_set_radius(VcmParams& p, float r) {
@@ -465,6 +476,7 @@ struct VcmPathState {
   bool vm_ok = false;    // camera: the previous vertex is a surface that scattered through a non-delta lobe
   bool active = true;
   Vec3f prev_p;
+  Vec3f prev_x;          // the previous vertex's surface point (the BVH's NEE reference there; vcm_nee_pick)
   // light subpaths
   int32_t light = -1;
   float pick = 1.f, emission_pdf_w = 0.f;
@@ -503,8 +515,11 @@ CHD void vcm_light_start(const SceneView& s, const VcmParams& p, uint32_t index,
   st.light_p = e.p;
   st.light_n = e.n;
   st.infinite = e.infinite;
-  st.receiver_pdf = e.direct_pdf_a < 0.f;
-  st.mis = vcm_light_start_mis(p, e.direct_pdf_a < 0.f ? 1.f : e.direct_pdf_a * pick, st.emission_pdf_w,
+  // The NEE density of the light vertex depends on the receiver for area lights (cone sampling of spheres),
+  // and with the light BVH for every finite light (its pick): then it is computed at the first hit.
+  st.receiver_pdf = e.direct_pdf_a < 0.f || (p.light_bvh && !e.infinite);
+  const float nee_pick = e.infinite ? vcm_nee_pick(s, p, e.p, li, pick) : pick;  // BVH: infinite ones' is constant
+  st.mis = vcm_light_start_mis(p, st.receiver_pdf ? 1.f : e.direct_pdf_a * nee_pick, st.emission_pdf_w,
                                e.infinite ? 1.f : e.cos_light, e.delta);
   st.active = isfinite3(st.beta) && !is_black(st.beta);
 }
@@ -525,10 +540,12 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   st.wo = st.frame.to_local(st.wo_world);
   float cos_in = std::fabs(st.wo.z);
   if (st.length == 1 && st.receiver_pdf) {
-    // Area lights: the NEE density of the emission point depends on this receiver
-    // (cone sampling of spheres); dVCM = mis(p_direct / p_emit) with p_direct per area.
+    // The NEE density of the emission point seen from this receiver (area lights: per area; point and spot
+    // lights: 1, the light itself; times the NEE pick); dVCM = mis(p_direct / p_emit).
     const Light& l = s.lights[st.light];
-    float pa = vcm_direct_pdf_a(s, l, st.sh.p, st.light_p, st.light_n) * st.pick;
+    const bool area = l.type == LightType::kTriangle || l.type == LightType::kSphere;
+    float pa = (area ? vcm_direct_pdf_a(s, l, st.sh.p, st.light_p, st.light_n) : 1.f) *
+               vcm_nee_pick(s, p, st.sh.p, uint32_t(st.light), st.pick);
     st.mis.dVCM = vcm_mis(p, pa / st.emission_pdf_w);
   }
   vcm_after_segment(p, st.mis, hit.t, cos_in, st.length > 1 || !st.infinite);
@@ -651,6 +668,7 @@ CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
   st.ray.d = wi_world;
   st.ray.tmax = kInf;
   st.prev_p = st.ray.o;
+  st.prev_x = st.sh.p;
   return true;
 }
 
@@ -712,9 +730,11 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
       const Light& env = s.lights[s.environment_light];
       RGB Le = environment_radiance(s, env, st.ray.d);
       if (!is_black(Le)) {
-        float pick = s.light_sampler.pmf[s.environment_light];
-        float dp = environment_pdf(s, env, st.ray.d) * pick;
-        float ep = dp / (kPi * s.bsphere_radius * s.bsphere_radius);
+        const uint32_t li = uint32_t(s.environment_light);
+        float pick = s.light_sampler.pmf[li];
+        float env_pdf = environment_pdf(s, env, st.ray.d);
+        float dp = env_pdf * vcm_nee_pick(s, p, st.prev_x, li, pick);
+        float ep = env_pdf * pick / (kPi * s.bsphere_radius * s.bsphere_radius);
         st.L += st.beta * Le * vcm_camera_emission_weight(p, st, dp, ep);
       }
     }
@@ -732,7 +752,8 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
     RGB Le = area_radiance(s, l, st.sh.ng, st.wo_world, st.sh.uv);
     if (!is_black(Le)) {
       float pick = s.light_sampler.pmf[st.sh.light];
-      float dp = vcm_direct_pdf_a(s, l, st.prev_p, st.sh.p, st.sh.ng) * pick;
+      float dp = vcm_direct_pdf_a(s, l, st.prev_p, st.sh.p, st.sh.ng) *
+                 vcm_nee_pick(s, p, st.prev_x, uint32_t(st.sh.light), pick);
       float ep = vcm_emission_pdf(s, l, st.sh.ng, st.wo_world) * pick;
       st.L += st.beta * Le * vcm_camera_emission_weight(p, st, dp, ep);
     }
@@ -770,8 +791,12 @@ CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st
   float ul = st.sampler.next_1d();
   Vec2f u2 = st.sampler.next_2d();
   if (!st.vertex_valid || !p.use_vc() || s.num_lights == 0 || st.length + 1 > p.max_depth) return;
-  float pick;
-  uint32_t li = s.light_sampler.sample(ul, pick);
+  float pick = 0.f;  // the NEE pick
+  Vec2f u_choice(ul, 0.f);
+  const int32_t chosen = p.light_bvh ? light_bvh_sample(s.light_bvh, st.sh.p, u_choice, pick)
+                                     : int32_t(s.light_sampler.sample(ul, pick));
+  if (chosen < 0) return;
+  const uint32_t li = uint32_t(chosen);
   const Light& l = s.lights[li];
   LightSample ls;
   if (!sample_light(s, l, st.p_front, u2, ls)) return;
@@ -784,7 +809,9 @@ CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st
   float direct_pdf_w = ls.pdf, cos_at_light = 1.f;
   if (l.type == LightType::kPoint || l.type == LightType::kSpot) direct_pdf_w = ls.dist * ls.dist;
   else if (l.type == LightType::kTriangle || l.type == LightType::kSphere) cos_at_light = absdot(ls.n_l, ls.wi);
-  float emission_pdf_w = vcm_emission_pdf(s, l, ls.n_l, -ls.wi);
+  // The light subpath's density of this light vertex relative to NEE's: its power pick over NEE's pick (1 by
+  // power; vcm_weight_nee divides emission by direct density without the picks).
+  float emission_pdf_w = vcm_emission_pdf(s, l, ls.n_l, -ls.wi) * (s.light_sampler.pmf[li] / pick);
   float dir_pdf = ls.delta ? 0.f : bsdf_pdf(st.m, st.wo, wi);
   float rev_pdf = bsdf_pdf(st.m, wi, st.wo);
   float w = vcm_weight_nee(p, st.mis, pick, direct_pdf_w, emission_pdf_w, cos_at_light, cos_to_light, dir_pdf, rev_pdf,

@@ -268,6 +268,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
 VcmParams vcm_pass_params(const RenderOptions& opt, VcmMode mode, uint32_t max_depth, int64_t pass, uint32_t pixels) {
   VcmParams p;
   p.mode = mode;
+  p.light_bvh = opt.light_sampler == "bvh";
   p.max_depth = max_depth;
   p.rr_depth = uint32_t(opt.rr_depth);
   p.seed = opt.seed;

@@ -100,7 +100,7 @@ struct SceneDesc {
     float alpha = 0.f;     // radius reduction, in (0, 1)
     int k = 0;             // pm: photons per density estimate
     std::string photon_sampling;  // ppm, sppm, pppm: "uniform" or "adaptive"
-    std::string light_sampler;    // path, restir, pm, ppm, sppm, pppm: "power" or "bvh" (RenderOptions::light_sampler)
+    std::string light_sampler;    // "power" or "bvh" (RenderOptions::light_sampler; light_sampler_applies)
     // restir: candidates, neighbours, radius (pixels), history cap; < 0: not given (0 is a value for some)
     int restir_candidates = -1, restir_neighbors = -1;
     float restir_radius = -1.f, restir_history = -1.f;

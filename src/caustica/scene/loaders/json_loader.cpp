@@ -648,7 +648,7 @@ void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
     if (in.light_sampler != "power" && in.light_sampler != "bvh")
       c.fail(kp, "unknown light sampler '" + in.light_sampler + "' (allowed: power, bvh)");
     if (!in.type.empty() && !light_sampler_applies(in.type))
-      c.fail(kp, "applies to integrators path, restir, pm, ppm, sppm, pppm, but /integrator/type is '" + in.type +
+      c.fail(kp, "applies to integrators " + light_sampler_integrators() + ", but /integrator/type is '" + in.type +
                      "'");
   }
   // restir's options (RenderOptions::restir_*; their ranges are restir_option_expected's).
