@@ -21,6 +21,20 @@ def quadrant_means(img):
     return np.array([img[:h, :w].mean(), img[:h, w:].mean(), img[h:, :w].mean(), img[h:, w:].mean()])
 
 
+def expect_same_expectation(scene, seeds=range(SEEDS), **opts):
+    """Quadrant means of renders with light_sampler "power" and "bvh" over independent seeds agree within 5
+    standard errors of their difference; returns the per-seed means {sampler: (seeds, 4)}."""
+    per = {ls: np.array([quadrant_means(caustica.render(scene, seed=seed, light_sampler=ls, **opts))
+                         for seed in seeds])
+           for ls in ("power", "bvh")}
+    for q in range(4):
+        m_p, se_p = mean_and_se(per["power"][:, q])
+        m_b, se_b = mean_and_se(per["bvh"][:, q])
+        se = np.hypot(se_p, se_b)
+        assert abs(m_b - m_p) <= 5 * se, (q, m_b, m_p, se)  # 5 standard errors of the difference
+    return per
+
+
 # Large emitters near a diffuse floor and a rough mirror: BSDF samples reach the lights often, so MIS between
 # the two strategies carries weight. (With the power sampler's probabilities in the BSDF side's MIS weight and
 # the BVH's in light sampling's, this scene's quadrant means are off by up to 10.6 standard errors: checked.)
@@ -47,14 +61,7 @@ LARGE = {"camera": {"position": [0, 3, 4], "target": [0, 0, 0], "width": 32, "he
 def test_same_expectation_as_the_power_sampler(which, max_depth):
     scene = caustica.load_scene(SCENE) if which == "many-lights" else caustica.load_dict(LARGE)
     spp = 2 if which == "many-lights" else 4
-    per = {ls: np.array([quadrant_means(caustica.render(scene, spp=spp, seed=seed, max_depth=max_depth,
-                                                        light_sampler=ls)) for seed in range(SEEDS)])
-           for ls in ("power", "bvh")}
-    for q in range(4):
-        m_p, se_p = mean_and_se(per["power"][:, q])
-        m_b, se_b = mean_and_se(per["bvh"][:, q])
-        se = np.hypot(se_p, se_b)
-        assert abs(m_b - m_p) <= 5 * se, (q, m_b, m_p, se)  # 5 standard errors of the difference
+    expect_same_expectation(scene, spp=spp, max_depth=max_depth)
 
 
 @pytest.mark.parametrize("which", ["many-lights", "large-emitters"])
@@ -62,15 +69,7 @@ def test_restir_candidates_keep_the_expectation(which):
     # restir's candidates chosen by the light BVH: the same expectation as by power (temporal and spatial reuse
     # on, 2 passes, direct light and one bounce).
     scene = caustica.load_scene(SCENE, width=32, height=24) if which == "many-lights" else caustica.load_dict(LARGE)
-    per = {ls: np.array([quadrant_means(caustica.render(scene, integrator="restir", spp=2, seed=seed, max_depth=3,
-                                                        restir_candidates=8, light_sampler=ls))
-                         for seed in range(SEEDS)])
-           for ls in ("power", "bvh")}
-    for q in range(4):
-        m_p, se_p = mean_and_se(per["power"][:, q])
-        m_b, se_b = mean_and_se(per["bvh"][:, q])
-        se = np.hypot(se_p, se_b)
-        assert abs(m_b - m_p) <= 5 * se, (q, m_b, m_p, se)  # 5 standard errors of the difference
+    expect_same_expectation(scene, integrator="restir", spp=2, max_depth=3, restir_candidates=8)
 
 
 @pytest.mark.parametrize("integrator, wavefront", [("sppm", False), ("sppm", True), ("pppm", False), ("pm", False),
@@ -82,14 +81,7 @@ def test_photon_mappers_visible_points_keep_the_expectation(integrator, wavefron
     opts = dict(integrator=integrator, spp=2, max_depth=2, photons=2000)
     if integrator == "pm":
         opts["spp"] = 1
-    per = {ls: np.array([quadrant_means(caustica.render(scene, seed=seed, light_sampler=ls, wavefront=wavefront,
-                                                        **opts)) for seed in range(SEEDS)])
-           for ls in ("power", "bvh")}
-    for q in range(4):
-        m_p, se_p = mean_and_se(per["power"][:, q])
-        m_b, se_b = mean_and_se(per["bvh"][:, q])
-        se = np.hypot(se_p, se_b)
-        assert abs(m_b - m_p) <= 5 * se, (q, m_b, m_p, se)  # 5 standard errors of the difference
+    per = expect_same_expectation(scene, wavefront=wavefront, **opts)
     assert np.std(per["bvh"][:, 0]) < np.std(per["power"][:, 0])  # and less spread between seeds
 
 
@@ -101,14 +93,7 @@ def test_bidirectional_keep_the_expectation(which, integrator, wavefront):
     # segments (NEE, emitters hit, light tracing, connections and merges all weigh in). Same expectation.
     scene = caustica.load_scene(SCENE, width=32, height=24) if which == "many-lights" else caustica.load_dict(LARGE)
     opts = dict(integrator=integrator, spp=2, max_depth=3, wavefront=wavefront)
-    per = {ls: np.array([quadrant_means(caustica.render(scene, seed=seed, light_sampler=ls, **opts))
-                         for seed in range(SEEDS)])
-           for ls in ("power", "bvh")}
-    for q in range(4):
-        m_p, se_p = mean_and_se(per["power"][:, q])
-        m_b, se_b = mean_and_se(per["bvh"][:, q])
-        se = np.hypot(se_p, se_b)
-        assert abs(m_b - m_p) <= 5 * se, (q, m_b, m_p, se)  # 5 standard errors of the difference
+    expect_same_expectation(scene, **opts)
 
 
 @pytest.mark.parametrize("integrator", ["sppm", "pppm"])
