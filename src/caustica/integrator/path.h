@@ -136,8 +136,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   Vec2f u_light2 = st.sampler.next_2d();
   if (s.num_lights > 0 && !material_is_delta(m)) {
     float pmf = 0.f;
-    int32_t li = pp.light_bvh ? light_bvh_sample(s.light_bvh, p_front, u_light2, pmf)
-                              : int32_t(s.light_sampler.sample_reuse(u_light2, pmf));
+    int32_t li = choose_light(s, pp.light_bvh, p_front, u_light2, pmf);
     LightSample ls;
     if (li >= 0 && sample_light(s, s.lights[li], p_front, u_light2, ls)) {
       Vec3f wi = frame.to_local(ls.wi);

@@ -236,8 +236,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         Vec2f u(ulx_s.v[i], uly[i]);
         float pm = 0.f;
         // The same choice as path_shade's: by power, or by the light BVH's importance from p_front.
-        const int32_t li = pp.light_bvh ? light_bvh_sample(s.light_bvh, get(p_front, i), u, pm)
-                                        : int32_t(s.light_sampler.sample_reuse(u, pm));
+        const int32_t li = choose_light(s, pp.light_bvh, get(p_front, i), u, pm);
         ulx_s.v[i] = u.x;
         if (li < 0) {  // no light can reach p_front: pmf 0 masks the lane out below
           pmf_s.v[i] = 0.f;

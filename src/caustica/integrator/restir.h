@@ -217,8 +217,7 @@ CHD bool restir_candidate(const SceneView& s, const RestirShading& v, bool light
                           float& pdf, RGB& g) {
   if (s.num_lights == 0) return false;
   float pmf = 0.f;
-  const int32_t chosen = light_bvh ? light_bvh_sample(s.light_bvh, v.p_front, u, pmf)
-                                   : int32_t(s.light_sampler.sample_reuse(u, pmf));
+  const int32_t chosen = choose_light(s, light_bvh, v.p_front, u, pmf);
   if (chosen < 0) return false;
   const uint32_t li = uint32_t(chosen);
   const Light& l = s.lights[li];

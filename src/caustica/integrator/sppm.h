@@ -52,8 +52,7 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
         float pmf = 0.f;
         Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
         Vec2f u_choice(u_l, 0.f);
-        const int32_t li = light_bvh ? light_bvh_sample(s.light_bvh, p_front, u_choice, pmf)
-                                     : int32_t(s.light_sampler.sample(u_l, pmf));
+        const int32_t li = choose_light(s, light_bvh, p_front, u_choice, pmf);
         LightSample ls;
         if (li >= 0 && sample_light(s, s.lights[li], p_front, u_l2, ls)) {
           RGB f = bsdf_eval(m, wo, frame.to_local(ls.wi));

@@ -793,8 +793,7 @@ CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st
   if (!st.vertex_valid || !p.use_vc() || s.num_lights == 0 || st.length + 1 > p.max_depth) return;
   float pick = 0.f;  // the NEE pick
   Vec2f u_choice(ul, 0.f);
-  const int32_t chosen = p.light_bvh ? light_bvh_sample(s.light_bvh, st.sh.p, u_choice, pick)
-                                     : int32_t(s.light_sampler.sample(ul, pick));
+  const int32_t chosen = choose_light(s, p.light_bvh, st.sh.p, u_choice, pick);
   if (chosen < 0) return;
   const uint32_t li = uint32_t(chosen);
   const Light& l = s.lights[li];

@@ -84,4 +84,11 @@ struct SceneView {
   BVHView bvh;  // the portable BVH (always built; CPU default traversal is Embree)
 };
 
+// The light that next-event estimation from reference point p chooses: by power (the alias table), or with bvh
+// by the light BVH's importance from p (light/light_bvh.h). u.x chooses and is then remapped to a fresh uniform
+// number (sample_reuse); its probability goes to pmf. -1: no light can reach p (the BVH only).
+CHD int32_t choose_light(const SceneView& s, bool bvh, Vec3f p, Vec2f& u, float& pmf) {
+  return bvh ? light_bvh_sample(s.light_bvh, p, u, pmf) : int32_t(s.light_sampler.sample_reuse(u, pmf));
+}
+
 }  // namespace caustica
