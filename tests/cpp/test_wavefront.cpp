@@ -260,13 +260,13 @@ TEST(Cuda, SwitchesChangeNothingOnTheGpu) {
 }
 
 
-// sppm and pppm on the CPU backend run the CPU photon integrator's stage functions; only the order in which
+// sppm, ppm and pppm on the CPU backend run the CPU photon integrator's stage functions; only the order in which
 // a visible point adds its photons (in double precision) may differ, so every pixel agrees to 1e-5
 // relative (a single photon changes a pixel by far more: 1e-3 or more of its value at these sizes).
 TEST(WavefrontPhoton, CpuBackendMatchesThePhotonIntegrators) {
   for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-env", "point-in-glass"}) {
     auto sc = small_scene(name, 36, 28);
-    for (const char* integrator : {"sppm", "pppm"}) {
+    for (const char* integrator : {"sppm", "ppm", "pppm"}) {
       RenderOptions o = photon_options(integrator, 4, 21);
       std::vector<float> ref = render(sc, o);
       double total = 0.0;
@@ -318,6 +318,38 @@ TEST(WavefrontPhoton, CancelledPassChangesNothing) {
   EXPECT_FALSE(wf->render_pass(2, &cancel, st));
   EXPECT_EQ(wf->image(2), before);
   EXPECT_EQ(two.size(), before.size());
+}
+
+// ppm traces its measurement points in its first complete pass: a first pass cancelled (after the visible
+// points, before the photons) and run again gives the image of an uncancelled render, and a later cancelled
+// pass leaves the points and statistics as they were.
+TEST(WavefrontPhoton, PpmCancelledFirstPassChangesNothing) {
+  auto sc = small_scene("point-in-glass", 16, 16);
+  PhotonWavefrontParams p;
+  p.ppm = true;
+  p.seed = 3;
+  p.max_depth = 10;
+  p.photons = 512;
+  p.radius = 0.05f;
+  auto ref = make_cpu_photon_wavefront(sc, p, &sc->accel());
+  std::atomic<bool> cancel{false};
+  WavefrontPassStats st;
+  ASSERT_TRUE(ref->render_pass(0, &cancel, st));
+  ASSERT_TRUE(ref->render_pass(1, &cancel, st));
+  const std::vector<float> two = ref->image(2);
+  double total = 0.0;
+  for (float v : two) total += v;
+  ASSERT_GT(total, 0.0);
+
+  auto wf = make_cpu_photon_wavefront(sc, p, &sc->accel());
+  // Cancelled: the flag is first read after the visible points (the measurement points written by then).
+  std::atomic<bool> stop{true};
+  EXPECT_FALSE(wf->render_pass(0, &stop, st));
+  ASSERT_TRUE(wf->render_pass(0, &cancel, st));
+  ASSERT_TRUE(wf->render_pass(1, &cancel, st));
+  EXPECT_EQ(wf->image(2), two);
+  EXPECT_FALSE(wf->render_pass(2, &stop, st));
+  EXPECT_EQ(wf->image(2), two);
 }
 
 // light, bdpt, bpm, vcm and upg on the CPU backend (integrator/wavefront_vcm.h) run the CPU drivers' stage
@@ -448,7 +480,7 @@ TEST(WavefrontVcm, RefusesWhatOnlyTheCpuDriverDoes) {
   o.strategy_images = true;
   EXPECT_THROW(make_job(sc, o), InputError);
   o.strategy_images = false;
-  o.integrator = "ppm";
+  o.integrator = "pm";
   EXPECT_THROW(make_job(sc, o), InputError);
 }
 
@@ -462,12 +494,12 @@ TEST(Cuda, BidirectionalMatchesTheCpuPerRegion) {
     expect_gpu_agrees_per_region(sc, photon_options(integrator, 8, 0), integrator);
 }
 
-// On a GPU: sppm and pppm agree with the CPU wavefront per region (independent seeds, 4 standard errors).
+// On a GPU: sppm, ppm and pppm agree with the CPU wavefront per region (independent seeds, 4 standard errors).
 TEST(Cuda, PhotonMappingMatchesTheCpuPerRegion) {
   std::string why;
   if (cuda_devices(&why).empty()) GTEST_SKIP() << "no CUDA device: " << why;
   auto sc = small_scene("smallvcm-spheres", 32, 32);
-  for (const char* integrator : {"sppm", "pppm"}) {
+  for (const char* integrator : {"sppm", "ppm", "pppm"}) {
     for (bool stochastic : {false, true}) {
       RenderOptions o = photon_options(integrator, 8, 0);
       o.stochastic_hash = stochastic;

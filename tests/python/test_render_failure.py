@@ -13,6 +13,7 @@ CASES = {
     "path-wavefront": dict(integrator="path", wavefront=True),
     "sppm": dict(integrator="sppm"),
     "pppm-wavefront": dict(integrator="pppm", wavefront=True),
+    "ppm-wavefront": dict(integrator="ppm", wavefront=True),
     "vcm": dict(integrator="vcm"),
     "restir": dict(integrator="restir"),
 }

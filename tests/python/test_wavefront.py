@@ -44,8 +44,8 @@ def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
     for args, msg in ((["--wavefront", "--cache-first-bounce"], "--cache-first-bounce needs --no-jitter"),
                       (["--sort-materials"], "--sort-materials applies to the wavefront path tracer"),
                       (["--no-compaction"], "--no-compaction applies to the wavefront path tracer"),
-                      (["--wavefront", "--integrator", "ppm"],
-                       "--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm, upg and restir"),
+                      (["--wavefront", "--integrator", "pm"],
+                       "--wavefront runs path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg and restir"),
                       (["--wavefront", "--integrator", "bdpt", "--strategy-images", str(tmp_path)],
                        "--strategy-images runs on the CPU driver only"),
                       (["--wavefront", "--integrator", "sppm", "--sort-materials"],
@@ -57,7 +57,7 @@ def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
         assert not out.exists()
 
 
-@pytest.mark.parametrize("integrator", ["sppm", "pppm"])
+@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm"])
 def test_cpu_wavefront_photon_mapping_matches_the_photon_integrator(integrator):
     # The same stage functions; a visible point may add its photons in another order (in doubles), so
     # values agree to 1e-5 relative (one photon moves a pixel by 1e-3 of its value or more here).
@@ -107,7 +107,7 @@ def test_too_many_light_subpaths_for_memory_is_a_one_line_error(tmp_path):
 
 
 @needs_gpu
-@pytest.mark.parametrize("integrator", ["sppm", "pppm", "light", "bdpt", "bpm", "vcm", "upg"])
+@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm", "light", "bdpt", "bpm", "vcm", "upg"])
 def test_gpu_photon_and_bidirectional_integrators_match_the_cpu_per_region(integrator):
     s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
     m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112))
@@ -138,7 +138,7 @@ def test_gpu_render_from_the_command_line(tmp_path):
     assert img.shape == (48, 64, 3) and np.isfinite(img).all() and img.mean() > 0.05
 
 
-@pytest.mark.parametrize("integrator", ["path", "sppm"])
+@pytest.mark.parametrize("integrator", ["path", "sppm", "ppm"])
 def test_cpu_wavefront_is_deterministic_across_thread_counts(integrator):
     s = caustica.load_scene("smallvcm-spheres", width=20, height=16)
     kw = dict(integrator=integrator, spp=2, seed=8, wavefront=True, stochastic_hash=integrator == "sppm")

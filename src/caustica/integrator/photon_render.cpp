@@ -19,57 +19,6 @@ namespace caustica {
 
 bool is_photon_integrator(const std::string& n) { return n == "ppm" || n == "sppm" || n == "pppm" || n == "pm"; }
 
-namespace {
-
-// PPM's measurement points (Hachisuka et al. 2008, Sec. 4.1): the camera ray is
-// traced through every specular branch, splitting at dielectrics into reflection
-// and refraction weighted by their Fresnel probabilities, so a pixel's fixed points
-// carry the exact specular weights; up to `cap` points, deepest branches dropped.
-template <typename Accel>
-int trace_measurement_points(const SceneView& s, const Accel& accel, Ray ray, uint32_t max_depth, VisiblePoint* out,
-                             int cap) {
-  struct Item { Ray ray; RGB beta; uint32_t depth; };
-  Item stack[16];
-  int sp = 0, n = 0;
-  stack[sp++] = {ray, RGB(1.f), 1};
-  while (sp > 0 && n < cap) {
-    Item it = stack[--sp];
-    Hit hit;
-    if (!accel.intersect(it.ray, hit)) continue;
-    SurfaceHit sh = make_surface_hit(s, it.ray, hit);
-    it.beta *= segment_transmittance(s, it.ray.d, hit.t, sh);
-    const Material m = surface_material(s, sh);
-    Vec3f wo_world = -it.ray.d;
-    if (!material_is_delta(m)) {
-      if (it.depth < max_depth) {
-        VisiblePoint& vp = out[n++];
-        vp.p = sh.p; vp.ng = sh.ng; vp.ns = sh.ns; vp.wo = wo_world; vp.beta = it.beta;
-        vp.material = m; vp.valid = true;
-      }
-      continue;
-    }
-    if (it.depth >= max_depth) continue;
-    Frame frame(sh.ns);
-    Vec3f wo = frame.to_local(wo_world);
-    // The two discrete choices of a delta BSDF: lobe sample u = 0 (reflection)
-    // and u -> 1 (transmission); each branch carries weight x probability.
-    BSDFSample a, b;
-    bool ha = bsdf_sample(m, wo, 0.f, Vec2f(0.5f, 0.5f), a);
-    bool hb = bsdf_sample(m, wo, kOneMinusEpsilon, Vec2f(0.5f, 0.5f), b);
-    if (hb && ha && length_sq(a.wi - b.wi) < 1e-12f) hb = false;  // one lobe only (mirror)
-    const BSDFSample* ch[2] = {ha ? &a : nullptr, hb ? &b : nullptr};
-    for (const BSDFSample* c : ch) {
-      if (!c || sp >= 16) continue;
-      Vec3f wi = frame.to_world(c->wi);
-      float p = ch[0] && ch[1] ? c->pdf : 1.f;
-      stack[sp++] = {Ray{offset_ray_origin(sh.p, sh.ng, wi), wi, kInf}, it.beta * c->weight * p, it.depth + 1};
-    }
-  }
-  return n;
-}
-
-}  // namespace
-
 float automatic_radius(const Scene& scene) {
   const SceneView& v = scene.view();
   const int W = v.camera.width, H = v.camera.height;
@@ -135,7 +84,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   r0_ = opt.radius;
   if (!(r0_ > 0.f)) r0_ = automatic_radius(*scene_);
   size_t n = size_t(W_) * H_;
-  K_ = kind_ == Kind::kPPM ? 8 : 1;
+  K_ = kind_ == Kind::kPPM ? kPpmPointsPerPixel : 1;
   vp_.assign(n * K_, VisiblePoint());
   direct_.assign(3 * n, 0.0);
   if (kind_ == Kind::kPPPM) indirect_.assign(3 * n, 0.0);

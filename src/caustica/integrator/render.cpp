@@ -160,14 +160,15 @@ void RenderJob::validate(const RenderOptions& o) {
   bool cuda = cuda_device_index(o.device) >= 0;
   if (o.device != "cpu" && !cuda)
     throw InputError("unknown device '" + o.device + "' (allowed: cpu, cuda, cuda:N)");
-  const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "pppm" ||
+  const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "ppm" ||
+                                    o.integrator == "pppm" ||
                                     is_vcm_integrator(o.integrator) || o.integrator == "upg" ||
                                     o.integrator == "restir";
   if (cuda && !wavefront_integrator)
     throw InputError("integrator '" + o.integrator + "' does not run on the CUDA backend yet (allowed with " +
-                     "--device cuda: path, sppm, pppm, light, bdpt, bpm, vcm, upg, restir)");
+                     "--device cuda: path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg, restir)");
   if (o.wavefront && !wavefront_integrator)
-    throw InputError("--wavefront runs path, sppm, pppm, light, bdpt, bpm, vcm, upg and restir, got '" +
+    throw InputError("--wavefront runs path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg and restir, got '" +
                      o.integrator + "'");
   if (uses_wavefront(o) && o.strategy_images)
     throw InputError("--strategy-images runs on the CPU driver only (not with --wavefront or --device cuda)");
@@ -262,6 +263,7 @@ void RenderJob::make_integrator() {
   } else if (uses_wavefront(opt_) && opt_.integrator != "path") {
     PhotonWavefrontParams p;
     p.pppm = opt_.integrator == "pppm";
+    p.ppm = opt_.integrator == "ppm";
     p.seed = opt_.seed;
     p.sampler = opt_.sampler;
     p.max_depth = path_params().max_depth;

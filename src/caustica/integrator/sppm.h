@@ -5,6 +5,7 @@
 //   sppm_gather    the photons within a radius of a visible point, weighted by its BSDF (the sum in
 //                  Hachisuka et al. 2008 Eq. 6 / Knaus & Zwicker 2011 Eq. 3's numerator)
 //   pppm_add       one pass's estimate with the global radius (Knaus & Zwicker 2011 Eq. 3)
+//   trace_measurement_points  ppm's fixed points of a pixel (Hachisuka et al. 2008, Sec. 4.1), traced once
 //   sppm_update    the progressive statistics (Hachisuka et al. 2008 Eqs. 6-11, shared per pixel in
 //                  Hachisuka & Jensen 2009 Eqs. 5-8): N += alpha M, R and tau scaled by (N + alpha M)/(N + M)
 #pragma once
@@ -85,6 +86,65 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
     ray.tmax = kInf;
   }
   return vp;
+}
+
+// PPM's measurement points (Hachisuka et al. 2008, Sec. 4.1), traced once, on the first pass: the camera ray
+// through every specular branch, splitting at dielectrics into reflection and refraction weighted by their
+// Fresnel probabilities, so a pixel's fixed points carry the exact specular weights; up to `cap` points
+// (kPpmPointsPerPixel), deepest branches dropped. Returns how many were written to out[0, cap); the caller
+// marks the rest invalid. No random numbers: the points depend on the camera ray alone.
+constexpr int kPpmPointsPerPixel = 8;
+
+template <typename Tracer>
+CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ray, uint32_t max_depth,
+                                 VisiblePoint* out, int cap) {
+  struct Item {
+    Ray ray;
+    RGB beta;
+    uint32_t depth;
+  };
+  Item stack[16];
+  int sp = 0, n = 0;
+  stack[sp++] = Item{ray, RGB(1.f), 1u};
+  while (sp > 0 && n < cap) {
+    Item it = stack[--sp];
+    Hit hit;
+    if (!accel.intersect(it.ray, hit)) continue;
+    SurfaceHit sh = make_surface_hit(s, it.ray, hit);
+    it.beta *= segment_transmittance(s, it.ray.d, hit.t, sh);
+    const Material m = surface_material(s, sh);
+    Vec3f wo_world = -it.ray.d;
+    if (!material_is_delta(m)) {
+      if (it.depth < max_depth) {
+        VisiblePoint& vp = out[n++];
+        vp.p = sh.p;
+        vp.ng = sh.ng;
+        vp.ns = sh.ns;
+        vp.wo = wo_world;
+        vp.beta = it.beta;
+        vp.material = m;
+        vp.valid = true;
+      }
+      continue;
+    }
+    if (it.depth >= max_depth) continue;
+    Frame frame(sh.ns);
+    Vec3f wo = frame.to_local(wo_world);
+    // The two discrete choices of a delta BSDF: lobe sample u = 0 (reflection) and u -> 1 (transmission);
+    // each branch carries weight x probability.
+    BSDFSample a, b;
+    bool ha = bsdf_sample(m, wo, 0.f, Vec2f(0.5f, 0.5f), a);
+    bool hb = bsdf_sample(m, wo, kOneMinusEpsilon, Vec2f(0.5f, 0.5f), b);
+    if (hb && ha && length_sq(a.wi - b.wi) < 1e-12f) hb = false;  // one lobe only (mirror)
+    const BSDFSample* ch[2] = {ha ? &a : nullptr, hb ? &b : nullptr};
+    for (const BSDFSample* c : ch) {
+      if (!c || sp >= 16) continue;
+      Vec3f wi = frame.to_world(c->wi);
+      float p = ch[0] && ch[1] ? c->pdf : 1.f;
+      stack[sp++] = Item{Ray{offset_ray_origin(sh.p, sh.ng, wi), wi, kInf}, it.beta * c->weight * p, it.depth + 1};
+    }
+  }
+  return n;
 }
 
 // Sums f(wo, wi) * power over the photons of `grid` within `radius` of the point (photons on the far side of

@@ -1,8 +1,11 @@
-// Stochastic progressive photon mapping (Hachisuka & Jensen 2009) and probabilistic PPM (Knaus & Zwicker
-// 2011) as wavefronts over the backend interface (backend/backend.h), the way Hachisuka & Jensen 2010
-// ("Parallel Progressive Photon Mapping on GPUs", SIGGRAPH Asia sketch) run PPM on a GPU. One pass:
+// Stochastic progressive photon mapping (Hachisuka & Jensen 2009), progressive photon mapping (Hachisuka,
+// Ogaki & Jensen 2008) and probabilistic PPM (Knaus & Zwicker 2011) as wavefronts over the backend interface
+// (backend/backend.h), the way Hachisuka & Jensen 2010 ("Parallel Progressive Photon Mapping on GPUs",
+// SIGGRAPH Asia sketch) run PPM on a GPU. One pass:
 //   visible points  one thread per pixel: the camera ray through specular bounces to its visible point,
-//                   emission and NEE on the way (sppm.h: trace_camera)
+//                   emission and NEE on the way (sppm.h: trace_camera). ppm keeps only the direct light of
+//                   this path: its kPpmPointsPerPixel measurement points per pixel are traced once, in the
+//                   first pass (sppm.h: trace_measurement_points), and gather photons in every pass
 //   photons         photon paths one segment per stage over a queue of paths (photon_start, then per
 //                   depth: intersect, photon_bounce, append the stored photons by a prefix sum of their
 //                   flags, compact the queue). Photons land in (depth, path) order: deterministic, no
@@ -13,7 +16,7 @@
 //                   of (cell, index), group starts by a prefix sum, the kept photon chosen by hash(seed,
 //                   cell) and its power scaled by the cell's count), then the grid over those
 //   gather          one thread per visible point: sppm_gather, then sppm_update (sppm, Hachisuka & Jensen
-//                   2009 Eqs. 5-8) or pppm_add (pppm, Knaus & Zwicker 2011 Eqs. 3 and 15)
+//                   2009 Eqs. 5-8; ppm, Hachisuka et al. 2008 Eqs. 6-11, per measurement point) or pppm_add (pppm, Knaus & Zwicker 2011 Eqs. 3 and 15)
 // The stage functions are the CPU photon integrator's (photon_render.cpp); only the order of photons in
 // the grid's slots differs (photon_render.cpp appends them path by path), so the sums of a visible point
 // are added in another order: images agree with the CPU integrator's to rounding (tests/cpp/
@@ -28,6 +31,7 @@
 
 #include "../backend/backend.h"
 #include "../backend/backend_algorithms.h"
+#include "../base/error.h"
 #include "../photon/trace.h"
 #include "path.h"
 #include "sppm.h"
@@ -167,15 +171,18 @@ class WavefrontPhoton {
   WavefrontPhoton(const B& backend, const PhotonWavefrontParams& p) : b_(backend), p_(p) {
     const Camera& c = b_.scene().camera;
     n_ = uint32_t(c.width) * uint32_t(c.height);
-    vp_.resize(n_);
+    K_ = p_.ppm ? uint32_t(kPpmPointsPerPixel) : 1u;
+    if (uint64_t(n_) * K_ > 0xffffffffull) throw InputError("ppm on the wavefront: at most 536870911 pixels");
+    nk_ = n_ * K_;
+    vp_.resize(nk_);
     lpass_.resize(3 * size_t(n_));
     direct_.resize(3 * size_t(n_));
     if (p_.pppm) {
       indirect_.resize(3 * size_t(n_));
     } else {
-      N_.resize(n_);
-      tau_.resize(3 * size_t(n_));
-      R_.resize(n_);
+      N_.resize(nk_);
+      tau_.resize(3 * size_t(nk_));
+      R_.resize(nk_);
     }
     const uint32_t P = p_.photons;
     paths_.resize(P);
@@ -198,18 +205,23 @@ class WavefrontPhoton {
 
   // No light, no flux, every radius r0 (a member function of its own: nvcc's device lambdas may not live
   // in constructors).
+  // Per visible point (ppm: K per pixel, pixel i's at i * K + k); direct light per pixel.
   void reset() {
     const PixelStats ps = pixel_stats();
     const bool pppm = p_.pppm;
     const float r0 = p_.radius;
-    b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
-      for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(i) + c] = 0.0;
+    const uint32_t K = K_;
+    VisiblePoint* vp = vp_.data();
+    b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t j) {
+      vp[j] = VisiblePoint();
+      if (j % K == 0)
+        for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(j / K) + c] = 0.0;
       if (pppm) {
-        for (int c = 0; c < 3; ++c) ps.indirect[3 * size_t(i) + c] = 0.0;
+        for (int c = 0; c < 3; ++c) ps.indirect[3 * size_t(j) + c] = 0.0;
       } else {
-        ps.N[i] = 0.0;
-        for (int c = 0; c < 3; ++c) ps.tau[3 * size_t(i) + c] = 0.0;
-        ps.R[i] = r0;
+        ps.N[j] = 0.0;
+        for (int c = 0; c < 3; ++c) ps.tau[3 * size_t(j) + c] = 0.0;
+        ps.R[j] = r0;
       }
     });
   }
@@ -231,6 +243,8 @@ class WavefrontPhoton {
     };
 
     // Visible points: a new camera path per pixel (its direct light kept apart until the pass completes).
+    // ppm keeps the measurement points of its first pass (Hachisuka et al. 2008, Sec. 4.1; a cancelled first
+    // pass traces them again) and re-estimates only the direct light, as photon_render.cpp does.
     {
       PathParams pp;
       pp.seed = p_.seed;
@@ -238,11 +252,20 @@ class WavefrontPhoton {
       VisiblePoint* vp = vp_.data();
       double* lpass = lpass_.data();
       const bool light_bvh = p_.light_bvh;
+      const bool ppm = p_.ppm, measure = p_.ppm && !measured_;
+      const int K = int(K_);
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
         PathState st;
         path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
+        const Ray camera_ray = st.ray;
         RGB L(0.f);
-        vp[i] = trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L, light_bvh);
+        const VisiblePoint v = trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L, light_bvh);
+        if (!ppm) vp[i] = v;
+        if (measure) {
+          VisiblePoint* out = vp + size_t(i) * K;
+          const int m = trace_measurement_points(s, tracer, camera_ray, max_depth, out, K);
+          for (int k = m; k < K; ++k) out[k] = VisiblePoint();
+        }
         bool ok = isfinite3(L);
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });
@@ -314,7 +337,7 @@ class WavefrontPhoton {
     if (cancelled()) return false;
 
     // The grid, with cells of twice the largest radius (a query then overlaps at most 2x2x2 cells).
-    const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), n_, 0.f, FloatMax());
+    const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), nk_, 0.f, FloatMax());
     grid_.build(b_, photons_.data(), count, s.bounds, 2.f * rmax, p_.stochastic_hash,
                 hash3(p_.seed, uint64_t(abs_pass), 0x9d));
     lap(stats.seconds_grid);
@@ -329,8 +352,10 @@ class WavefrontPhoton {
       const bool pppm = p_.pppm;
       const float alpha = p_.alpha;
       const double inv_np = 1.0 / double(P);
-      b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
-        for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(i) + c] += lpass[3 * size_t(i) + c];
+      const uint32_t K = K_;
+      b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t i) {  // i: the visible point (pixel i / K)
+        if (i % K == 0)
+          for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(i / K) + c] += lpass[3 * size_t(i / K) + c];
         if (!vp[i].valid) return;
         double phi[3];
         uint32_t M;
@@ -341,11 +366,12 @@ class WavefrontPhoton {
       });
     }
     lap(stats.seconds_gather);
+    measured_ = true;
     return true;
   }
 
-  // The per-pixel statistics, copied to the host: direct (3 per pixel), and tau (3), R (1) for sppm or
-  // indirect (3) for pppm.
+  // The statistics, copied to the host: direct (3 per pixel), and tau (3), R (1) per visible point for sppm
+  // and ppm (points_per_pixel() of them per pixel) or indirect (3 per pixel) for pppm.
   void statistics(std::vector<double>& direct, std::vector<double>& tau, std::vector<float>& R,
                   std::vector<double>& indirect) const {
     direct.resize(3 * size_t(n_));
@@ -354,12 +380,14 @@ class WavefrontPhoton {
       indirect.resize(3 * size_t(n_));
       b_.to_host(indirect_, indirect.data(), indirect.size());
     } else {
-      tau.resize(3 * size_t(n_));
-      R.resize(n_);
+      tau.resize(3 * size_t(nk_));
+      R.resize(nk_);
       b_.to_host(tau_, tau.data(), tau.size());
       b_.to_host(R_, R.data(), R.size());
     }
   }
+
+  int points_per_pixel() const { return int(K_); }
 
   // Grows the photon array keeping its contents (public: nvcc's device lambdas may not live in private
   // member functions).
@@ -368,7 +396,10 @@ class WavefrontPhoton {
  private:
   const B& b_;
   PhotonWavefrontParams p_;
-  uint32_t n_ = 0;
+  uint32_t n_ = 0;   // pixels
+  uint32_t K_ = 1;   // visible points per pixel (ppm: kPpmPointsPerPixel)
+  uint32_t nk_ = 0;  // visible points
+  bool measured_ = false;  // ppm: the measurement points are traced (a pass has completed)
   Buffer<VisiblePoint> vp_;
   Buffer<double> lpass_, direct_, indirect_, N_, tau_;
   Buffer<float> R_;

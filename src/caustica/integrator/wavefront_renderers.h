@@ -65,7 +65,7 @@ class PhotonWavefrontRenderer final : public WavefrontRenderer {
     std::vector<double> direct, tau, indirect;
     std::vector<float> R;
     wf_.statistics(direct, tau, R, indirect);
-    return photon_image(pixels_, 1, passes, p_.photons,
+    return photon_image(pixels_, wf_.points_per_pixel(), passes, p_.photons,
                         p_.pppm ? PhotonEstimate::kPerPass : PhotonEstimate::kProgressive, direct, tau, R, indirect);
   }
   std::string device_name() const override { return name_; }
