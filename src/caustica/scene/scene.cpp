@@ -320,10 +320,11 @@ void build_light_bvh_node(std::vector<std::pair<uint32_t, LightBoundsHost>>& ite
   }
   const uint32_t index = uint32_t(s.light_bvh_nodes.size());
   LightBvhNode node;
-  node.lo = all.b.lo;
-  node.hi = all.b.hi;
+  node.c = (all.b.lo + all.b.hi) * 0.5f;
+  node.r = 0.5f * length(all.b.hi - all.b.lo);
   node.w = all.w;
   node.cos_o = all.cos_o;
+  node.sin_o = std::sqrt(std::max(0.f, 1.f - all.cos_o * all.cos_o));
   node.cos_e = all.cos_e;
   node.phi = all.phi;
   node.flags = all.two_sided ? LightBvhNode::kTwoSided : 0u;
