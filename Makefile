@@ -39,7 +39,7 @@ test-python:
 	$(PY) -m pytest -q tests/python
 
 # The CUDA backend is compiled into the module by `make build` (nvcc 13.0 from PyPI, sm_80 and sm_90,
-# warnings as errors): the backend primitives and the wavefront drivers (path, sppm/ppm/pppm, light/bdpt/bpm/vcm/upg)
+# warnings as errors): the backend primitives and the wavefront drivers (path, sppm/ppm/pppm/pm, light/bdpt/bpm/vcm/upg)
 # with every stage function they run. No GPU is needed to compile; this checks that it was.
 cuda-check: build
 	@grep -q '^CAUSTICA_CUDA:BOOL=ON' build/py/CMakeCache.txt || \

@@ -43,7 +43,7 @@ def integrators() -> list[str]:
 DEVICES = ("cpu", "cuda")
 # The integrators with a wavefront driver: they run with device="cuda" and with wavefront=True (the native
 # RenderOptions check in render.cpp holds the same list; tests/python/test_study.py compares the two).
-CUDA_INTEGRATORS = ("path", "sppm", "ppm", "pppm", "light", "bdpt", "bpm", "vcm", "upg", "restir")
+CUDA_INTEGRATORS = ("path", "sppm", "ppm", "pppm", "pm", "light", "bdpt", "bpm", "vcm", "upg", "restir")
 
 
 def _cpu_name() -> str:
@@ -378,7 +378,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     `strategy_images` (light, bdpt, bpm, vcm): RenderResult.strategies maps "k{k}_s{s}_t{t}" (the
     connection strategy with s light and t camera vertices of paths of k <= 7 segments) and "merge_t{t}"
     (merges at camera vertex t) to MIS-weighted (H, W, 3) images that sum to the image over those paths.
-    `device`: "cpu" (default), "cuda" or "cuda:N" (integrators path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg, restir: the
+    `device`: "cpu" (default), "cuda" or "cuda:N" (integrators path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, upg, restir: the
     wavefront drivers on the GPU, traversing the portable BVH); a device that devices() does not list is an
     InputError saying why. `wavefront` (those integrators): run the GPU's wavefront driver on the CPU
     (strategy_images stays with the CPU driver). The wavefront path tracer's switches:

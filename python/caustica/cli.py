@@ -118,10 +118,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="auto (default: small for scenes of at most 128 triangles, else embree), embree, small "
                         "(every triangle tested, eight at a time), or bvh (the portable BVH the GPU uses)")
     r.add_argument("--device", default="cpu",
-                   help="cpu (default), cuda or cuda:N (path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg, restir: "
+                   help="cpu (default), cuda or cuda:N (path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, upg, restir: "
                         "wavefronts on the GPU); `caustica devices` lists what this build and machine offer")
     r.add_argument("--wavefront", action="store_true",
-                   help="path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg, restir: run the GPU's wavefront driver on the "
+                   help="path, sppm, ppm, pppm, pm, light, bdpt, bpm, vcm, upg, restir: run the GPU's wavefront driver on the "
                         "CPU (the same code as --device cuda)")
     r.add_argument("--no-compaction", action="store_true",
                    help="wavefront: keep finished paths in the queues (no stream compaction)")

@@ -221,10 +221,6 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
     integ = list(dict.fromkeys(integ))
     if on_gpu:
         for i in integ:
-            b, _ = _api.split_integrator_variant(i)
-            if b not in _api.CUDA_INTEGRATORS:
-                raise InputError(f"integrator '{i}' does not run on device '{device}' (allowed there: "
-                                 f"{', '.join(_api.CUDA_INTEGRATORS)})")
             if not _api.variant_on_gpu(i):
                 raise InputError(f"integrator '{i}': adaptive photon tracing runs on the CPU only, not on "
                                  f"device '{device}'")

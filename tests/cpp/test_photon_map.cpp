@@ -27,6 +27,7 @@
 #include "caustica/photon/compact_photon.h"
 #include "caustica/photon/hash_grid.h"
 #include "caustica/photon/kdtree.h"
+#include "caustica/photon/knn_tree.h"
 
 using namespace caustica;
 
@@ -616,6 +617,83 @@ TEST(PhotonKdTree, KnnEqualsBruteForce) {
     }
   }
   std::printf("[ measured ] %zu kNN queries had a tie at the k-th distance\n", ties_at_kth);
+  EXPECT_GT(ties_at_kth, 100u);  // the tie-breaking was exercised (lattice and duplicates)
+}
+
+// The portable tree (knn_tree.h: heap layout, host/device query) gives exactly PhotonKdTree's answers: the
+// same brute force, on the same clouds (lattices and duplicate points make ties at the k-th distance), every
+// size from 0 to 40 (incomplete last levels of the heap), and a heap-ordered layout in which every left
+// subtree lies on its node's lower side and every right subtree on its upper side.
+TEST(PhotonKnnTree, KnnEqualsBruteForce) {
+  std::vector<uint32_t> nodes;
+  std::vector<float> d2;
+  std::vector<std::pair<float, uint32_t>> all;
+  size_t ties_at_kth = 0, queries_done = 0;
+  auto check = [&](const std::vector<Photon>& photons, const std::vector<Vec3f>& queries, const char* what) {
+    const KnnTreeHost tree = build_knn_tree(photons);
+    const KnnTreeView v = tree.view();
+    ASSERT_EQ(v.n, photons.size());
+    // Each node splits its subtrees: descendants on the left have coordinate <= its own, on the right >=.
+    for (uint32_t i = 0; i < v.n; ++i) {
+      const int a = v.axis[i];
+      std::vector<uint32_t> todo{2 * i + 1};
+      while (!todo.empty()) {
+        uint32_t j = todo.back();
+        todo.pop_back();
+        if (j >= v.n) continue;
+        ASSERT_LE(v.photons[j].p[a], v.photons[i].p[a]) << what << " node " << i;
+        todo.push_back(2 * j + 1);
+        todo.push_back(2 * j + 2);
+      }
+      todo.push_back(2 * i + 2);
+      while (!todo.empty()) {
+        uint32_t j = todo.back();
+        todo.pop_back();
+        if (j >= v.n) continue;
+        ASSERT_GE(v.photons[j].p[a], v.photons[i].p[a]) << what << " node " << i;
+        todo.push_back(2 * j + 1);
+        todo.push_back(2 * j + 2);
+      }
+      ASSERT_EQ(bits_of(v.photons[i]), bits_of(photons[v.index[i]]));
+    }
+    for (uint32_t k : {1u, 7u, 50u, 300u}) {
+      for (float max_r : {kInf, 0.1f, 0.5f}) {
+        nodes.assign(k, 0);
+        d2.assign(k, 0.f);
+        for (size_t qi = 0; qi < queries.size(); ++qi) {
+          const Vec3f p = queries[qi];
+          const uint32_t n = v.knn(p, k, max_r, nodes.data(), d2.data());
+          all.clear();
+          for (uint32_t i = 0; i < photons.size(); ++i) {
+            float d = photon_dist2(p, photons[i].p);
+            if (d <= max_r * max_r) all.push_back({d, i});
+          }
+          const size_t m = std::min(size_t(k), all.size());
+          std::partial_sort(all.begin(), all.begin() + std::min(size_t(k) + 1, all.size()), all.end());
+          ASSERT_EQ(n, m) << what << " k " << k << " max_r " << max_r << " query " << qi;
+          for (size_t j = 0; j < m; ++j) {
+            ASSERT_EQ(v.index[nodes[j]], all[j].second) << what << " k " << k << " rank " << j << " query " << qi;
+            ASSERT_EQ(d2[j], all[j].first);
+          }
+          if (m > 0 && m < all.size() && all[m].first == all[m - 1].first) ++ties_at_kth;
+          ++queries_done;
+        }
+      }
+    }
+  };
+  for (Cloud kind : {Cloud::Uniform, Cloud::Clustered, Cloud::Planes, Cloud::Lattice}) {
+    Bounds3 b;
+    std::vector<Photon> photons = make_cloud(kind, 20000, 300 + int(kind), b);
+    check(photons, make_queries(kind, photons, b, 100, 29 + int(kind)), cloud_name(kind));
+  }
+  for (size_t size = 0; size <= 40; ++size) {
+    Bounds3 b;
+    std::vector<Photon> photons = make_cloud(Cloud::Lattice, 40, 77, b);
+    photons.resize(size);
+    std::vector<Vec3f> queries{Vec3f(0.f), Vec3f(0.3f, 0.6f, 0.2f), Vec3f(2.f, -1.f, 0.5f)};
+    check(photons, queries, "small");
+  }
+  std::printf("[ measured ] %zu portable kNN queries, %zu with a tie at the k-th distance\n", queries_done, ties_at_kth);
   EXPECT_GT(ties_at_kth, 100u);  // the tie-breaking was exercised (lattice and duplicates)
 }
 

@@ -16,6 +16,7 @@
 #include "caustica/base/sampling.h"
 #include "caustica/backend/cuda/cuda_render.h"
 #include "caustica/base/error.h"
+#include "caustica/integrator/pm.h"
 #include "caustica/integrator/render.h"
 #include "caustica/integrator/wavefront_render.h"
 #include "caustica/scene/builtin/builtin.h"
@@ -192,7 +193,10 @@ TEST(Wavefront, OptionsAreCheckedWithOneLineErrors) {
   o = path_options(1, 0);
   o.integrator = "pm";
   o.wavefront = true;
-  EXPECT_THROW(make_job(sc, o), InputError);  // not on the wavefront
+  o.k = int(kWavefrontMaxK) + 1;
+  EXPECT_THROW(make_job(sc, o), InputError);  // more photons per estimate than the kernels keep
+  o.k = int(kWavefrontMaxK);
+  EXPECT_NO_THROW(make_job(sc, o));
   o.integrator = "sppm";
   o.sort_materials = true;
   EXPECT_THROW(make_job(sc, o), InputError);  // a path-tracer switch
@@ -260,13 +264,14 @@ TEST(Cuda, SwitchesChangeNothingOnTheGpu) {
 }
 
 
-// sppm, ppm and pppm on the CPU backend run the CPU photon integrator's stage functions; only the order in which
-// a visible point adds its photons (in double precision) may differ, so every pixel agrees to 1e-5
+// sppm, ppm, pppm and pm on the CPU backend run the CPU photon integrator's stage functions; only the order in
+// which a visible point adds its photons (in double precision) may differ (pm: the photons are stored in
+// another order, so only an exact distance tie could make the k nearest differ), so every pixel agrees to 1e-5
 // relative (a single photon changes a pixel by far more: 1e-3 or more of its value at these sizes).
 TEST(WavefrontPhoton, CpuBackendMatchesThePhotonIntegrators) {
   for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-env", "point-in-glass"}) {
     auto sc = small_scene(name, 36, 28);
-    for (const char* integrator : {"sppm", "ppm", "pppm"}) {
+    for (const char* integrator : {"sppm", "ppm", "pppm", "pm"}) {
       RenderOptions o = photon_options(integrator, 4, 21);
       std::vector<float> ref = render(sc, o);
       double total = 0.0;
@@ -320,36 +325,39 @@ TEST(WavefrontPhoton, CancelledPassChangesNothing) {
   EXPECT_EQ(two.size(), before.size());
 }
 
-// ppm traces its measurement points in its first complete pass: a first pass cancelled (after the visible
-// points, before the photons) and run again gives the image of an uncancelled render, and a later cancelled
-// pass leaves the points and statistics as they were.
-TEST(WavefrontPhoton, PpmCancelledFirstPassChangesNothing) {
+// ppm traces its measurement points and pm builds its photon maps in their first complete pass: a first pass
+// cancelled (ppm: after the visible points, with the measurement points written; pm: before the photons) and
+// run again gives the image of an uncancelled render, and a later cancelled pass changes nothing.
+TEST(WavefrontPhoton, CancelledFirstPassOfPpmAndPmChangesNothing) {
   auto sc = small_scene("point-in-glass", 16, 16);
-  PhotonWavefrontParams p;
-  p.ppm = true;
-  p.seed = 3;
-  p.max_depth = 10;
-  p.photons = 512;
-  p.radius = 0.05f;
-  auto ref = make_cpu_photon_wavefront(sc, p, &sc->accel());
-  std::atomic<bool> cancel{false};
-  WavefrontPassStats st;
-  ASSERT_TRUE(ref->render_pass(0, &cancel, st));
-  ASSERT_TRUE(ref->render_pass(1, &cancel, st));
-  const std::vector<float> two = ref->image(2);
-  double total = 0.0;
-  for (float v : two) total += v;
-  ASSERT_GT(total, 0.0);
+  for (int pm = 0; pm < 2; ++pm) {
+    PhotonWavefrontParams p;
+    p.ppm = pm == 0;
+    p.pm = pm == 1;
+    p.seed = 3;
+    p.max_depth = 10;
+    p.photons = 512;
+    p.radius = 0.05f;
+    p.k = 20;
+    auto ref = make_cpu_photon_wavefront(sc, p, &sc->accel());
+    std::atomic<bool> cancel{false};
+    WavefrontPassStats st;
+    ASSERT_TRUE(ref->render_pass(0, &cancel, st));
+    ASSERT_TRUE(ref->render_pass(1, &cancel, st));
+    const std::vector<float> two = ref->image(2);
+    double total = 0.0;
+    for (float v : two) total += v;
+    ASSERT_GT(total, 0.0) << pm;
 
-  auto wf = make_cpu_photon_wavefront(sc, p, &sc->accel());
-  // Cancelled: the flag is first read after the visible points (the measurement points written by then).
-  std::atomic<bool> stop{true};
-  EXPECT_FALSE(wf->render_pass(0, &stop, st));
-  ASSERT_TRUE(wf->render_pass(0, &cancel, st));
-  ASSERT_TRUE(wf->render_pass(1, &cancel, st));
-  EXPECT_EQ(wf->image(2), two);
-  EXPECT_FALSE(wf->render_pass(2, &stop, st));
-  EXPECT_EQ(wf->image(2), two);
+    auto wf = make_cpu_photon_wavefront(sc, p, &sc->accel());
+    std::atomic<bool> stop{true};  // the flag is first read after the visible points (ppm), in the photons (pm)
+    EXPECT_FALSE(wf->render_pass(0, &stop, st));
+    ASSERT_TRUE(wf->render_pass(0, &cancel, st));
+    ASSERT_TRUE(wf->render_pass(1, &cancel, st));
+    EXPECT_EQ(wf->image(2), two) << pm;
+    EXPECT_FALSE(wf->render_pass(2, &stop, st));
+    EXPECT_EQ(wf->image(2), two) << pm;
+  }
 }
 
 // light, bdpt, bpm, vcm and upg on the CPU backend (integrator/wavefront_vcm.h) run the CPU drivers' stage
@@ -480,7 +488,8 @@ TEST(WavefrontVcm, RefusesWhatOnlyTheCpuDriverDoes) {
   o.strategy_images = true;
   EXPECT_THROW(make_job(sc, o), InputError);
   o.strategy_images = false;
-  o.integrator = "pm";
+  o.integrator = "sppm";
+  o.photon_sampling = "adaptive";
   EXPECT_THROW(make_job(sc, o), InputError);
 }
 
@@ -494,13 +503,15 @@ TEST(Cuda, BidirectionalMatchesTheCpuPerRegion) {
     expect_gpu_agrees_per_region(sc, photon_options(integrator, 8, 0), integrator);
 }
 
-// On a GPU: sppm, ppm and pppm agree with the CPU wavefront per region (independent seeds, 4 standard errors).
+// On a GPU: sppm, ppm, pppm and pm agree with the CPU wavefront per region (independent seeds, 4 standard
+// errors; pm's maps are built once per seed).
 TEST(Cuda, PhotonMappingMatchesTheCpuPerRegion) {
   std::string why;
   if (cuda_devices(&why).empty()) GTEST_SKIP() << "no CUDA device: " << why;
   auto sc = small_scene("smallvcm-spheres", 32, 32);
-  for (const char* integrator : {"sppm", "ppm", "pppm"}) {
+  for (const char* integrator : {"sppm", "ppm", "pppm", "pm"}) {
     for (bool stochastic : {false, true}) {
+      if (stochastic && std::string(integrator) == "pm") continue;  // pm has no hash grid
       RenderOptions o = photon_options(integrator, 8, 0);
       o.stochastic_hash = stochastic;
       expect_gpu_agrees_per_region(sc, o, std::string(integrator) + (stochastic ? " stochastic" : ""));

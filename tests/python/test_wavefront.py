@@ -44,8 +44,8 @@ def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
     for args, msg in ((["--wavefront", "--cache-first-bounce"], "--cache-first-bounce needs --no-jitter"),
                       (["--sort-materials"], "--sort-materials applies to the wavefront path tracer"),
                       (["--no-compaction"], "--no-compaction applies to the wavefront path tracer"),
-                      (["--wavefront", "--integrator", "pm"],
-                       "--wavefront runs path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg and restir"),
+                      (["--wavefront", "--integrator", "pm", "--k", "300"],
+                       "--k: at most 256 photons per estimate on the wavefront, got 300"),
                       (["--wavefront", "--integrator", "bdpt", "--strategy-images", str(tmp_path)],
                        "--strategy-images runs on the CPU driver only"),
                       (["--wavefront", "--integrator", "sppm", "--sort-materials"],
@@ -57,14 +57,17 @@ def test_first_bounce_cache_needs_fixed_camera_rays(tmp_path):
         assert not out.exists()
 
 
-@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm"])
+@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm", "pm"])
 def test_cpu_wavefront_photon_mapping_matches_the_photon_integrator(integrator):
     # The same stage functions; a visible point may add its photons in another order (in doubles), so
-    # values agree to 1e-5 relative (one photon moves a pixel by 1e-3 of its value or more here).
+    # values agree to 1e-5 relative (one photon moves a pixel by 1e-3 of its value or more here). pm traces
+    # its photons once.
     s = caustica.load_scene("smallvcm-spheres", width=24, height=20)
-    ref = caustica.render(s, integrator=integrator, spp=3, seed=4)
+    ref = caustica.render_job(s, integrator=integrator, spp=3, seed=4)
     r = caustica.render_job(s, integrator=integrator, spp=3, seed=4, wavefront=True)
-    assert r.stats["device"] == f"cpu (wavefront, {r.stats['accel']})" and r.stats["photons"] == 3 * 24 * 20
+    assert r.stats["device"] == f"cpu (wavefront, {r.stats['accel']})"
+    assert r.stats["photons"] == ref.stats["photons"] == (1 if integrator == "pm" else 3) * 24 * 20
+    ref = ref.image
     assert r.stats["radius"] > 0
     np.testing.assert_allclose(r.image, ref, rtol=1e-5, atol=1e-9)
 
@@ -107,7 +110,7 @@ def test_too_many_light_subpaths_for_memory_is_a_one_line_error(tmp_path):
 
 
 @needs_gpu
-@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm", "light", "bdpt", "bpm", "vcm", "upg"])
+@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm", "pm", "light", "bdpt", "bpm", "vcm", "upg"])
 def test_gpu_photon_and_bidirectional_integrators_match_the_cpu_per_region(integrator):
     s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
     m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112))

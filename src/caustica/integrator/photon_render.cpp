@@ -14,6 +14,7 @@
 #include "../photon/hash_grid.h"
 #include "../photon/trace.h"
 #include "path.h"
+#include "pm.h"
 
 namespace caustica {
 
@@ -121,24 +122,6 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
   });
 }
 
-RGB PhotonIntegrator::pm_estimate(const PhotonKdTree& map, uint64_t paths, const Material& m, const Frame& frame,
-                                  Vec3f wo, Vec3f p, uint32_t* idx, float* d2) const {
-  // Jensen 2001 Eq. 7.6 with the cone filter (Eq. 7.7, k_cone = 1): weights
-  // w = 1 - d / r over the k nearest photons within radius r = distance of the kth.
-  size_t n = map.knn(p, size_t(opt_.k), kInf, idx, d2);
-  if (n == 0) return RGB(0.f);
-  float r2 = d2[n - 1];
-  if (!(r2 > 0.f)) return RGB(0.f);
-  float r = std::sqrt(r2);
-  RGB sum(0.f);
-  for (size_t j = 0; j < n; ++j) {
-    const Photon& ph = map.photon(idx[j]);
-    float w = 1.f - std::sqrt(d2[j]) / r;
-    sum += bsdf_eval(m, wo, frame.to_local(ph.wi)) * ph.power * w;
-  }
-  return sum / ((1.f - 2.f / 3.f) * kPi * r2 * float(paths));
-}
-
 void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
   const SceneView& v = scene_->view();
   const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
@@ -159,50 +142,16 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
   pp.seed = opt_.seed;
   pp.sampler = opt_.sampler;
   const bool light_bvh = opt_.light_sampler == "bvh";
+  const uint32_t k = uint32_t(opt_.k);
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
-    std::vector<uint32_t> idx(size_t(opt_.k));
-    std::vector<float> d2(size_t(opt_.k));
+    std::vector<uint32_t> idx(k);
+    std::vector<float> d2(k);
     for (int y = r.begin(); y < r.end(); ++y)
       for (int x = 0; x < W_; ++x) {
         PathState st;
         path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
-        RGB L(0.f);
-        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L, light_bvh);
-        if (vp.valid) {
-          const Material& m = vp.material;
-          Frame frame(vp.ns);
-          Vec3f wo = frame.to_local(vp.wo);
-          L += vp.beta * pm_estimate(caustic_, global_paths_, m, frame, wo, vp.p, idx.data(), d2.data());
-          // Final gathering: one BSDF-sampled ray; radiance at its non-specular hit
-          // (through specular bounces) from the global map. Emission seen by it is
-          // direct light, already counted by NEE.
-          BSDFSample bs;
-          float uc = st.sampler.next_1d();
-          Vec2f u = st.sampler.next_2d();
-          if (bsdf_sample(m, wo, uc, u, bs) && !bs.delta) {
-            Vec3f wi = frame.to_world(bs.wi);
-            Ray ray{offset_ray_origin(vp.p, vp.ng, wi), wi, kInf};
-            RGB beta = vp.beta * bs.weight;
-            for (int bounce = 0; bounce < 8; ++bounce) {
-              Hit hit;
-              if (!accel.intersect(ray, hit)) break;
-              SurfaceHit sh = make_surface_hit(v, ray, hit);
-              beta *= segment_transmittance(v, ray.d, hit.t, sh);
-              const Material gm = surface_material(v, sh);
-              Frame gf(sh.ns);
-              Vec3f gwo = gf.to_local(-ray.d);
-              if (!material_is_delta(gm)) {
-                L += beta * pm_estimate(global_, global_paths_, gm, gf, gwo, sh.p, idx.data(), d2.data());
-                break;
-              }
-              BSDFSample gs;
-              if (!bsdf_sample(gm, gwo, st.sampler.next_1d(), st.sampler.next_2d(), gs)) break;
-              Vec3f gwi = gf.to_world(gs.wi);
-              beta *= gs.weight;
-              ray = Ray{offset_ray_origin(sh.p, sh.ng, gwi), gwi, kInf};
-            }
-          }
-        }
+        const RGB L = pm_radiance(v, accel, caustic_, global_, global_paths_, k, st.ray, st.sampler, max_depth_,
+                                  light_bvh, idx.data(), d2.data());
         if (!isfinite3(L)) continue;
         size_t i = size_t(y) * W_ + x;
         for (int c = 0; c < 3; ++c) direct_[3 * i + c] += L[c];

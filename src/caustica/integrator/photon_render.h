@@ -20,7 +20,8 @@
 //          reflection by recursion, direct light by NEE, caustics by a k-nearest
 //          density estimate of the caustic map with the cone filter (Jensen 2001
 //          Eq. 7.7, normalisation 1 - 2/(3k)), indirect diffuse by final gathering:
-//          a cosine-sampled ray whose hit is estimated from the global map.
+//          a BSDF-sampled ray whose hit is estimated from the global map (stage functions in pm.h;
+//          the wavefront driver, wavefront_photon.h, runs the same on the portable kd-tree).
 #pragma once
 #include <memory>
 #include <vector>
@@ -62,8 +63,6 @@ class PhotonIntegrator {
  private:
   enum class Kind { kPPM, kSPPM, kPPPM, kPM } kind_;
   void render_pm_pass(int64_t abs_pass);
-  RGB pm_estimate(const PhotonKdTree& map, uint64_t paths, const Material& m, const Frame& frame, Vec3f wo, Vec3f p,
-                  uint32_t* idx, float* d2) const;
   PhotonKdTree global_, caustic_;
   uint64_t global_paths_ = 0;
   uint64_t traced_ = 0;

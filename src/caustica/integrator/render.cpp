@@ -160,16 +160,8 @@ void RenderJob::validate(const RenderOptions& o) {
   bool cuda = cuda_device_index(o.device) >= 0;
   if (o.device != "cpu" && !cuda)
     throw InputError("unknown device '" + o.device + "' (allowed: cpu, cuda, cuda:N)");
-  const bool wavefront_integrator = o.integrator == "path" || o.integrator == "sppm" || o.integrator == "ppm" ||
-                                    o.integrator == "pppm" ||
-                                    is_vcm_integrator(o.integrator) || o.integrator == "upg" ||
-                                    o.integrator == "restir";
-  if (cuda && !wavefront_integrator)
-    throw InputError("integrator '" + o.integrator + "' does not run on the CUDA backend yet (allowed with " +
-                     "--device cuda: path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg, restir)");
-  if (o.wavefront && !wavefront_integrator)
-    throw InputError("--wavefront runs path, sppm, ppm, pppm, light, bdpt, bpm, vcm, upg and restir, got '" +
-                     o.integrator + "'");
+  // Every integrator runs on the wavefront drivers (--wavefront, --device cuda); what does not is refused below
+  // and in the photon-sampling check above.
   if (uses_wavefront(o) && o.strategy_images)
     throw InputError("--strategy-images runs on the CPU driver only (not with --wavefront or --device cuda)");
   if (uses_wavefront(o) && is_photon_integrator(o.integrator) && o.photons > 0x7fffffff)
@@ -264,6 +256,8 @@ void RenderJob::make_integrator() {
     PhotonWavefrontParams p;
     p.pppm = opt_.integrator == "pppm";
     p.ppm = opt_.integrator == "ppm";
+    p.pm = opt_.integrator == "pm";
+    p.k = uint32_t(opt_.k);
     p.seed = opt_.seed;
     p.sampler = opt_.sampler;
     p.max_depth = path_params().max_depth;

@@ -94,7 +94,7 @@ struct RenderStats {
   double noise = -1.0;           // the last noise estimate (-1: none)
   bool target_reached = false;   // stopped because a target was met
   int lanes = 0;                 // path on the CPU: paths traced in lockstep (8), or 0 (one at a time)
-  // sppm/ppm/pppm on the wavefront (--wavefront, --device cuda): seconds spent per stage over all passes, and
+  // sppm/ppm/pppm/pm on the wavefront (--wavefront, --device cuda): seconds spent per stage over all passes, and
   // the photons stored (the hash grid's input). light/bdpt/bpm/vcm/upg on the wavefront: seconds_light,
   // seconds_grid, seconds_camera, seconds_accumulate, and the light vertices stored in stored_photons.
   double seconds_visible = 0.0, seconds_photons = 0.0, seconds_grid = 0.0, seconds_gather = 0.0;

@@ -27,13 +27,16 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "../backend/backend.h"
 #include "../backend/backend_algorithms.h"
 #include "../base/error.h"
 #include "../photon/trace.h"
+#include "../photon/knn_tree.h"
 #include "path.h"
+#include "pm.h"
 #include "sppm.h"
 #include "wavefront_render.h"
 
@@ -174,10 +177,14 @@ class WavefrontPhoton {
     K_ = p_.ppm ? uint32_t(kPpmPointsPerPixel) : 1u;
     if (uint64_t(n_) * K_ > 0xffffffffull) throw InputError("ppm on the wavefront: at most 536870911 pixels");
     nk_ = n_ * K_;
-    vp_.resize(nk_);
+    if (p_.pm && p_.k > uint32_t(kWavefrontMaxK))
+      throw InputError("--k: at most " + std::to_string(kWavefrontMaxK) + " photons per estimate on the wavefront, got " +
+                       std::to_string(p_.k));
+    if (!p_.pm) vp_.resize(nk_);
     lpass_.resize(3 * size_t(n_));
     direct_.resize(3 * size_t(n_));
-    if (p_.pppm) {
+    if (p_.pm) {
+    } else if (p_.pppm) {
       indirect_.resize(3 * size_t(n_));
     } else {
       N_.resize(nk_);
@@ -211,11 +218,13 @@ class WavefrontPhoton {
     const bool pppm = p_.pppm;
     const float r0 = p_.radius;
     const uint32_t K = K_;
+    const bool pm = p_.pm;
     VisiblePoint* vp = vp_.data();
     b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t j) {
-      vp[j] = VisiblePoint();
       if (j % K == 0)
         for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(j / K) + c] = 0.0;
+      if (pm) return;
+      vp[j] = VisiblePoint();
       if (pppm) {
         for (int c = 0; c < 3; ++c) ps.indirect[3 * size_t(j) + c] = 0.0;
       } else {
@@ -227,6 +236,7 @@ class WavefrontPhoton {
   }
 
   bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) {
+    if (p_.pm) return render_pm_pass(pass, cancel, stats);
     const SceneView s = b_.scene();
     const auto tracer = b_.tracer();
     const int64_t abs_pass = p_.pass_offset + int64_t(pass);
@@ -278,59 +288,7 @@ class WavefrontPhoton {
     const uint32_t photon_depth = max_depth == 0xffffffffu ? max_depth : max_depth - 1;
     const uint32_t P = p_.photons;
     uint32_t count = 0;
-    {
-      PhotonPathState* paths = paths_.data();
-      uint32_t* queue = queue_.data();
-      const uint64_t seed = p_.seed;
-      b_.parallel_for(P, CAUSTICA_KERNEL(uint32_t i) {
-        photon_start(s, seed, uint32_t(abs_pass), i, paths[i]);
-        if (photon_depth == 0) paths[i].active = false;
-        queue[i] = i;
-      });
-    }
-    uint32_t len = P;
-    for (uint32_t depth = 0; len > 0; ++depth) {
-      if (cancelled()) return false;
-      PhotonPathState* paths = paths_.data();
-      Hit* hits = hits_.data();
-      Photon* staged = staged_.data();
-      uint32_t* queue = queue_.data();
-      uint32_t* flags = flags_.data();
-      uint32_t* scan = scan_.data();
-      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
-        uint32_t i = queue[k];
-        if (paths[i].active) tracer.intersect(paths[i].ray, hits[i]);
-      });
-      // Rays traced: after the first compaction every queued path is active; at depth 0 some paths may have
-      // emitted nothing (counted with a scan, once).
-      if (depth == 0) {
-        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
-        stats.rays += b_.exclusive_scan(flags, scan, len);
-      } else {
-        stats.rays += len;
-      }
-      // Stored photons (never the light's direct photons: NEE at the visible points covers them).
-      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
-        uint32_t i = queue[k];
-        bool stored = false;
-        if (paths[i].active) {
-          Photon ph;
-          stored = photon_bounce(s, photon_depth, paths[i], hits[i], ph) && !(ph.flags & kPhotonDirect);
-          if (stored) staged[k] = ph;
-        }
-        flags[k] = stored ? 1u : 0u;
-      });
-      const uint32_t stored = b_.exclusive_scan(flags, scan, len);
-      reserve_photons(size_t(count) + stored);
-      {
-        Photon* out = photons_.data() + count;
-        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
-          if (flags[k]) out[scan[k]] = staged[k];
-        });
-      }
-      count += stored;
-      len = compact_queue(b_, paths, queue_, queue2_, flags, scan, len);  // the paths still going
-    }
+    if (!trace_photons(uint32_t(abs_pass), photon_depth, false, cancel, stats, count)) return false;
     stats.photons = P;
     stats.stored_photons = count;
     lap(stats.seconds_photons);
@@ -370,13 +328,172 @@ class WavefrontPhoton {
     return true;
   }
 
+  // Traces photon paths [0, p_.photons) of pass `pass_index` (photon/trace.h's stream for that pass) one segment
+  // per stage; the stored photons go to photons_[0, count) in (depth, path) order. keep_direct: also the
+  // light's direct photons (pm's global map; the others leave direct light to NEE). False when cancelled.
+  bool trace_photons(uint32_t pass_index, uint32_t photon_depth, bool keep_direct, const std::atomic<bool>* cancel,
+                     WavefrontPassStats& stats, uint32_t& count) {
+    const SceneView s = b_.scene();
+    const auto tracer = b_.tracer();
+    const uint32_t P = p_.photons;
+    auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
+    count = 0;
+    {
+      PhotonPathState* paths = paths_.data();
+      uint32_t* queue = queue_.data();
+      const uint64_t seed = p_.seed;
+      b_.parallel_for(P, CAUSTICA_KERNEL(uint32_t i) {
+        photon_start(s, seed, pass_index, i, paths[i]);
+        if (photon_depth == 0) paths[i].active = false;
+        queue[i] = i;
+      });
+    }
+    uint32_t len = P;
+    for (uint32_t depth = 0; len > 0; ++depth) {
+      if (cancelled()) return false;
+      PhotonPathState* paths = paths_.data();
+      Hit* hits = hits_.data();
+      Photon* staged = staged_.data();
+      uint32_t* queue = queue_.data();
+      uint32_t* flags = flags_.data();
+      uint32_t* scan = scan_.data();
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+        uint32_t i = queue[k];
+        if (paths[i].active) tracer.intersect(paths[i].ray, hits[i]);
+      });
+      // Rays traced: after the first compaction every queued path is active; at depth 0 some paths may have
+      // emitted nothing (counted with a scan, once).
+      if (depth == 0) {
+        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = paths[queue[k]].active ? 1u : 0u; });
+        stats.rays += b_.exclusive_scan(flags, scan, len);
+      } else {
+        stats.rays += len;
+      }
+      b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+        uint32_t i = queue[k];
+        bool stored = false;
+        if (paths[i].active) {
+          Photon ph;
+          stored = photon_bounce(s, photon_depth, paths[i], hits[i], ph) && (keep_direct || !(ph.flags & kPhotonDirect));
+          if (stored) staged[k] = ph;
+        }
+        flags[k] = stored ? 1u : 0u;
+      });
+      const uint32_t stored = b_.exclusive_scan(flags, scan, len);
+      reserve_photons(size_t(count) + stored);
+      {
+        Photon* out = photons_.data() + count;
+        b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
+          if (flags[k]) out[scan[k]] = staged[k];
+        });
+      }
+      count += stored;
+      len = compact_queue(b_, paths, queue_, queue2_, flags, scan, len);  // the paths still going
+    }
+    return true;
+  }
+
+  // pm (Jensen 1996): the global and caustic maps built once, from photon pass 0xfffffff as the CPU driver
+  // (photon_render.cpp) traces them, on the host into the portable kd-tree (photon/knn_tree.h) and copied to
+  // the backend; then per pass one camera sample per pixel (pm.h's pm_radiance), its light added in the
+  // last stage.
+  bool render_pm_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) {
+    const SceneView s = b_.scene();
+    const auto tracer = b_.tracer();
+    const int64_t abs_pass = p_.pass_offset + int64_t(pass);
+    const uint32_t W = uint32_t(s.camera.width);
+    const uint32_t max_depth = p_.max_depth;
+    stats = WavefrontPassStats();
+    auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
+    auto t0 = std::chrono::steady_clock::now();
+    auto lap = [&](double& seconds) {
+      b_.synchronize();
+      auto t = std::chrono::steady_clock::now();
+      seconds = std::chrono::duration<double>(t - t0).count();
+      t0 = t;
+    };
+    if (!maps_built_) {
+      const uint32_t photon_depth = max_depth == 0xffffffffu ? max_depth : max_depth - 1;
+      uint32_t count = 0;
+      if (!trace_photons(0xfffffffu, photon_depth, true, cancel, stats, count)) return false;
+      lap(stats.seconds_photons);
+      std::vector<Photon> all(count), caustic;
+      if (count > 0) b_.to_host(photons_, all.data(), count);
+      for (const Photon& ph : all)
+        if (ph.flags & kPhotonCaustic) caustic.push_back(ph);
+      upload_map(build_knn_tree(all), global_);
+      upload_map(build_knn_tree(caustic), caustic_);
+      stats.photons = p_.photons;
+      stats.stored_photons = count;
+      maps_built_ = true;
+      lap(stats.seconds_grid);
+      if (cancelled()) return false;
+    }
+    {
+      PathParams pp;
+      pp.seed = p_.seed;
+      pp.sampler = p_.sampler;
+      double* lpass = lpass_.data();
+      const bool light_bvh = p_.light_bvh;
+      const KnnTreeView global = global_.view(), caustic = caustic_.view();
+      const uint64_t paths = p_.photons;
+      const uint32_t k = p_.k;
+      b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
+        PathState st;
+        path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
+        uint32_t idx[kWavefrontMaxK];
+        float d2[kWavefrontMaxK];
+        const RGB L = pm_radiance(s, tracer, caustic, global, paths, k, st.ray, st.sampler, max_depth, light_bvh,
+                                  idx, d2);
+        const bool ok = isfinite3(L);
+        for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
+      });
+    }
+    lap(stats.seconds_visible);
+    if (cancelled()) return false;
+    {
+      double* direct = direct_.data();
+      const double* lpass = lpass_.data();
+      b_.parallel_for(3 * n_, CAUSTICA_KERNEL(uint32_t j) { direct[j] += lpass[j]; });
+    }
+    lap(stats.seconds_gather);
+    return true;
+  }
+
+  // A portable kd-tree's arrays on the backend.
+  struct DeviceKnnTree {
+    Buffer<Photon> photons;
+    Buffer<uint32_t> index;
+    Buffer<uint8_t> axis;
+    uint32_t n = 0;
+    KnnTreeView view() const {
+      KnnTreeView v;
+      v.photons = photons.data();
+      v.index = index.data();
+      v.axis = axis.data();
+      v.n = n;
+      return v;
+    }
+  };
+  void upload_map(const KnnTreeHost& t, DeviceKnnTree& d) {
+    d.n = uint32_t(t.photons.size());
+    d.photons.resize(t.photons.size());
+    d.index.resize(t.index.size());
+    d.axis.resize(t.axis.size());
+    if (d.n == 0) return;
+    b_.to_device(d.photons, t.photons.data(), t.photons.size());
+    b_.to_device(d.index, t.index.data(), t.index.size());
+    b_.to_device(d.axis, t.axis.data(), t.axis.size());
+  }
+
   // The statistics, copied to the host: direct (3 per pixel), and tau (3), R (1) per visible point for sppm
   // and ppm (points_per_pixel() of them per pixel) or indirect (3 per pixel) for pppm.
   void statistics(std::vector<double>& direct, std::vector<double>& tau, std::vector<float>& R,
                   std::vector<double>& indirect) const {
     direct.resize(3 * size_t(n_));
     b_.to_host(direct_, direct.data(), direct.size());
-    if (p_.pppm) {
+    if (p_.pm) {
+    } else if (p_.pppm) {
       indirect.resize(3 * size_t(n_));
       b_.to_host(indirect_, indirect.data(), indirect.size());
     } else {
@@ -400,6 +517,8 @@ class WavefrontPhoton {
   uint32_t K_ = 1;   // visible points per pixel (ppm: kPpmPointsPerPixel)
   uint32_t nk_ = 0;  // visible points
   bool measured_ = false;  // ppm: the measurement points are traced (a pass has completed)
+  bool maps_built_ = false;  // pm: the photon maps are built
+  DeviceKnnTree global_, caustic_;
   Buffer<VisiblePoint> vp_;
   Buffer<double> lpass_, direct_, indirect_, N_, tau_;
   Buffer<float> R_;

@@ -30,7 +30,7 @@ struct WavefrontPassStats {
   uint64_t stored_photons = 0;  // photons in the grid's input (before stochastic hashing); light vertices
 };
 
-// A render on a backend, pass by pass: the path tracer (wavefront_path.h), sppm/ppm/pppm (wavefront_photon.h)
+// A render on a backend, pass by pass: the path tracer (wavefront_path.h), sppm/ppm/pppm/pm (wavefront_photon.h)
 // or light/bdpt/bpm/vcm (wavefront_vcm.h).
 class WavefrontRenderer {
  public:
@@ -55,10 +55,12 @@ class WavefrontRenderer {
 std::unique_ptr<WavefrontRenderer> make_cpu_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
                                                       const WavefrontOptions& opt, const CpuAccel* accel);
 
-// What the photon wavefront needs beyond the scene (RenderOptions of sppm / ppm / pppm, resolved).
+// What the photon wavefront needs beyond the scene (RenderOptions of sppm / ppm / pppm / pm, resolved).
 struct PhotonWavefrontParams {
   bool pppm = false;           // pppm (global radius per pass)
-  bool ppm = false;            // ppm (fixed measurement points); neither: sppm
+  bool ppm = false;            // ppm (fixed measurement points)
+  bool pm = false;             // pm (Jensen's global and caustic maps, k nearest); none of the three: sppm
+  uint32_t k = 50;             // pm: photons per estimate (at most kWavefrontMaxK, pm.h)
   uint64_t seed = 0;
   SamplerType sampler = SamplerType::kSobol;
   uint32_t max_depth = 0xffffffffu;  // segments, Mitsuba's count

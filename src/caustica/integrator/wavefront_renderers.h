@@ -66,7 +66,10 @@ class PhotonWavefrontRenderer final : public WavefrontRenderer {
     std::vector<float> R;
     wf_.statistics(direct, tau, R, indirect);
     return photon_image(pixels_, wf_.points_per_pixel(), passes, p_.photons,
-                        p_.pppm ? PhotonEstimate::kPerPass : PhotonEstimate::kProgressive, direct, tau, R, indirect);
+                        p_.pm     ? PhotonEstimate::kNone
+                        : p_.pppm ? PhotonEstimate::kPerPass
+                                  : PhotonEstimate::kProgressive,
+                        direct, tau, R, indirect);
   }
   std::string device_name() const override { return name_; }
   float initial_radius() const override { return p_.radius; }

@@ -29,7 +29,7 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* why = nullptr);
 std::unique_ptr<WavefrontRenderer> make_cuda_wavefront(std::shared_ptr<Scene> scene, const PathParams& pp,
                                                        const WavefrontOptions& opt, int device);
 
-// sppm / ppm / pppm on CUDA device `device` (integrator/wavefront_photon.h).
+// sppm / ppm / pppm / pm on CUDA device `device` (integrator/wavefront_photon.h).
 std::unique_ptr<WavefrontRenderer> make_cuda_photon_wavefront(std::shared_ptr<Scene> scene,
                                                               const PhotonWavefrontParams& p, int device);
 
