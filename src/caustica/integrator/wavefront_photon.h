@@ -236,7 +236,6 @@ class WavefrontPhoton {
   }
 
   bool render_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) {
-    if (p_.pm) return render_pm_pass(pass, cancel, stats);
     const SceneView s = b_.scene();
     const auto tracer = b_.tracer();
     const int64_t abs_pass = p_.pass_offset + int64_t(pass);
@@ -244,13 +243,8 @@ class WavefrontPhoton {
     const uint32_t max_depth = p_.max_depth;
     stats = WavefrontPassStats();
     auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
-    auto t0 = std::chrono::steady_clock::now();
-    auto lap = [&](double& seconds) {
-      b_.synchronize();
-      auto t = std::chrono::steady_clock::now();
-      seconds = std::chrono::duration<double>(t - t0).count();
-      t0 = t;
-    };
+    StageClock<B> clock(b_);
+    if (p_.pm) return render_pm_pass(s, tracer, abs_pass, cancel, clock, stats);
 
     // Visible points: a new camera path per pixel (its direct light kept apart until the pass completes).
     // ppm keeps the measurement points of its first pass (Hachisuka et al. 2008, Sec. 4.1; a cancelled first
@@ -280,7 +274,7 @@ class WavefrontPhoton {
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });
     }
-    lap(stats.seconds_visible);
+    clock.lap(stats.seconds_visible);
     if (cancelled()) return false;
 
     // Photon paths, one segment per stage. A photon stored after k segments completes a path of k + 1
@@ -291,14 +285,14 @@ class WavefrontPhoton {
     if (!trace_photons(uint32_t(abs_pass), photon_depth, false, cancel, stats, count)) return false;
     stats.photons = P;
     stats.stored_photons = count;
-    lap(stats.seconds_photons);
+    clock.lap(stats.seconds_photons);
     if (cancelled()) return false;
 
     // The grid, with cells of twice the largest radius (a query then overlaps at most 2x2x2 cells).
     const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), nk_, 0.f, FloatMax());
     grid_.build(b_, photons_.data(), count, s.bounds, 2.f * rmax, p_.stochastic_hash,
                 hash3(p_.seed, uint64_t(abs_pass), 0x9d));
-    lap(stats.seconds_grid);
+    clock.lap(stats.seconds_grid);
     if (cancelled()) return false;
 
     // Gather and update: the last stage, so a cancelled pass changes nothing.
@@ -323,7 +317,7 @@ class WavefrontPhoton {
         else sppm_update(ps.N[i], &ps.tau[3 * size_t(i)], ps.R[i], vp[i].beta, phi, M, alpha);
       });
     }
-    lap(stats.seconds_gather);
+    clock.lap(stats.seconds_gather);
     measured_ = true;
     return true;
   }
@@ -397,26 +391,18 @@ class WavefrontPhoton {
   // (photon_render.cpp) traces them, on the host into the portable kd-tree (photon/knn_tree.h) and copied to
   // the backend; then per pass one camera sample per pixel (pm.h's pm_radiance), its light added in the
   // last stage.
-  bool render_pm_pass(uint32_t pass, const std::atomic<bool>* cancel, WavefrontPassStats& stats) {
-    const SceneView s = b_.scene();
-    const auto tracer = b_.tracer();
-    const int64_t abs_pass = p_.pass_offset + int64_t(pass);
+  // (Called by render_pass with its pass's scene, tracer, pass index and stage clock.)
+  template <class Tracer>
+  bool render_pm_pass(const SceneView s, const Tracer tracer, int64_t abs_pass, const std::atomic<bool>* cancel,
+                      StageClock<B>& clock, WavefrontPassStats& stats) {
     const uint32_t W = uint32_t(s.camera.width);
     const uint32_t max_depth = p_.max_depth;
-    stats = WavefrontPassStats();
     auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
-    auto t0 = std::chrono::steady_clock::now();
-    auto lap = [&](double& seconds) {
-      b_.synchronize();
-      auto t = std::chrono::steady_clock::now();
-      seconds = std::chrono::duration<double>(t - t0).count();
-      t0 = t;
-    };
     if (!maps_built_) {
       const uint32_t photon_depth = max_depth == 0xffffffffu ? max_depth : max_depth - 1;
       uint32_t count = 0;
       if (!trace_photons(0xfffffffu, photon_depth, true, cancel, stats, count)) return false;
-      lap(stats.seconds_photons);
+      clock.lap(stats.seconds_photons);
       std::vector<Photon> all(count), caustic;
       if (count > 0) b_.to_host(photons_, all.data(), count);
       for (const Photon& ph : all)
@@ -426,7 +412,7 @@ class WavefrontPhoton {
       stats.photons = p_.photons;
       stats.stored_photons = count;
       maps_built_ = true;
-      lap(stats.seconds_grid);
+      clock.lap(stats.seconds_grid);
       if (cancelled()) return false;
     }
     {
@@ -449,14 +435,14 @@ class WavefrontPhoton {
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });
     }
-    lap(stats.seconds_visible);
+    clock.lap(stats.seconds_visible);
     if (cancelled()) return false;
     {
       double* direct = direct_.data();
       const double* lpass = lpass_.data();
       b_.parallel_for(3 * n_, CAUSTICA_KERNEL(uint32_t j) { direct[j] += lpass[j]; });
     }
-    lap(stats.seconds_gather);
+    clock.lap(stats.seconds_gather);
     return true;
   }
 

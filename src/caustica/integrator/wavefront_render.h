@@ -3,6 +3,7 @@
 // that nothing outside that folder needs CUDA headers.
 #pragma once
 #include <atomic>
+#include <chrono>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,6 +29,21 @@ struct WavefrontPassStats {
   // accumulation.
   double seconds_light = 0.0, seconds_camera = 0.0, seconds_accumulate = 0.0;
   uint64_t stored_photons = 0;  // photons in the grid's input (before stochastic hashing); light vertices
+};
+
+// The wall-clock seconds of a wavefront pass's stages: lap(seconds) synchronises the backend and stores the
+// time since the previous lap (or since the clock was made).
+template <class B>
+struct StageClock {
+  explicit StageClock(const B& backend) : b(backend) {}
+  void lap(double& seconds) {
+    b.synchronize();
+    const auto t = std::chrono::steady_clock::now();
+    seconds = std::chrono::duration<double>(t - t0).count();
+    t0 = t;
+  }
+  const B& b;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
 };
 
 // A render on a backend, pass by pass: the path tracer (wavefront_path.h), sppm/ppm/pppm/pm (wavefront_photon.h)

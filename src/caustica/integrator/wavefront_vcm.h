@@ -89,13 +89,7 @@ class WavefrontVcm {
     vcm_set_radius(p, upg ? p_.radius : vcm_radius(p_.radius, p_.alpha, int64_t(pass)));
     stats = WavefrontPassStats();
     auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
-    auto t0 = std::chrono::steady_clock::now();
-    auto lap = [&](double& seconds) {  // the stage's wall-clock time (the backend synchronised)
-      b_.synchronize();
-      auto t = std::chrono::steady_clock::now();
-      seconds = std::chrono::duration<double>(t - t0).count();
-      t0 = t;
-    };
+    StageClock<B> clock(b_);
     const uint32_t nl = p_.light_paths;
 
     // 1. Light subpaths, one segment per stage.
@@ -155,7 +149,7 @@ class WavefrontVcm {
     if (keep) write_run_starts(b_, vkeys_.data(), nverts, nl, start_.data());
     stats.photons = nl;
     stats.stored_photons = nverts;
-    lap(stats.seconds_light);
+    clock.lap(stats.seconds_light);
 
     // 2. The hash grid of light vertices for merging (cells of 2r), the merge records in the grid's order;
     // for upg's gathers, cells of 2(r + slack) and the grid reports vertex indices.
@@ -183,7 +177,7 @@ class WavefrontVcm {
         b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t j) { mv[j] = vcm_merge_vertex(verts[ids[j]]); });
       }
     }
-    lap(stats.seconds_grid);
+    clock.lap(stats.seconds_grid);
     if (cancelled()) return false;
 
     // 3. Camera subpaths, one per pixel, one segment per stage.
@@ -252,12 +246,12 @@ class WavefrontVcm {
       stats.rays += b_.reduce(rays, len, 0u, UintSum());
       len = compact(paths, len);
     }
-    lap(stats.seconds_camera);
+    clock.lap(stats.seconds_camera);
     if (cancelled()) return false;
 
     // 4. Accumulation: per pixel its camera estimate, then its splats in path order.
     accumulate(s, p, nsplats);
-    lap(stats.seconds_accumulate);
+    clock.lap(stats.seconds_accumulate);
     return true;
   }
 
