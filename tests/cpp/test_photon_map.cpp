@@ -634,26 +634,24 @@ TEST(PhotonKnnTree, KnnEqualsBruteForce) {
     const KnnTreeView v = tree.view();
     ASSERT_EQ(v.n, photons.size());
     // Each node splits its subtrees: descendants on the left have coordinate <= its own, on the right >=.
+    auto subtree_on_side = [&](uint32_t root, int a, float split, bool lower) {
+      std::vector<uint32_t> pending{root};
+      while (!pending.empty()) {
+        const uint32_t j = pending.back();
+        pending.pop_back();
+        if (j >= v.n) continue;
+        const float c = v.photons[j].p[a];
+        if (lower ? c > split : c < split) return false;
+        pending.push_back(2 * j + 1);
+        pending.push_back(2 * j + 2);
+      }
+      return true;
+    };
     for (uint32_t i = 0; i < v.n; ++i) {
       const int a = v.axis[i];
-      std::vector<uint32_t> todo{2 * i + 1};
-      while (!todo.empty()) {
-        uint32_t j = todo.back();
-        todo.pop_back();
-        if (j >= v.n) continue;
-        ASSERT_LE(v.photons[j].p[a], v.photons[i].p[a]) << what << " node " << i;
-        todo.push_back(2 * j + 1);
-        todo.push_back(2 * j + 2);
-      }
-      todo.push_back(2 * i + 2);
-      while (!todo.empty()) {
-        uint32_t j = todo.back();
-        todo.pop_back();
-        if (j >= v.n) continue;
-        ASSERT_GE(v.photons[j].p[a], v.photons[i].p[a]) << what << " node " << i;
-        todo.push_back(2 * j + 1);
-        todo.push_back(2 * j + 2);
-      }
+      const float split = v.photons[i].p[a];
+      ASSERT_TRUE(subtree_on_side(2 * i + 1, a, split, true)) << what << " node " << i;
+      ASSERT_TRUE(subtree_on_side(2 * i + 2, a, split, false)) << what << " node " << i;
       ASSERT_EQ(bits_of(v.photons[i]), bits_of(photons[v.index[i]]));
     }
     for (uint32_t k : {1u, 7u, 50u, 300u}) {
