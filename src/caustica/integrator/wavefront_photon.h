@@ -22,6 +22,10 @@
 // are added in another order: images agree with the CPU integrator's to rounding (tests/cpp/
 // test_wavefront.cpp), except with stochastic hashing, where the photon kept in a cell is drawn among them
 // in another order (same distribution).
+// Jensen's photon mapping (pm, Jensen 1996) runs here too, without visible points or grid: its first pass
+// traces the photons with the same stages (direct photons kept), builds the global and caustic maps on the
+// host as portable kd-trees (photon/knn_tree.h) and copies them to the backend; every pass then runs pm.h's
+// pm_radiance per pixel (render_pm_pass).
 #pragma once
 #include <atomic>
 #include <chrono>
