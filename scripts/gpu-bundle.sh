@@ -61,7 +61,8 @@ step compute-sanitizer --tool memcheck --error-exitcode 1 $B/bin/caustica_tests 
   --gtest_filter='Cuda.SwitchesChangeNothingOnTheGpu' 2>&1 | tail -n 40 | tee "$OUT/memcheck.txt"
 for args in "--integrator path --sort-materials" "--integrator sppm --photons 5000" \
             "--integrator pppm --photons 5000 --stochastic-hash" "--integrator vcm --photons 2000" \
-            "--integrator ppm --photons 5000" "--integrator pm --photons 5000"; do
+            "--integrator ppm --photons 5000" "--integrator pm --photons 5000" \
+            "--integrator sppm --photons 4096 --photon-sampling adaptive"; do
   step compute-sanitizer --tool memcheck --error-exitcode 1 python3 -m caustica.cli render smallvcm-spheres \
     --device cuda --spp 2 --width 64 --height 48 --quiet -o /tmp/memcheck.exr $args 2>&1 | tail -n 20 \
     | tee -a "$OUT/memcheck.txt"

@@ -287,19 +287,19 @@ LIGHT_SAMPLER_INTEGRATORS = ("path", "restir", "pm", "ppm", "sppm", "pppm", "bdp
 
 
 # Variants compared as integrators of their own ("sppm+adaptive" is sppm with photon_sampling="adaptive"; several
-# combine: "restir+nohistory+nospatial"): name -> (the options it sets, the integrators it applies to, whether the
-# wavefront/CUDA drivers run it).
+# combine: "restir+nohistory+nospatial"): name -> (the options it sets, the integrators it applies to). Every
+# variant runs on every driver (CPU, wavefront, CUDA).
 VARIANTS = {
-    "adaptive": ({"photon_sampling": "adaptive"}, ("ppm", "sppm", "pppm"), False),
-    "nohistory": ({"restir_history": 0.0}, ("restir",), True),
-    "nospatial": ({"restir_neighbors": 0}, ("restir",), True),
-    "bvh": ({"light_sampler": "bvh"}, LIGHT_SAMPLER_INTEGRATORS, True),
+    "adaptive": ({"photon_sampling": "adaptive"}, ("ppm", "sppm", "pppm")),
+    "nohistory": ({"restir_history": 0.0}, ("restir",)),
+    "nospatial": ({"restir_neighbors": 0}, ("restir",)),
+    "bvh": ({"light_sampler": "bvh"}, LIGHT_SAMPLER_INTEGRATORS),
 }
 
 
 def variant_names() -> list[str]:
     """Every integrator+variant name (for messages and help)."""
-    return [f"{b}+{v}" for v, (_, bases, _) in VARIANTS.items() for b in bases]
+    return [f"{b}+{v}" for v, (_, bases) in VARIANTS.items() for b in bases]
 
 
 def split_integrator_variant(name: str) -> tuple[str, dict]:
@@ -312,16 +312,11 @@ def split_integrator_variant(name: str) -> tuple[str, dict]:
         if variant not in VARIANTS:
             raise InputError(f"unknown integrator variant '+{variant}' in '{name}' (allowed: "
                              f"{', '.join(variant_names())})")
-        opts, bases, _ = VARIANTS[variant]
+        opts, bases = VARIANTS[variant]
         if base not in bases:
             raise InputError(f"'+{variant}' applies to {', '.join(bases)}, got '{name}'")
         options.update(opts)
     return base, options
-
-
-def variant_on_gpu(name: str) -> bool:
-    """Whether the wavefront/CUDA drivers run every variant in `name` (adaptive photon tracing: CPU only)."""
-    return all(VARIANTS[v][2] for v in name.split("+")[1:] if v in VARIANTS)
 
 
 def _photon_sampling(v) -> str:
@@ -353,8 +348,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
-    `photon_sampling` (ppm, sppm, pppm on the CPU): "uniform" (default: the scene's, else uniform; a scene's
-    "adaptive" is not applied on the wavefront/CUDA drivers, which lack it) or "adaptive", photon paths drawn by
+    `photon_sampling` (ppm, sppm, pppm, on every driver): "uniform" (default: the scene's, else uniform) or
+    "adaptive", photon paths drawn by
     Markov chains on their visibility to the pass's visible points (Hachisuka & Jensen 2011); stats["adaptive"]
     then holds the visible fraction of uniform paths, the mutations' acceptance rate and the mutation size.
     `k` (pm): photons per k-nearest density estimate (default 50).
@@ -402,8 +397,6 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k, photon_sampling,
                         light_sampler)
     integrator, spp, time, rr_depth, sampler = o["integrator"], o["spp"], o["time"], o["rr_depth"], o["sampler"]
-    if photon_sampling is None and (wavefront or device != "cpu"):
-        o["photon_sampling"] = "uniform"  # the scene's choice, where the driver has only uniform tracing
     if until_target:  # a target alone renders until it is met (not the scene's default spp)
         spp = time = None
     photons, radius, alpha, k = o["photons"], o["radius"], o["alpha"], o["k"]

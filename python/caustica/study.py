@@ -219,11 +219,6 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
             raise InputError(f"unknown integrator '{i}' (allowed: {', '.join(all_integrators)}; variants: "
                              f"{', '.join(_api.variant_names())})")
     integ = list(dict.fromkeys(integ))
-    if on_gpu:
-        for i in integ:
-            if not _api.variant_on_gpu(i):
-                raise InputError(f"integrator '{i}': adaptive photon tracing runs on the CPU only, not on "
-                                 f"device '{device}'")
     if throughput_at is None:
         throughput_at = "1080p" if on_gpu else "small"
     if throughput_at not in THROUGHPUT_AT:
@@ -281,7 +276,7 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
         say(f"reference: {ref_integrator}, {ref_spp} spp at {w}x{h} ...")
         t = _time.perf_counter()
         ref_base, ref_variant = _api.split_integrator_variant(ref_integrator)
-        ref_device = device if ref_base in _api.CUDA_INTEGRATORS and _api.variant_on_gpu(ref_integrator) else "cpu"
+        ref_device = device if ref_base in _api.CUDA_INTEGRATORS else "cpu"
         r = _api.render_job(sc, integrator=ref_base, spp=ref_spp, seed=REF_SEED, **dict(common, device=ref_device),
                             **ref_variant)
         if r.interrupted:

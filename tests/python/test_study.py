@@ -100,17 +100,15 @@ def test_cuda_integrators_are_the_wavefront_ones():
 
 
 def test_study_device_errors():
-    """Variants the CUDA backend lacks (adaptive photon tracing) are named before a missing GPU is; without a
-    GPU, --device cuda is one line saying so."""
-    with pytest.raises(caustica.InputError, match="adaptive photon tracing runs on the CPU only"):
-        caustica.study.realtime("cornell", integrators=["sppm+adaptive"], device="cuda")
+    """A bad device or throughput size is one line; without a GPU, --device cuda is one line saying so."""
     with pytest.raises(caustica.InputError, match="unknown device 'tpu'"):
         caustica.study.realtime("cornell", device="tpu")
     with pytest.raises(caustica.InputError, match="throughput_at: expected 'small' or '1080p'"):
         caustica.study.realtime("cornell", throughput_at="4k")
-    if not caustica._api.cuda_status()[0]:  # restir's variants run on the GPU: past the checks above
+    if not caustica._api.cuda_status()[0]:  # every variant runs on the GPU: past the checks above
         with pytest.raises(caustica.InputError, match="device 'cuda' is not available"):
-            caustica.study.realtime("cornell", integrators=["path", "restir+nohistory"], device="cuda")
+            caustica.study.realtime("cornell", integrators=["path", "restir+nohistory", "sppm+adaptive"],
+                                    device="cuda")
 
 
 @pytest.mark.skipif(not caustica._api.cuda_status()[0], reason="needs a CUDA device (none here: the CPU study "
@@ -125,7 +123,6 @@ def test_realtime_study_on_gpu(tmp_path):
 
 
 @pytest.mark.parametrize("argv", [
-    ["study", "realtime", "cornell", "--device", "cuda", "--integrators", "sppm+adaptive"],
     ["study", "realtime", "cornell", "--throughput-at", "4k"],
     ["study", "realtime", "no-such-scene"],
     ["study", "realtime", "cornell", "--integrators", "bogus"],

@@ -179,8 +179,21 @@ def test_gpu_with_textures_and_an_environment_map(tmp_path, integrator):
 
 
 @needs_gpu
+@pytest.mark.parametrize("integrator", ["sppm", "ppm", "pppm"])
+def test_gpu_adaptive_photon_tracing_matches_the_cpu_per_region(integrator):
+    # --photon-sampling adaptive: 2 chains of 2048 steps per pass, each one GPU thread.
+    s = caustica.load_scene("smallvcm-spheres", width=32, height=32)
+    kw = dict(photons=4096, photon_sampling="adaptive")
+    m_cpu, se_cpu = seeded_regions(s, integrator, 8, range(100, 112), wavefront=True, **kw)
+    m_gpu, se_gpu = seeded_regions(s, integrator, 8, range(200, 212), device="cuda", **kw)
+    z = np.abs(m_cpu - m_gpu) / np.sqrt(se_cpu ** 2 + se_gpu ** 2)
+    assert z.max() < 4.0, np.round(z, 1)
+
+
+@needs_gpu
 @pytest.mark.parametrize("kw", [{"integrator": "path", "sort_materials": True},
-                                {"integrator": "sppm", "stochastic_hash": True}, {"integrator": "pppm"}])
+                                {"integrator": "sppm", "stochastic_hash": True}, {"integrator": "pppm"},
+                                {"integrator": "sppm", "photon_sampling": "adaptive", "photons": 4096}])
 def test_gpu_images_depend_only_on_the_seed(kw):
     # No atomics in any sum and deterministic CUB sorts: two GPU renders with one seed are the same bits.
     s = caustica.load_scene("smallvcm-spheres", width=48, height=32)

@@ -5,6 +5,8 @@
 //       Buffer<T>(n), .data(), .size(), .resize(n) (contents undefined after resize)
 //   void parallel_for(uint32_t n, F f);      calls f(i) for every i < n, in any order and concurrently;
 //                                            f is a CAUSTICA_KERNEL lambda (a __device__ lambda under nvcc)
+//   void parallel_for_long(uint32_t n, F f); the same for few items that each run long (spread one per
+//                                            CPU task, one per GPU block)
 //   uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, uint32_t n);   out[i] = sum in[0..i), returns
 //                                            the total; in != out
 //   void sort_pairs(K* keys, uint32_t* values, uint32_t n, int key_bits, Buffer<K>& tmp_k,

@@ -13,6 +13,7 @@
 #include "../photon/adaptive.h"
 #include "../photon/hash_grid.h"
 #include "../photon/trace.h"
+#include "adaptive_photons.h"
 #include "path.h"
 #include "pm.h"
 
@@ -218,11 +219,8 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
                                                              const std::atomic<bool>& cancel) {
   const SceneView& v = scene_->view();
   const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
-  // V(u) of photon/adaptive.h: a stored photon lies where the gather of some visible point i would find it
-  // and weight it by a nonzero BSDF value.
-  // The gather measures from the photon's quantized position (compact_photon.h: within |extent| / 65535 of
-  // the exact one) to within R_i; the test here, on exact positions, takes R_i + margin with twice that
-  // error, so it is never 0 for a photon that would be gathered (a larger V costs efficiency, not bias).
+  // V(u) of photon/adaptive.h (adaptive_photons.h's AdaptiveVisibility) over a grid of the valid visible
+  // points, in index order.
   std::vector<Photon> points;
   std::vector<uint32_t> point_vp;  // visible-point index of each grid record
   for (size_t i = 0; i < vp_.size(); ++i)
@@ -232,66 +230,36 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
       points.push_back(p);
       point_vp.push_back(uint32_t(i));
     }
-  const Vec3f ext = v.bounds.hi - v.bounds.lo;
-  const float margin = 2.f * length(ext) / 65535.f + 1e-6f * rmax;
-  const float query_radius = rmax + 2.f * margin;  // also covers the visible points' own quantization
+  AdaptiveVisibility visible;
+  visible.set_radii(v.bounds, rmax);
   PhotonHashGrid point_grid;
-  if (!points.empty()) point_grid.build(points, v.bounds, 2.f * query_radius, false, 0, true);
-  const PhotonGridView pg = point_grid.view();
-  const bool global_radius = kind_ == Kind::kPPPM;
-  // A point within reach gathers the photon when its BSDF passes light from the photon's direction: the
-  // test evaluates it as sppm_gather does, on the direction the grid will store (compact_photon.h's
-  // octahedral encoding), so a photon on the far side of a thin wall, whose one-sided BSDF there is 0,
-  // does not make its path visible.
-  auto visible = [&](const Photon& ph) {
-    uint16_t oct[2];
-    oct_encode(ph.wi, oct);
-    const Vec3f wi = oct_decode(oct);
-    return pg.query_any(ph.p, query_radius, [&](uint32_t id, const Photon&) {
-      const uint32_t i = point_vp[id];
-      const float r = (global_radius ? rmax : R_[i]) + margin;
-      if (photon_dist2(ph.p, vp_[i].p) > r * r) return false;
-      const VisiblePoint& vp = vp_[i];
-      const Frame frame(vp.ns);
-      return !is_black(bsdf_eval(vp.material, frame.to_local(vp.wo), frame.to_local(wi), TransportMode::kRadiance));
-    });
-  };
+  if (!points.empty()) point_grid.build(points, v.bounds, 2.f * visible.query_radius, false, 0, true);
+  visible.points = point_grid.view();
+  visible.point_vp = point_vp.data();
+  visible.vp = vp_.data();
+  visible.R = kind_ == Kind::kPPPM ? nullptr : R_.data();
   const uint64_t n = photons_per_pass_;
   const uint32_t chains = adaptive_chain_count(n);
   const float d = mutation_size_;
   std::vector<std::vector<Photon>> parts(chains);
   std::vector<ChainCounts> counts(chains);
+  struct PhotonList {  // a path's visible photons
+    std::vector<Photon> photons;
+    void clear() { photons.clear(); }
+    void push(const Photon& ph) { photons.push_back(ph); }
+  };
   struct Buffers {
     PrimarySample samples[2];
-    std::vector<Photon> payloads[2];
+    PhotonList payloads[2];
   };
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, chains, 1), [&](const tbb::blocked_range<uint32_t>& r) {
     auto buffers = std::make_unique<Buffers>();
     for (uint32_t c = r.begin(); c < r.end(); ++c) {
-      const uint64_t steps = n / chains + (c < n % chains ? 1 : 0);
-      PCG32 rng(hash3(opt_.seed, uint64_t(abs_pass), 0xada9000000000000ULL | c), mix64(uint64_t(abs_pass) << 32 | c));
-      auto evaluate = [&](const PssStream& stream, std::vector<Photon>& out) {
-        out.clear();
-        PhotonPathStateT<PssStream> st;
-        st.rng = stream;
-        photon_emit(v, st);
-        bool vis = false;
-        trace_photon_path(
-            v, st, photon_depth, [&](const Ray& ray, Hit& h) { return accel.intersect(ray, h); },
-            [&](const Photon& ph) {
-              // Direct light is NEE's (as with keep_direct = false). Only the photons some visible point
-              // would gather are kept: the others add nothing this pass (V's test, with its margin).
-              if (ph.flags & kPhotonDirect) return;
-              if (!visible(ph)) return;
-              out.push_back(ph);
-              vis = true;
-            });
-        return vis;
-      };
       std::vector<Photon>& out = parts[c];
-      run_visibility_chain(
-          rng, steps, d, buffers->samples, buffers->payloads, evaluate,
-          [&](const std::vector<Photon>& state) { out.insert(out.end(), state.begin(), state.end()); },
+      run_adaptive_photon_chain(
+          v, accel, visible, photon_depth, opt_.seed, abs_pass, c, adaptive_chain_steps(n, chains, c), d,
+          buffers->samples, buffers->payloads,
+          [&](const PhotonList& state) { out.insert(out.end(), state.photons.begin(), state.photons.end()); },
           [&] { return cancel.load(std::memory_order_relaxed); }, counts[c]);
     }
   });
@@ -316,13 +284,7 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
 }
 
 AdaptiveSummary PhotonIntegrator::adaptive_summary() const {
-  AdaptiveSummary a;
-  if (!adaptive_) return a;
-  const ChainCounts& c = chain_totals_;
-  a.visible = c.uniform ? double(c.visible) / double(c.uniform) : 0.0;
-  a.acceptance = c.mutated ? double(c.accepted) / double(c.mutated) : 0.0;
-  a.mutation_size = mutation_size_;
-  return a;
+  return adaptive_ ? summarize_chains(chain_totals_, mutation_size_) : AdaptiveSummary();
 }
 
 std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t photons_per_pass, PhotonEstimate kind,

@@ -127,8 +127,6 @@ void RenderJob::validate(const RenderOptions& o) {
     if (o.integrator != "ppm" && o.integrator != "sppm" && o.integrator != "pppm")
       throw InputError("--photon-sampling adaptive applies to integrators ppm, sppm and pppm, got '" +
                        o.integrator + "'");
-    if (uses_wavefront(o))
-      throw InputError("--photon-sampling adaptive runs on the CPU driver only (not with --wavefront or --device cuda)");
   }
   auto check_restir = [](const char* name, double v, const std::string& shown) {
     std::string expected = restir_option_expected(name, v);
@@ -268,6 +266,7 @@ void RenderJob::make_integrator() {
     p.pass_offset = opt_.pass_offset;
     p.stochastic_hash = opt_.stochastic_hash;
     p.light_bvh = opt_.light_sampler == "bvh";
+    p.adaptive = opt_.photon_sampling == "adaptive";
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_photon_wavefront(scene_, p, dev)
                           : make_cpu_photon_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());
@@ -411,6 +410,10 @@ void RenderJob::run() {
             stage_totals_->seconds_camera += ps.seconds_camera;
             stage_totals_->seconds_accumulate += ps.seconds_accumulate;
             stage_totals_->stored_photons += ps.stored_photons;
+            if (opt_.photon_sampling == "adaptive") {
+              std::lock_guard<std::mutex> adaptive_lock(adaptive_mutex_);
+              adaptive_ = wavefront_->adaptive_summary();
+            }
           } else if (photon_) {
             bool complete = photon_->render_pass(pass, cancel_);
             photons_ = photon_->photons_traced();
@@ -501,7 +504,7 @@ RenderStats RenderJob::stats() const {
   s.seconds = seconds_.load();
   s.photons = photons_.load();
   s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
-  if (photon_ && opt_.photon_sampling == "adaptive") {
+  if ((photon_ || wavefront_) && opt_.photon_sampling == "adaptive") {
     std::lock_guard<std::mutex> lock(adaptive_mutex_);
     s.adaptive = adaptive_;
   }

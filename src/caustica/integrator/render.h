@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "../base/sampler.h"
+#include "../photon/adaptive.h"
 #include "../scene/scene.h"
 
 namespace caustica {
@@ -73,9 +74,6 @@ struct RenderOptions {
 // relMSE of an image against a reference (both H*W*3), epsilon 0.01 (shared/scenes/cornell-box.md).
 double relmse(const std::vector<float>& img, const std::vector<float>& ref);
 
-// --photon-sampling adaptive over the passes so far: the visible fraction of the uniform photon paths, the
-// mutations' acceptance rate, the mutation size the next pass uses (all -1 when not adaptive).
-struct AdaptiveSummary { double visible = -1.0, acceptance = -1.0, mutation_size = -1.0; };
 
 struct RenderStats {
   int64_t passes = 0;        // completed passes (samples per pixel)
@@ -208,7 +206,7 @@ class RenderJob {
   bool target_met(int64_t passes_done);
   std::thread thread_;
   std::unique_ptr<PhotonIntegrator> photon_;
-  AdaptiveSummary adaptive_;           // --photon-sampling adaptive: photon_'s counters after the last pass
+  AdaptiveSummary adaptive_;           // --photon-sampling adaptive: the chains' counters after the last pass
   mutable std::mutex adaptive_mutex_;  // guards adaptive_
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::unique_ptr<UpgIntegrator> upg_;

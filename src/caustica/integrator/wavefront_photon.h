@@ -39,6 +39,7 @@
 #include "../base/error.h"
 #include "../photon/trace.h"
 #include "../photon/knn_tree.h"
+#include "adaptive_photons.h"
 #include "path.h"
 #include "pm.h"
 #include "sppm.h"
@@ -114,6 +115,12 @@ class BackendPhotonGrid {
   }
 
   const PhotonGridView& view() const { return view_; }
+  // The view with ids() (without stochastic hashing): a query reports each record's index in build()'s input.
+  PhotonGridView view_with_ids() const {
+    PhotonGridView v = view_;
+    v.ids = values_.data();
+    return v;
+  }
   // Without stochastic hashing: each record's index in build()'s input, in the grid's order (the view has
   // no ids; integrators that keep more per photon reorder their records by these).
   const uint32_t* ids() const { return values_.data(); }
@@ -203,6 +210,8 @@ class WavefrontPhoton {
     queue2_.resize(P);
     flags_.resize(P);
     scan_.resize(P);
+    payload_cap_ = p_.adaptive_payload > 0 ? p_.adaptive_payload : 1;
+    deposit_cap_ = p_.adaptive_deposits > 0 ? p_.adaptive_deposits : 1;
     reset();
   }
 
@@ -283,17 +292,21 @@ class WavefrontPhoton {
 
     // Photon paths, one segment per stage. A photon stored after k segments completes a path of k + 1
     // segments with a first-hit visible point: paths of at most max_depth - 1 segments (as the CPU driver).
+    // With --photon-sampling adaptive the paths are drawn by Markov chains on their visibility to the
+    // visible points within the largest radius (trace_photons_adaptive).
     const uint32_t photon_depth = max_depth == 0xffffffffu ? max_depth : max_depth - 1;
     const uint32_t P = p_.photons;
+    const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), nk_, 0.f, FloatMax());
     uint32_t count = 0;
-    if (!trace_photons(uint32_t(abs_pass), photon_depth, false, cancel, stats, count)) return false;
+    if (p_.adaptive ? !trace_photons_adaptive(abs_pass, photon_depth, rmax, cancel, stats, count)
+                    : !trace_photons(uint32_t(abs_pass), photon_depth, false, cancel, stats, count))
+      return false;
     stats.photons = P;
     stats.stored_photons = count;
     clock.lap(stats.seconds_photons);
     if (cancelled()) return false;
 
     // The grid, with cells of twice the largest radius (a query then overlaps at most 2x2x2 cells).
-    const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), nk_, 0.f, FloatMax());
     grid_.build(b_, photons_.data(), count, s.bounds, 2.f * rmax, p_.stochastic_hash,
                 hash3(p_.seed, uint64_t(abs_pass), 0x9d));
     clock.lap(stats.seconds_grid);
@@ -389,6 +402,166 @@ class WavefrontPhoton {
       len = compact_queue(b_, paths, queue_, queue2_, flags, scan, len);  // the paths still going
     }
     return true;
+  }
+
+  // --photon-sampling adaptive (Hachisuka & Jensen 2011): pass `abs_pass`'s photon paths drawn by
+  // adaptive_chain_count(photons) Markov chains on their visibility to the pass's visible points within
+  // their radii (rmax: the largest), one thread per chain running all its steps, with the CPU driver's stage
+  // function (adaptive_photons.h: run_adaptive_photon_chain) and numbers. A chain's two payloads and its
+  // deposits live in fixed regions; a chain that needs more (a path with more visible photons, more
+  // deposits) runs on to its end counting, the regions grow to what the chains needed and every chain runs
+  // again (the same numbers, so the same photons). The deposits, concatenated in chain order and scaled by
+  // n_vis / S (photon/adaptive.h), become photons_[0, count): the CPU driver's photons in its order. The
+  // mutation size for the next pass is adapted from this pass's acceptance. Few threads (at most 128
+  // chains) but exact parity with the CPU driver. False when cancelled (checked between stages).
+  bool trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax, const std::atomic<bool>* cancel,
+                              WavefrontPassStats& stats, uint32_t& count) {
+    const SceneView s = b_.scene();
+    const auto tracer = b_.tracer();
+    auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
+    count = 0;
+    // The valid visible points in index order, and a grid over them that keeps their ids.
+    AdaptiveVisibility visible;
+    visible.set_radii(s.bounds, rmax);
+    {
+      if (point_flags_.size() < nk_) point_flags_.resize(nk_);
+      if (point_scan_.size() < nk_) point_scan_.resize(nk_);
+      const VisiblePoint* vp = vp_.data();
+      uint32_t* flags = point_flags_.data();
+      uint32_t* scan = point_scan_.data();
+      b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t i) { flags[i] = vp[i].valid ? 1u : 0u; });
+      const uint32_t points = b_.exclusive_scan(flags, scan, nk_);
+      if (points_.size() < points) points_.resize(points);
+      if (point_vp_.size() < points) point_vp_.resize(points);
+      Photon* pts = points_.data();
+      uint32_t* pvp = point_vp_.data();
+      b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t i) {
+        if (!flags[i]) return;
+        Photon p;
+        p.p = vp[i].p;
+        pts[scan[i]] = p;
+        pvp[scan[i]] = i;
+      });
+      if (points > 0) {
+        point_grid_.build(b_, points_.data(), points, s.bounds, 2.f * visible.query_radius, false, 0);
+        visible.points = point_grid_.view_with_ids();
+      }
+      visible.point_vp = point_vp_.data();
+      visible.vp = vp;
+      visible.R = p_.pppm ? nullptr : R_.data();
+    }
+    if (cancelled()) return false;
+
+    const uint64_t P = p_.photons;
+    const uint32_t chains = adaptive_chain_count(P);
+    const float d = mutation_size_;
+    const uint64_t seed = p_.seed;
+    if (samples_.size() < 2 * size_t(chains)) samples_.resize(2 * size_t(chains));
+    if (chain_results_.size() < chains) chain_results_.resize(chains);
+    std::vector<AdaptiveChainResult> results(chains);
+    for (;;) {
+      if (payloads_.size() < 2 * size_t(chains) * payload_cap_) payloads_.resize(2 * size_t(chains) * payload_cap_);
+      if (deposits_.size() < size_t(chains) * deposit_cap_) deposits_.resize(size_t(chains) * deposit_cap_);
+      PrimarySample* samples = samples_.data();
+      Photon* payloads = payloads_.data();
+      Photon* deposits = deposits_.data();
+      AdaptiveChainResult* out = chain_results_.data();
+      const uint32_t pcap = payload_cap_;
+      const uint64_t dcap = deposit_cap_;
+      b_.parallel_for_long(chains, CAUSTICA_KERNEL(uint32_t c) {
+        AdaptiveChainResult r;
+        PhotonSlot slots[2];
+        for (int k = 0; k < 2; ++k) {
+          slots[k].photons = payloads + (2 * size_t(c) + k) * pcap;
+          slots[k].cap = pcap;
+        }
+        Photon* region = deposits + size_t(c) * dcap;
+        const CountingTracer<decltype(tracer)> counting{tracer, &r.rays};
+        run_adaptive_photon_chain(
+            s, counting, visible, photon_depth, seed, abs_pass, c, adaptive_chain_steps(P, chains, c), d,
+            samples + 2 * size_t(c), slots,
+            [&](const PhotonSlot& state) {
+              if (state.n > r.payload) r.payload = state.n;
+              for (uint32_t j = 0; j < state.n; ++j, ++r.deposited)
+                if (j < state.cap && r.deposited < dcap) region[r.deposited] = state.photons[j];
+            },
+            [] { return false; }, r.counts);
+        out[c] = r;
+      });
+      b_.to_host(chain_results_, results.data(), chains);
+      uint64_t need_payload = 0, need_deposits = 0;
+      for (const AdaptiveChainResult& r : results) {
+        need_payload = r.payload > need_payload ? r.payload : need_payload;
+        need_deposits = r.deposited > need_deposits ? r.deposited : need_deposits;
+      }
+      if (need_payload <= payload_cap_ && need_deposits <= deposit_cap_) break;
+      if (cancelled()) return false;
+      // A quarter more than needed, so that the next passes (whose chains deposit about as much) rarely
+      // run twice.
+      payload_cap_ = uint32_t(need_payload > payload_cap_ ? need_payload + need_payload / 4 : payload_cap_);
+      deposit_cap_ = need_deposits > deposit_cap_ ? need_deposits + need_deposits / 4 : deposit_cap_;
+    }
+    if (cancelled()) return false;
+
+    // The deposits in chain order, scaled.
+    ChainCounts pass_counts;
+    std::vector<uint64_t> start(chains + 1, 0);
+    for (uint32_t c = 0; c < chains; ++c) {
+      pass_counts.add(results[c].counts);
+      start[c + 1] = start[c] + results[c].deposited;
+      stats.rays += results[c].rays;
+    }
+    if (start[chains] > 0xffffffffull)
+      throw std::runtime_error("adaptive photon tracing: more than 4294967295 photons stored in one pass");
+    count = uint32_t(start[chains]);
+    if (chain_start_.size() < chains + 1) chain_start_.resize(chains + 1);
+    b_.to_device(chain_start_, start.data(), chains + 1);
+    reserve_photons(count);
+    {
+      const uint64_t* first = chain_start_.data();
+      const Photon* deposits = deposits_.data();
+      const uint64_t dcap = deposit_cap_;
+      const float scale = float(pass_counts.deposit_scale());
+      Photon* photons = photons_.data();
+      b_.parallel_for(count, CAUSTICA_KERNEL(uint32_t k) {
+        uint32_t lo = 0, hi = chains;  // the chain c with first[c] <= k < first[c + 1]
+        while (hi - lo > 1) {
+          const uint32_t mid = (lo + hi) / 2;
+          if (first[mid] <= k) lo = mid;
+          else hi = mid;
+        }
+        Photon ph = deposits[size_t(lo) * dcap + (k - first[lo])];
+        ph.power = ph.power * scale;
+        photons[k] = ph;
+      });
+    }
+    chain_totals_.add(pass_counts);
+    const double acceptance = pass_counts.mutated ? double(pass_counts.accepted) / double(pass_counts.mutated) : 0.0;
+    mutation_size_ = adapt_mutation_size(d, acceptance, pass_counts.mutated, adapted_passes_);
+    if (pass_counts.mutated) ++adapted_passes_;
+    return true;
+  }
+
+  // What one chain of trace_photons_adaptive did: its counts, the rays it traced, the photons it deposited
+  // and the most visible photons one of its paths had (both counted past the regions' sizes).
+  struct AdaptiveChainResult {
+    ChainCounts counts;
+    uint64_t rays = 0, deposited = 0;
+    uint32_t payload = 0;
+  };
+  // A tracer that counts its closest-hit queries.
+  template <class Tracer>
+  struct CountingTracer {
+    Tracer t;
+    uint64_t* n;
+    CHD bool intersect(const Ray& ray, Hit& hit) const {
+      ++*n;
+      return t.intersect(ray, hit);
+    }
+  };
+
+  AdaptiveSummary adaptive_summary() const {
+    return p_.adaptive ? summarize_chains(chain_totals_, mutation_size_) : AdaptiveSummary();
   }
 
   // pm (Jensen 1996): the global and caustic maps built once, from photon pass 0xfffffff as the CPU driver
@@ -509,6 +682,18 @@ class WavefrontPhoton {
   bool measured_ = false;  // ppm: the measurement points are traced (a pass has completed)
   bool maps_built_ = false;  // pm: the photon maps are built
   DeviceKnnTree global_, caustic_;
+  // --photon-sampling adaptive: the chains' state over passes, the regions' sizes (grown as needed), buffers.
+  float mutation_size_ = kInitialMutationSize;
+  int64_t adapted_passes_ = 0;
+  ChainCounts chain_totals_;
+  uint32_t payload_cap_ = 1;  // set from p_ in the constructor
+  uint64_t deposit_cap_ = 1;
+  Buffer<PrimarySample> samples_;
+  Buffer<Photon> payloads_, deposits_, points_;
+  Buffer<AdaptiveChainResult> chain_results_;
+  Buffer<uint64_t> chain_start_;
+  Buffer<uint32_t> point_flags_, point_scan_, point_vp_;
+  BackendPhotonGrid<B> point_grid_;
   Buffer<VisiblePoint> vp_;
   Buffer<double> lpass_, direct_, indirect_, N_, tau_;
   Buffer<float> R_;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "../photon/adaptive.h"
 #include "../scene/scene.h"
 #include "path.h"
 #include "restir.h"
@@ -64,6 +65,8 @@ class WavefrontRenderer {
   }
   virtual std::string device_name() const = 0;
   virtual float initial_radius() const { return 0.f; }  // photon integrators
+  // sppm, ppm, pppm with --photon-sampling adaptive: the chains' figures over the complete passes.
+  virtual AdaptiveSummary adaptive_summary() const { return AdaptiveSummary(); }
 };
 
 // The wavefront on the CPU backend: `accel` (one of the scene's CPU accelerators) or, where null, the portable
@@ -86,6 +89,11 @@ struct PhotonWavefrontParams {
   int64_t pass_offset = 0;
   bool stochastic_hash = false;
   bool light_bvh = false;  // the visible points' light sample chosen by the light BVH (--light-sampler bvh)
+  bool adaptive = false;   // sppm, ppm, pppm: --photon-sampling adaptive (Hachisuka & Jensen 2011)
+  // adaptive: the first sizes of a chain's regions (photons per payload, deposits per chain); they grow to
+  // what the chains need, so the photons do not depend on them (tests start them at 1 to run the growth).
+  uint32_t adaptive_payload = 16;
+  uint64_t adaptive_deposits = 4096;
 };
 std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
                                                              const PhotonWavefrontParams& p, const CpuAccel* accel);

@@ -73,6 +73,7 @@ class PhotonWavefrontRenderer final : public WavefrontRenderer {
   }
   std::string device_name() const override { return name_; }
   float initial_radius() const override { return p_.radius; }
+  AdaptiveSummary adaptive_summary() const override { return wf_.adaptive_summary(); }
 
  private:
   WavefrontPhoton<B> wf_;
@@ -120,6 +121,7 @@ class OwningRenderer : public WavefrontRenderer {
   }
   std::string device_name() const override { return inner_->device_name(); }
   float initial_radius() const override { return inner_->initial_radius(); }
+  AdaptiveSummary adaptive_summary() const override { return inner_->adaptive_summary(); }
 
  protected:
   virtual void enter() const {}

@@ -116,13 +116,27 @@ struct ChainCounts {
   double deposit_scale() const { return steps_with_state ? double(visible) / double(steps_with_state) : 0.0; }
 };
 
+// --photon-sampling adaptive over the passes so far: the visible fraction of the uniform photon paths, the
+// mutations' acceptance rate, the mutation size the next pass uses (all -1 when not adaptive).
+struct AdaptiveSummary {
+  double visible = -1.0, acceptance = -1.0, mutation_size = -1.0;
+};
+// The summary of chains that made `c` over all passes, the next pass to use mutation size d.
+inline AdaptiveSummary summarize_chains(const ChainCounts& c, float d) {
+  AdaptiveSummary a;
+  a.visible = c.uniform ? double(c.visible) / double(c.uniform) : 0.0;
+  a.acceptance = c.mutated ? double(c.accepted) / double(c.mutated) : 0.0;
+  a.mutation_size = d;
+  return a;
+}
+
 // Runs one chain for `steps` steps. `evaluate(PssStream&, Payload&) -> bool` traces the path of the stream's
 // numbers into the payload and says whether it is visible; `deposit(const Payload&)` receives the state of
-// every step that has one. `buffers` holds the two samples and payloads the chain alternates between.
+// every step that has one. samples[0..1] and payloads[0..1] are the two buffers the chain alternates between.
 // Returns false when `cancelled()` became true (checked every 256 steps).
 template <typename Payload, typename Evaluate, typename Deposit, typename Cancelled>
-bool run_visibility_chain(PCG32& rng, uint64_t steps, float d, PrimarySample (&samples)[2], Payload (&payloads)[2],
-                          Evaluate&& evaluate, Deposit&& deposit, Cancelled&& cancelled, ChainCounts& c) {
+CHD bool run_visibility_chain(PCG32& rng, uint64_t steps, float d, PrimarySample* samples, Payload* payloads,
+                              Evaluate&& evaluate, Deposit&& deposit, Cancelled&& cancelled, ChainCounts& c) {
   int cur = 0;  // samples[cur], payloads[cur]: the state (when has_state)
   bool has_state = false;
   for (uint64_t j = 0; j < steps; ++j) {

@@ -49,6 +49,13 @@ class CpuBackend {
       for (uint32_t i = r.begin(); i < r.end(); ++i) f(i);
     });
   }
+  // Few items that each run long: one item per task, so that they spread over the threads.
+  template <class F>
+  void parallel_for_long(uint32_t n, F f) const {
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 1), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t i = r.begin(); i < r.end(); ++i) f(i);
+    });
+  }
 
   uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, uint32_t n) const {
     uint32_t sum = 0;

@@ -115,6 +115,14 @@ class CudaBackend {
     k_parallel_for<<<(n + kBlock - 1) / kBlock, kBlock, 0, stream_>>>(n, f);
     CAUSTICA_CUDA_CHECK(cudaGetLastError());
   }
+  // Few items that each run long (adaptive photon tracing's chains): a block of one thread per item, so that
+  // they spread over the multiprocessors and no item waits on another's divergent branches in a warp.
+  template <class F>
+  void parallel_for_long(uint32_t n, F f) const {
+    if (n == 0) return;
+    k_parallel_for<<<n, 1, 0, stream_>>>(n, f);
+    CAUSTICA_CUDA_CHECK(cudaGetLastError());
+  }
 
   // out[i] = in[0] + ... + in[i-1] (CUB DeviceScan::ExclusiveSum); returns the total. in != out.
   uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, uint32_t n) const;
