@@ -9,7 +9,8 @@
 //   photons         photon paths one segment per stage over a queue of paths (photon_start, then per
 //                   depth: intersect, photon_bounce, append the stored photons by a prefix sum of their
 //                   flags, compact the queue). Photons land in (depth, path) order: deterministic, no
-//                   atomics
+//                   atomics. With --photon-sampling adaptive (Hachisuka & Jensen 2011): the CPU driver's
+//                   Markov chains instead, one thread per chain (trace_photons_adaptive)
 //   hash grid       hash_grid.h's construction on the backend: bounds by a reduction, each photon's slot
 //                   from its decoded position, a radix sort of (slot, index), cell starts by one writer
 //                   per slot boundary; or, with stochastic hashing, one photon per grid cell (a radix sort
