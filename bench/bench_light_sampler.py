@@ -13,6 +13,7 @@ Usage:
     .venv/bin/python bench/bench_light_sampler.py                 # about 3 minutes on 2 cores
     .venv/bin/python bench/bench_light_sampler.py --scenes cornell --spp 32 --no-append
     .venv/bin/python bench/bench_light_sampler.py --integrator restir --scenes many-lights
+    .venv/bin/python bench/bench_light_sampler.py --scenes lamps-1 lamps-2 lamps-4 lamps-8 lamps-16 lamps-32
 """
 from __future__ import annotations
 
@@ -33,6 +34,36 @@ from caustica._provenance import commit  # noqa: E402
 MANY_LIGHTS = os.path.join(ROOT, "tests", "data", "json", "many-lights.json")
 
 
+def lamps_scene(n: int, w: int, h: int) -> dict:
+    """A closed room (4 x 2.5 x 4) with two objects, lit by n small square ceiling lamps on a grid (facing down,
+    each 2 triangles), their total power fixed: the scenes "lamps-N" of --scenes, for where the light BVH starts
+    to pay."""
+    cols = int(np.ceil(np.sqrt(n)))
+    rows_ = int(np.ceil(n / cols))
+    half = 0.12  # lamp half side
+    radiance = 12.0 / n  # the same total power for every n
+    shapes = [
+        {"type": "cube", "material": "wall", "transform": {"scale": [2, 1.25, 2], "translate": [0, 1.25, 0]},
+         "flip_normals": True},
+        {"type": "cube", "material": "box", "transform": {"scale": 0.4, "translate": [0.6, 0.4, -0.4]}},
+        {"type": "sphere", "center": [-0.8, 0.5, 0.5], "radius": 0.5, "material": "box"},
+    ]
+    for k in range(n):
+        i, j = k % cols, k // cols
+        x = -1.5 + 3.0 * (i + 0.5) / cols
+        z = -1.5 + 3.0 * (j + 0.5) / rows_
+        shapes.append({"type": "rectangle", "material": "wall", "emission": [radiance] * 3,
+                       "transform": {"scale": half, "rotate": {"axis": [1, 0, 0], "angle": 90},
+                                     "translate": [x, 2.49, z]}})
+    return {"name": f"lamps-{n}",
+            "camera": {"position": [0, 1.3, 1.95], "target": [0, 0.9, -1], "up": [0, 1, 0], "fov": 65,
+                       "width": w, "height": h},
+            "filter": "box",
+            "materials": {"wall": {"type": "diffuse", "reflectance": 0.6, "two_sided": True},
+                          "box": {"type": "diffuse", "reflectance": [0.7, 0.5, 0.3]}},
+            "shapes": shapes}
+
+
 def relmse(x, ref):
     return float(np.mean((x - ref) ** 2 / (ref ** 2 + 0.01)))
 
@@ -40,7 +71,8 @@ def relmse(x, ref):
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="+", default=["many-lights", "cornell", "smallvcm-spheres"])
-    ap.add_argument("--size", default="256x192", help="WxH for many-lights (the built-in scenes keep theirs)")
+    ap.add_argument("--size", default="256x192", help="WxH for many-lights and lamps-N (the built-in scenes keep "
+                    "theirs)")
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--integrator", choices=("path", "restir", "sppm", "bdpt", "vcm"), default="path")
     ap.add_argument("--seeds", type=int, default=3)
@@ -52,8 +84,12 @@ def main() -> int:
     w, h = (int(v) for v in a.size.split("x"))
     rows = []
     for name in a.scenes:
-        scene = caustica.load_scene(MANY_LIGHTS, width=w, height=h) if name == "many-lights" \
-            else caustica.load_scene(name)
+        if name == "many-lights":
+            scene = caustica.load_scene(MANY_LIGHTS, width=w, height=h)
+        elif name.startswith("lamps-"):
+            scene = caustica.load_scene(lamps_scene(int(name[6:]), w, h))
+        else:
+            scene = caustica.load_scene(name)
         ref = caustica.render(scene, spp=a.ref_spp, seed=100003)
         res = {}
         for ls in ("power", "bvh"):
@@ -68,7 +104,7 @@ def main() -> int:
         e = {ls: float(np.mean(v["err"])) for ls, v in res.items()}
         t = {ls: statistics.median(v["t"]) for ls, v in res.items()}
         ratio = (e["bvh"] * t["bvh"]) / (e["power"] * t["power"])
-        label = f"many-lights {w}x{h}" if name == "many-lights" else name
+        label = f"{name} {w}x{h}" if name == "many-lights" or name.startswith("lamps-") else name
         print(f"{label}: power relMSE {e['power']:.4g} in {t['power']:.3f} s (lanes {res['power']['lanes']}), "
               f"bvh relMSE {e['bvh']:.4g} in {t['bvh']:.3f} s (lanes {res['bvh']['lanes']}); time to equal relMSE bvh/power {ratio:.3f}",
               flush=True)
