@@ -36,12 +36,12 @@ MANY_LIGHTS = os.path.join(ROOT, "tests", "data", "json", "many-lights.json")
 
 def lamps_scene(n: int, w: int, h: int) -> dict:
     """A closed room (4 x 2.5 x 4) with two objects, lit by n small square ceiling lamps on a grid (facing down,
-    each 2 triangles), their total power fixed: the scenes "lamps-N" of --scenes, for where the light BVH starts
+    each 2 triangles, never overlapping), their total power fixed: the scenes "lamps-N" of --scenes, for where the light BVH starts
     to pay."""
     cols = int(np.ceil(np.sqrt(n)))
     rows_ = int(np.ceil(n / cols))
-    half = 0.12  # lamp half side
-    radiance = 12.0 / n  # the same total power for every n
+    half = min(0.12, 0.2 * 3.0 / max(cols, rows_))  # lamp half side: at most 40% of the grid's spacing
+    radiance = 240.0 / n  # the same total power for every n
     shapes = [
         {"type": "cube", "material": "wall", "transform": {"scale": [2, 1.25, 2], "translate": [0, 1.25, 0]},
          "flip_normals": True},
