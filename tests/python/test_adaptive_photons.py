@@ -149,6 +149,15 @@ def test_cli(caustica_bin, tmp_path):
                         "-o", str(out)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "adaptive:" in r.stderr and "% of uniform paths visible" in r.stderr and out.exists()
+    # The wavefront driver (that of --device cuda) reports the same chains.
+    r2 = subprocess.run([caustica_bin, "render", "cornell", "--integrator", "sppm", "--photon-sampling", "adaptive",
+                         "--spp", "2", "--photons", "5000", "--width", "24", "--height", "24", "--quiet",
+                         "--wavefront", "-o", str(tmp_path / "w.exr")], capture_output=True, text=True)
+    assert r2.returncode == 0, r2.stderr
+    def chains(stderr):  # "adaptive: ... mutation size X" (before " -> OUT")
+        line = [x for x in stderr.splitlines() if "adaptive:" in x][0]
+        return line[line.index("adaptive:"):line.index(" -> ")]
+    assert chains(r.stderr) == chains(r2.stderr), (r.stderr, r2.stderr)
     r = subprocess.run([caustica_bin, "render", "cornell", "--photon-sampling", "metropolis", "-o",
                         str(tmp_path / "b.exr")], capture_output=True, text=True)
     assert r.returncode == 2
