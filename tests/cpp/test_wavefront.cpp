@@ -413,7 +413,7 @@ TEST(WavefrontPhoton, AdaptiveRegionsGrowWithoutChangingTheImage) {
     EXPECT_GT(st.stored_photons, 1u);
     return std::make_pair(wf->image(3), wf->adaptive_summary().mutation_size);
   };
-  const auto grown = images(1, 1), preset = images(16, 4096);
+  const auto grown = images(1, 1), preset = images(16, 0);
   EXPECT_EQ(grown.first, preset.first);
   EXPECT_EQ(grown.second, preset.second);
   EXPECT_GT(grown.second, 0.0);  // a mutation size: the summary is the chains'

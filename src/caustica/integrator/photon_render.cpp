@@ -198,6 +198,7 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   const PhotonGridView gv = grid.view();
   const double inv_np = 1.0 / double(photons_per_pass_);
   restore.commit = true;  // the gather below only computes (no allocation, no cancel check)
+  if (adaptive_) chains_.commit(pass_counts_);
   tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
     for (int y = r.begin(); y < r.end(); ++y)
       for (int x = 0; x < W_ * K_; ++x) {
@@ -240,7 +241,7 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
   visible.R = kind_ == Kind::kPPPM ? nullptr : R_.data();
   const uint64_t n = photons_per_pass_;
   const uint32_t chains = adaptive_chain_count(n);
-  const float d = mutation_size_;
+  const float d = chains_.mutation_size;
   std::vector<std::vector<Photon>> parts(chains);
   std::vector<ChainCounts> counts(chains);
   struct PhotonList {  // a path's visible photons
@@ -276,15 +277,12 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
       ph.power = ph.power * scale;
       all.push_back(ph);
     }
-  chain_totals_.add(pass_counts);
-  const double acceptance = pass_counts.mutated ? double(pass_counts.accepted) / double(pass_counts.mutated) : 0.0;
-  mutation_size_ = adapt_mutation_size(d, acceptance, pass_counts.mutated, adapted_passes_);
-  if (pass_counts.mutated) ++adapted_passes_;
+  pass_counts_ = pass_counts;
   return all;
 }
 
 AdaptiveSummary PhotonIntegrator::adaptive_summary() const {
-  return adaptive_ ? summarize_chains(chain_totals_, mutation_size_) : AdaptiveSummary();
+  return adaptive_ ? chains_.summary() : AdaptiveSummary();
 }
 
 std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t photons_per_pass, PhotonEstimate kind,

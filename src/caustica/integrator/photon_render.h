@@ -54,7 +54,7 @@ class PhotonIntegrator {
   // --photon-sampling adaptive: the chains' counters summed over the passes done, and the mutation size
   // the next pass uses.
   AdaptiveSummary adaptive_summary() const;
-  const ChainCounts& chain_counts() const { return chain_totals_; }
+  const ChainCounts& chain_counts() const { return chains_.totals; }
   // Traces one pass of photons in deterministic order (also used by tests).
   static std::vector<Photon> trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed, uint32_t pass,
                                            uint64_t count, uint32_t max_depth, bool keep_direct,
@@ -68,13 +68,13 @@ class PhotonIntegrator {
   uint64_t traced_ = 0;
   void trace_visible_points(int64_t abs_pass);
   // The photons of one pass drawn by the visibility chains (photon/adaptive.h), their powers scaled by
-  // n_vis / S; empty if cancelled.
+  // n_vis / S, the chains' counts in pass_counts_ (committed to chains_ when the pass completes); empty if
+  // cancelled.
   std::vector<Photon> trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax,
                                              const std::atomic<bool>& cancel);
   bool adaptive_ = false;
-  float mutation_size_ = kInitialMutationSize;
-  int64_t adapted_passes_ = 0;
-  ChainCounts chain_totals_;
+  AdaptiveChainState chains_;
+  ChainCounts pass_counts_;
   std::shared_ptr<Scene> scene_;
   RenderOptions opt_;
   uint32_t max_depth_;

@@ -212,7 +212,9 @@ class WavefrontPhoton {
     flags_.resize(P);
     scan_.resize(P);
     payload_cap_ = p_.adaptive_payload > 0 ? p_.adaptive_payload : 1;
-    deposit_cap_ = p_.adaptive_deposits > 0 ? p_.adaptive_deposits : 1;
+    deposit_cap_ = p_.adaptive_deposits > 0
+                       ? p_.adaptive_deposits
+                       : 4 * adaptive_chain_steps(P, adaptive_chain_count(P), 0);  // chain 0 is the longest
     reset();
   }
 
@@ -337,6 +339,7 @@ class WavefrontPhoton {
     }
     clock.lap(stats.seconds_gather);
     measured_ = true;
+    if (p_.adaptive) chains_.commit(pass_counts_);
     return true;
   }
 
@@ -413,7 +416,8 @@ class WavefrontPhoton {
   // deposits) runs on to its end counting, the regions grow to what the chains needed and every chain runs
   // again (the same numbers, so the same photons). The deposits, concatenated in chain order and scaled by
   // n_vis / S (photon/adaptive.h), become photons_[0, count): the CPU driver's photons in its order. The
-  // mutation size for the next pass is adapted from this pass's acceptance. Few threads (at most 128
+  // chains' counts wait in pass_counts_ until the pass completes (render_pass commits them: the mutation
+  // size for the next pass adapts to this pass's acceptance). Few threads (at most 128
   // chains) but exact parity with the CPU driver. False when cancelled (checked between stages).
   bool trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax, const std::atomic<bool>* cancel,
                               WavefrontPassStats& stats, uint32_t& count) {
@@ -455,7 +459,7 @@ class WavefrontPhoton {
 
     const uint64_t P = p_.photons;
     const uint32_t chains = adaptive_chain_count(P);
-    const float d = mutation_size_;
+    const float d = chains_.mutation_size;
     const uint64_t seed = p_.seed;
     if (samples_.size() < 2 * size_t(chains)) samples_.resize(2 * size_t(chains));
     if (chain_results_.size() < chains) chain_results_.resize(chains);
@@ -536,10 +540,7 @@ class WavefrontPhoton {
         photons[k] = ph;
       });
     }
-    chain_totals_.add(pass_counts);
-    const double acceptance = pass_counts.mutated ? double(pass_counts.accepted) / double(pass_counts.mutated) : 0.0;
-    mutation_size_ = adapt_mutation_size(d, acceptance, pass_counts.mutated, adapted_passes_);
-    if (pass_counts.mutated) ++adapted_passes_;
+    pass_counts_ = pass_counts;  // committed when the pass completes
     return true;
   }
 
@@ -562,7 +563,7 @@ class WavefrontPhoton {
   };
 
   AdaptiveSummary adaptive_summary() const {
-    return p_.adaptive ? summarize_chains(chain_totals_, mutation_size_) : AdaptiveSummary();
+    return p_.adaptive ? chains_.summary() : AdaptiveSummary();
   }
 
   // pm (Jensen 1996): the global and caustic maps built once, from photon pass 0xfffffff as the CPU driver
@@ -684,9 +685,8 @@ class WavefrontPhoton {
   bool maps_built_ = false;  // pm: the photon maps are built
   DeviceKnnTree global_, caustic_;
   // --photon-sampling adaptive: the chains' state over passes, the regions' sizes (grown as needed), buffers.
-  float mutation_size_ = kInitialMutationSize;
-  int64_t adapted_passes_ = 0;
-  ChainCounts chain_totals_;
+  AdaptiveChainState chains_;
+  ChainCounts pass_counts_;  // the current pass's, until it completes
   uint32_t payload_cap_ = 1;  // set from p_ in the constructor
   uint64_t deposit_cap_ = 1;
   Buffer<PrimarySample> samples_;

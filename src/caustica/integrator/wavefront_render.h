@@ -90,10 +90,11 @@ struct PhotonWavefrontParams {
   bool stochastic_hash = false;
   bool light_bvh = false;  // the visible points' light sample chosen by the light BVH (--light-sampler bvh)
   bool adaptive = false;   // sppm, ppm, pppm: --photon-sampling adaptive (Hachisuka & Jensen 2011)
-  // adaptive: the first sizes of a chain's regions (photons per payload, deposits per chain); they grow to
-  // what the chains need, so the photons do not depend on them (tests start them at 1 to run the growth).
+  // adaptive: the first sizes of a chain's regions (photons per payload, deposits per chain; 0: four per
+  // step of the longest chain); they grow to what the chains need, so the photons do not depend on them
+  // (tests start them at 1 to run the growth).
   uint32_t adaptive_payload = 16;
-  uint64_t adaptive_deposits = 4096;
+  uint64_t adaptive_deposits = 0;
 };
 std::unique_ptr<WavefrontRenderer> make_cpu_photon_wavefront(std::shared_ptr<Scene> scene,
                                                              const PhotonWavefrontParams& p, const CpuAccel* accel);

@@ -179,6 +179,22 @@ inline float adapt_mutation_size(float d, double acceptance, uint64_t mutated, i
   return float(std::fmin(double(kMaxMutationSize), std::fmax(double(kMinMutationSize), nd)));
 }
 
+// What a driver keeps of the chains between passes: the mutation size the next pass uses, the passes that
+// adapted it, the counts over the complete passes. A pass's counts are committed only when the pass
+// completes, so a cancelled pass (run again later) leaves no trace.
+struct AdaptiveChainState {
+  float mutation_size = kInitialMutationSize;
+  int64_t adapted_passes = 0;
+  ChainCounts totals;
+  void commit(const ChainCounts& pass) {
+    totals.add(pass);
+    const double acceptance = pass.mutated ? double(pass.accepted) / double(pass.mutated) : 0.0;
+    mutation_size = adapt_mutation_size(mutation_size, acceptance, pass.mutated, adapted_passes);
+    if (pass.mutated) ++adapted_passes;
+  }
+  AdaptiveSummary summary() const { return summarize_chains(totals, mutation_size); }
+};
+
 // Chains per pass for `photons` steps: about 2048 steps each (a chain's start costs it the steps until its
 // first visible uniform sample), at most 128 (the parallelism), at least 1.
 inline uint32_t adaptive_chain_count(uint64_t photons) {
