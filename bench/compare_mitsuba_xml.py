@@ -12,7 +12,9 @@ which bounds the noise from above).
 Scenes (written to bench/out/xml/): Mitsuba's cornell_box() (tests/data/mitsuba/cornell.xml), an
 environment map with coloured quadrants and a sun over a diffuse sphere, a rough gold sphere and a floor
 (checks the envmap's orientation and importance sampling), and a textured floor with a plastic sphere, a
-point light and an area light, and an orthographic sensor over a cube, a sphere and a floor.
+point light and an area light, an orthographic sensor over a cube, a sphere and a floor, anisotropic rough
+gold (alpha_u != alpha_v) on a rectangle, a sphere and a disk, and glass (smooth and rough dielectric spheres, a
+thin dielectric pane, a copper mirror).
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -107,9 +109,55 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.25, 0.3"/></emitter>
 </scene>
 """)
+    # Anisotropic roughness (alpha_u along dp/du): a brushed-gold floor, a sphere and a disk (radial dp/du in
+    # Mitsuba's parameterisation) under a small area light and a dim sky; a frame that ignored dp/du, or a
+    # disk or sphere parameterised differently, shows as a highlight stretched the wrong way.
+    aniso = """<bsdf type="roughconductor"><string name="material" value="Au"/><string name="distribution" value="ggx"/>
+      <float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.35"/></bsdf>"""
+    with open(os.path.join(OUT, "anisotropic.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate z="1" angle="30"/>
+      <rotate x="1" angle="-90"/></transform>{aniso}</shape>
+  <shape type="sphere"><point name="center" x="-0.9" y="0.7" z="0"/><float name="radius" value="0.7"/>{aniso}</shape>
+  <shape type="disk"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="-60"/>
+      <translate x="0.9" y="0.7" z="0"/></transform>{aniso}</shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/>
+      <translate y="3" z="-1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="20, 18, 15"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.05, 0.06, 0.08"/></emitter>
+</scene>
+""")
+    # Glass: a smooth dielectric sphere, a rough dielectric sphere (GGX 0.2), a thin dielectric pane and a
+    # smooth copper mirror on a diffuse floor, lit by an area light and a sky (refraction, Fresnel, total
+    # internal reflection and the thin slab's interreflection).
+    with open(os.path.join(OUT, "glass.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="10"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="-1.1" y="0.6" z="0"/><float name="radius" value="0.6"/>
+    <bsdf type="dielectric"><float name="int_ior" value="1.5"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0.3" y="0.6" z="0.3"/><float name="radius" value="0.6"/>
+    <bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/>
+      <string name="int_ior" value="bk7"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale x="0.5" y="0.7"/><rotate y="1" angle="20"/>
+      <translate x="1.4" y="0.7" z="-0.3"/></transform>
+    <bsdf type="thindielectric"><float name="int_ior" value="1.5"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale x="1.2" y="0.8"/><translate y="0.8" z="-1.5"/></transform>
+    <bsdf type="conductor"><string name="material" value="Cu"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate y="3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="15, 14, 12"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.3, 0.35, 0.4"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
-            "orthographic": os.path.join(OUT, "orthographic.xml")}
+            "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
+            "glass": os.path.join(OUT, "glass.xml")}
 
 
 def render_caustica(path, res, spp, seed):
@@ -146,6 +194,7 @@ def main():
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--res", type=int, default=128)
     ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
+    ap.add_argument("--only", nargs="*", help="render only these scenes (names as printed)")
     args = ap.parse_args()
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() else "scalar_rgb")
@@ -154,6 +203,8 @@ def main():
     machine = _provenance.machine()
     rows = []
     for name, path in scenes.items():
+        if args.only and name not in args.only:
+            continue
         c1, c2 = (render_caustica(path, args.res, args.spp, s) for s in (1, 2))
         m1, m2 = (render_mitsuba(path, args.res, args.spp, s) for s in (1, 2))
         noise = relmse(c1, c2)

@@ -428,9 +428,12 @@ TEST(MitsubaBsdf, Errors) {
        "SnTe, Ta, Te, Te-e, ThF4, TiC, TiN, TiO2, TiO2-e, V_palik, VC, VN, W)"},
       {"<bsdf type=\"conductor\" id=\"v\">\n<string name=\"material\" value=\"Au\"/><rgb name=\"eta\" value=\"1\"/></bsdf>\n",
        ":2: <bsdf type=\"conductor\" id=\"v\">: give either 'material' or eta/k, not both"},
-      {"<bsdf type=\"roughconductor\" id=\"v\">\n<float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" "
+      {"<bsdf type=\"roughplastic\" id=\"v\">\n<float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" "
        "value=\"0.2\"/></bsdf>\n",
-       ":2: <bsdf type=\"roughconductor\" id=\"v\">: anisotropic roughness (alpha_u != alpha_v) is not supported"},
+       ":3: <float name=\"alpha_u\">: this BSDF's roughness is isotropic (expected alpha)"},
+      {"<bsdf type=\"roughconductor\" id=\"v\">\n<float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha\" "
+       "value=\"0.2\"/></bsdf>\n",
+       ":2: <bsdf type=\"roughconductor\" id=\"v\">: give either alpha or alpha_u/alpha_v, not both"},
       {"<bsdf type=\"roughconductor\" id=\"v\">\n<string name=\"distribution\" value=\"phong\"/></bsdf>\n",
        ":3: <string name=\"distribution\">: unknown distribution 'phong' (allowed: beckmann, ggx)"},
       {"<bsdf type=\"dielectric\" id=\"v\">\n<string name=\"int_ior\" value=\"glass\"/></bsdf>\n",

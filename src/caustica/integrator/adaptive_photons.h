@@ -53,7 +53,7 @@ struct AdaptiveVisibility {
       const float r = (R ? R[i] : rmax) + margin;
       if (photon_dist2(ph.p, vp[i].p) > r * r) return false;
       const VisiblePoint& v = vp[i];
-      const Frame frame(v.ns);
+      const Frame frame = tangent_frame(v.ns, v.tangent);
       return !is_black(bsdf_eval(v.material, frame.to_local(v.wo), frame.to_local(wi), TransportMode::kRadiance));
     });
   }

@@ -122,7 +122,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   if (st.depth >= pp.max_depth) { st.active = false; return; }
 
   const Material m = surface_material(s, sh);
-  Frame frame(sh.ns);
+  Frame frame = shading_frame(s, sh, m);
   Vec3f wo = frame.to_local(wo_world);
 
   // All rays leaving this vertex on the side of wo start from one point p_front,

@@ -49,7 +49,7 @@ CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const Map& caustic,
   const VisiblePoint vp = trace_camera(v, accel, ray, RGB(1.f), smp, max_depth, L, light_bvh);
   if (!vp.valid) return L;
   const Material& m = vp.material;
-  const Frame frame(vp.ns);
+  const Frame frame = tangent_frame(vp.ns, vp.tangent);
   const Vec3f wo = frame.to_local(vp.wo);
   L += vp.beta * pm_estimate(caustic, paths, k, m, frame, wo, vp.p, idx, d2);
   // Final gathering: one BSDF-sampled ray; radiance at its non-specular hit (through specular bounces) from
@@ -67,7 +67,7 @@ CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const Map& caustic,
     SurfaceHit sh = make_surface_hit(v, r, hit);
     beta *= segment_transmittance(v, r.d, hit.t, sh);
     const Material gm = surface_material(v, sh);
-    const Frame gf(sh.ns);
+    const Frame gf = shading_frame(v, sh, gm);
     const Vec3f gwo = gf.to_local(-r.d);
     if (!material_is_delta(gm)) {
       L += beta * pm_estimate(global, paths, k, gm, gf, gwo, sh.p, idx, d2);

@@ -118,7 +118,7 @@ CHD RestirShading restir_shading(const SceneView& s, const RestirVertex& v) {
   if (!v.valid) return r;
   SurfaceHit sh = v.sh;
   r.m = surface_material(s, sh);
-  r.frame = Frame(sh.ns);
+  r.frame = shading_frame(s, sh, r.m);
   r.wo_world = v.wo;
   r.wo = r.frame.to_local(v.wo);
   r.p = sh.p;

@@ -19,6 +19,7 @@ namespace caustica {
 
 struct VisiblePoint {
   Vec3f p, ng, ns, wo;  // wo in world space
+  Vec3f tangent{0.f};    // shading_tangent: anisotropic roughness's direction (zero: isotropic)
   RGB beta{0.f};        // camera throughput to the point
   Material material;     // with its textures applied at the point
   bool valid = false;
@@ -43,7 +44,7 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
     beta *= segment_transmittance(s, ray.d, hit.t, sh);
     if (sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
     const Material m = surface_material(s, sh);
-    Frame frame(sh.ns);
+    Frame frame = shading_frame(s, sh, m);
     Vec3f wo = frame.to_local(wo_world);
     float u_l = smp.next_1d();
     Vec2f u_l2 = smp.next_2d();
@@ -69,6 +70,7 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
       vp.p = sh.p;
       vp.ng = sh.ng;
       vp.ns = sh.ns;
+      vp.tangent = shading_tangent(s, sh, m);
       vp.wo = wo_world;
       vp.beta = beta;
       vp.material = m;
@@ -120,6 +122,7 @@ CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ra
         vp.p = sh.p;
         vp.ng = sh.ng;
         vp.ns = sh.ns;
+        vp.tangent = shading_tangent(s, sh, m);
         vp.wo = wo_world;
         vp.beta = it.beta;
         vp.material = m;
@@ -128,7 +131,7 @@ CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ra
       continue;
     }
     if (it.depth >= max_depth) continue;
-    Frame frame(sh.ns);
+    Frame frame = shading_frame(s, sh, m);
     Vec3f wo = frame.to_local(wo_world);
     // The two discrete choices of a delta BSDF: lobe sample u = 0 (reflection) and u -> 1 (transmission);
     // each branch carries weight x probability.
@@ -151,7 +154,7 @@ CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ra
 // a thin wall arrive from below its surface and are filtered by the one-sided BSDF); M counts them.
 CHD void sppm_gather(const VisiblePoint& vp, const PhotonGridView& grid, float radius, double phi[3], uint32_t& M) {
   const Material& m = vp.material;
-  Frame frame(vp.ns);
+  const Frame frame = tangent_frame(vp.ns, vp.tangent);
   Vec3f wo = frame.to_local(vp.wo);
   phi[0] = phi[1] = phi[2] = 0.0;
   M = 0;

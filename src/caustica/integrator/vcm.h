@@ -536,7 +536,7 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, st.sh);
   st.wo_world = -st.ray.d;
   st.m = surface_material(s, st.sh);
-  st.frame = Frame(st.sh.ns);
+  st.frame = shading_frame(s, st.sh, st.m);
   st.wo = st.frame.to_local(st.wo_world);
   float cos_in = std::fabs(st.wo.z);
   if (st.length == 1 && st.receiver_pdf) {
@@ -763,7 +763,7 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
     return;
   }
   st.m = surface_material(s, st.sh);
-  st.frame = Frame(st.sh.ns);
+  st.frame = shading_frame(s, st.sh, st.m);
   st.wo = st.frame.to_local(st.wo_world);
   st.p_front = offset_ray_origin(st.sh.p, st.sh.ng, st.wo_world);
   st.vertex_valid = !material_is_delta(st.m);
@@ -837,7 +837,7 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   if (is_black(fc)) return;
   SurfaceHit vsh = v.sh;
   Material vm = surface_material(s, vsh);
-  Frame vf(vsh.ns);
+  const Frame vf = shading_frame(s, vsh, vm);
   Vec3f vwo = vf.to_local(v.wi), vwl = vf.to_local(-w);
   RGB fl = bsdf_eval(vm, vwo, vwl, TransportMode::kImportance);
   if (is_black(fl)) return;

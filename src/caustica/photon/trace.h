@@ -79,7 +79,7 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
   }
   st.active = false;
   if (st.depth >= max_depth) return stored;
-  Frame frame(sh.ns);
+  Frame frame = shading_frame(s, sh, m);
   BSDFSample bs;
   float uc = st.rng.next_float();
   Vec2f u(st.rng.next_float(), st.rng.next_float());

@@ -29,6 +29,38 @@ CHD bool triangle_dpduv(const SceneView& s, uint32_t tri, Vec3f& dpdu, Vec3f& dp
   return isfinite3(dpdu) && isfinite3(dpdv);
 }
 
+// The direction anisotropic roughness is measured along (alpha_x along it, alpha_y across it): dp/du of
+// the surface's texture parameterisation, as in pbrt-v4 (uroughness along dpdu) and Mitsuba 3 (alpha_u
+// along dp_du). Meshes with UVs: triangle_dpduv; spheres: the direction of increasing u = phi / 2pi about
+// +z (sphere_uv), (-n.y, n.x, 0). Zero where there is none (a mesh without UVs, a degenerate mapping, a
+// sphere's pole) and for isotropic materials, whose frame about the normal is arbitrary.
+CHD Vec3f shading_tangent(const SceneView& s, const SurfaceHit& sh, const Material& m) {
+  if (m.alpha_x == m.alpha_y) return Vec3f(0.f);
+  if (sh.prim < s.num_triangles) {
+    Vec3f dpdu, dpdv;
+    return triangle_dpduv(s, sh.prim, dpdu, dpdv) ? dpdu : Vec3f(0.f);
+  }
+  return Vec3f(-sh.ng.y, sh.ng.x, 0.f);
+}
+
+// The shading frame about unit normal n whose first axis is tangent t made orthogonal to n (Gram-Schmidt),
+// the second cross(n, s); without a usable tangent (zero, or along n) the branchless frame of Frame(n).
+CHD Frame tangent_frame(Vec3f n, Vec3f t) {
+  Vec3f sv = t - n * dot(n, t);
+  float l2 = length_sq(sv);
+  if (!(l2 > 1e-10f * length_sq(t)) || !std::isfinite(l2)) return Frame(n);
+  Frame f;
+  f.n = n;
+  f.s = sv / std::sqrt(l2);
+  f.t = cross(n, f.s);
+  return f;
+}
+
+// The frame a BSDF is evaluated in at a hit, with the material's textures (and normal map) applied.
+CHD Frame shading_frame(const SceneView& s, const SurfaceHit& sh, const Material& m) {
+  return tangent_frame(sh.ns, shading_tangent(s, sh, m));
+}
+
 CHD void apply_normal_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
   Vec3f dpdu, dpdv;
   if (!triangle_dpduv(s, sh.prim, dpdu, dpdv)) return;

@@ -340,9 +340,10 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     if (v.is_object()) c.fail(p, "expected a number, [alpha_x, alpha_y] or a texture ({\"texture\": file})");
     return alpha_value(v, p);
   };
+  // Anisotropic alphas are kept >= 1e-4 each (as Mitsuba 3 clamps them): GGX's D divides by both.
   auto set_alpha = [](Material& m, Vec2f a) {
-    m.alpha_x = a.x;
-    m.alpha_y = a.y;
+    m.alpha_x = a.x != a.y ? maxf(a.x, 1e-4f) : a.x;
+    m.alpha_y = a.x != a.y ? maxf(a.y, 1e-4f) : a.y;
   };
   Material m;
   if (type == "diffuse") {

@@ -619,19 +619,24 @@ class Loader {
     return idx;
   }
 
-  void microfacet(Props& p, xml_node n, Material& m, bool allow_texture) {
+  void microfacet(Props& p, xml_node n, Material& m, bool allow_texture, bool allow_anisotropy = true) {
     std::string dist = p.get_string("distribution", "beckmann");
     if (dist == "beckmann")
       warn(n, "beckmann", "distribution \"beckmann\" (Mitsuba's default) is rendered with GGX of the same alpha");
     else if (dist != "ggx")
       fail(p.get("distribution"), "unknown distribution '" + dist + "' (allowed: beckmann, ggx)");
-    float alpha = 0.1f;
+    float alpha = 0.1f, alpha_v = -1.f;  // alpha_v >= 0: anisotropic (alpha along dp/du, alpha_v across)
     int tex = -1;
     if (p.has("alpha_u") || p.has("alpha_v")) {
+      // Mitsuba 3's anisotropic roughness: alpha_u along the surface's dp/du (scene/shading.h,
+      // shading_tangent), alpha_v along dp/dv. Roughplastic is isotropic in Mitsuba too.
       if (p.has("alpha")) fail(n, "give either alpha or alpha_u/alpha_v, not both");
-      float au = p.get_float("alpha_u", 0.1f), av = p.get_float("alpha_v", 0.1f);
-      if (au != av) fail(n, "anisotropic roughness (alpha_u != alpha_v) is not supported");
-      alpha = au;
+      if (!allow_anisotropy) fail(p.has("alpha_u") ? p.get("alpha_u") : p.get("alpha_v"),
+                                  "this BSDF's roughness is isotropic (expected alpha)");
+      alpha = p.get_float("alpha_u", 0.1f);
+      alpha_v = p.get_float("alpha_v", 0.1f);
+      if (!(alpha >= 0.f)) fail(p.get("alpha_u"), "expected alpha_u >= 0");
+      if (!(alpha_v >= 0.f)) fail(p.get("alpha_v"), "expected alpha_v >= 0");
     } else {
       xml_node an = p.get("alpha");
       if (an && (std::string(an.name()) == "texture" || std::string(an.name()) == "ref")) {
@@ -645,7 +650,12 @@ class Loader {
     }
     if (!(alpha >= 0.f)) fail(p.get("alpha"), "expected alpha >= 0");
     p.get("sample_visible");  // sampling only
-    m.alpha_x = m.alpha_y = alpha;
+    m.alpha_x = alpha;
+    m.alpha_y = alpha_v >= 0.f ? alpha_v : alpha;
+    if (m.alpha_x != m.alpha_y) {  // GGX's D divides by both (Mitsuba 3 clamps them the same way)
+      m.alpha_x = maxf(m.alpha_x, 1e-4f);
+      m.alpha_y = maxf(m.alpha_y, 1e-4f);
+    }
     m.tex_roughness = tex;
   }
 
@@ -695,7 +705,7 @@ class Loader {
       m.tex_color = spec.texture;
       if (type == "roughconductor") {
         microfacet(p, n, m, true);
-        if (m.alpha_x > 0.f || m.tex_roughness >= 0) m.type = MaterialType::kRoughConductor;
+        if (m.alpha_x > 0.f || m.alpha_y > 0.f || m.tex_roughness >= 0) m.type = MaterialType::kRoughConductor;
         else m.type = MaterialType::kConductor;
       }
     } else if (type == "dielectric" || type == "roughdielectric" || type == "thindielectric") {
@@ -708,7 +718,7 @@ class Loader {
       m.tex_color = t.texture;
       if (type == "roughdielectric") {
         microfacet(p, n, m, true);
-        m.type = m.alpha_x > 0.f || m.tex_roughness >= 0 ? MaterialType::kRoughDielectric : MaterialType::kDielectric;
+        m.type = m.alpha_x > 0.f || m.alpha_y > 0.f || m.tex_roughness >= 0 ? MaterialType::kRoughDielectric : MaterialType::kDielectric;
       }
     } else if (type == "plastic" || type == "roughplastic") {
       ColorOrTexture kd = p.get_color_tex("diffuse_reflectance", RGB(0.5f));
@@ -735,7 +745,7 @@ class Loader {
       } else {
         if (ks.x != 1.f || ks.y != 1.f || ks.z != 1.f)
           fail(p.get("specular_reflectance"), "roughplastic supports only specular_reflectance = 1");
-        microfacet(p, n, m, false);
+        microfacet(p, n, m, false, false);
         float alpha = m.alpha_x;
         m = make_metallic_roughness(base, 0.f, std::sqrt(alpha), 0.f, eta);
         warn(n, "roughplastic",
@@ -1465,18 +1475,20 @@ MeshDesc mitsuba_cube() {
   return m;
 }
 
-bool uses_texture(const SceneDesc& d, const ShapeDesc& s) {
+// Whether the shape's parameterisation shows: a texture, or anisotropic roughness (measured along dp/du,
+// which on Mitsuba's disk is radial and on its cube differs per face from caustica's own shapes).
+bool uses_parameterisation(const SceneDesc& d, const ShapeDesc& s) {
   if (s.emission_texture >= 0) return true;
   if (s.material < 0 || size_t(s.material) >= d.materials.size()) return false;
   const Material& m = d.materials[s.material];
-  return m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0;
+  return m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0 || m.alpha_x != m.alpha_y;
 }
 
 void mitsuba_shape_uvs(SceneDesc& d) {
   int mesh_of[3] = {-1, -1, -1};  // rectangle, disk, cube: one shared mesh each
   for (ShapeDesc& s : d.shapes) {
     int k = s.type == ShapeType::kRectangle ? 0 : s.type == ShapeType::kDisk ? 1 : s.type == ShapeType::kCube ? 2 : -1;
-    if (k < 0 || !uses_texture(d, s)) continue;
+    if (k < 0 || !uses_parameterisation(d, s)) continue;
     if (mesh_of[k] < 0) {
       d.meshes.push_back(k == 0 ? mitsuba_rectangle() : k == 1 ? mitsuba_disk() : mitsuba_cube());
       d.meshes.back().name = k == 0 ? "mitsuba-rectangle" : k == 1 ? "mitsuba-disk" : "mitsuba-cube";
