@@ -275,6 +275,46 @@ TEST(Texture, AnisotropicShadingFrameFollowsDpDu) {
   sh = make_surface_hit(v, pole, h);
   f = shading_frame(v, sh, surface_material(v, sh));
   expect_orthonormal(f);
+  // aniso_rotation turns the direction from dp/du towards dp/dv (counter-clockwise seen from the normal);
+  // on a quad with mirrored UVs (v growing along -y) dp/dv points the other way, and so does the turn.
+  {
+    sh = SurfaceHit();
+    Ray r{Vec3f(0.3f, 0.6f, 1.f), Vec3f(0, 0, -1), kInf};
+    Hit hq;
+    ASSERT_TRUE(scene_intersect(v, r, hq));
+    sh = make_surface_hit(v, r, hq);
+    Material m = surface_material(v, sh);
+    m.aniso_rotation = kPi / 6.f;
+    Frame fr = shading_frame(v, sh, m);
+    expect_orthonormal(fr);
+    EXPECT_NEAR(fr.s.x, std::cos(kPi / 6.f), 1e-6f);
+    EXPECT_NEAR(fr.s.y, std::sin(kPi / 6.f), 1e-6f);  // towards dp/dv = +y
+  }
+  {
+    SceneDesc dm;
+    dm.add_material("aniso", aniso);
+    MeshDesc m;  // u along +x, v along -y: mirrored
+    m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    m.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
+    m.indices = {0, 1, 2, 0, 2, 3};
+    dm.meshes.push_back(m);
+    ShapeDesc q;
+    q.mesh = 0;
+    dm.shapes.push_back(q);
+    dm.lights.push_back(Light{});
+    auto scm = Scene::build(dm);
+    const SceneView& vm = scm->view();
+    Ray r{Vec3f(0.3f, 0.6f, 1.f), Vec3f(0, 0, -1), kInf};
+    Hit hq;
+    ASSERT_TRUE(scene_intersect(vm, r, hq));
+    SurfaceHit shm = make_surface_hit(vm, r, hq);
+    Material mm = surface_material(vm, shm);
+    mm.aniso_rotation = kPi / 6.f;
+    Frame fr = shading_frame(vm, shm, mm);
+    expect_orthonormal(fr);
+    EXPECT_NEAR(fr.s.x, std::cos(kPi / 6.f), 1e-6f);
+    EXPECT_NEAR(fr.s.y, -std::sin(kPi / 6.f), 1e-6f);  // towards dp/dv = -y
+  }
   // Evaluated through the frames, the turned quad with swapped alphas is the same BSDF.
   Material swapped = aniso;
   std::swap(swapped.alpha_x, swapped.alpha_y);

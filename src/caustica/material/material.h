@@ -39,7 +39,8 @@ struct Material {
   RGB transmission{1.f};    // dielectric transmission tint / diffuse transmittance t
   RGB eta_c{0.f}, k_c{0.f}; // conductor complex index of refraction
   float eta = 1.5f;         // dielectric / plastic: interior IOR over exterior IOR
-  float alpha_x = 0.1f, alpha_y = 0.1f;  // GGX roughness
+  float alpha_x = 0.1f, alpha_y = 0.1f;  // GGX roughness (alpha_x along the anisotropy direction, scene/shading.h)
+  float aniso_rotation = 0.f;  // anisotropy direction: radians from dp/du towards dp/dv (glTF anisotropyRotation)
   float exponent = 90.f;    // Phong exponent
   float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed)
   float metallic = 0.f;     // metallic-roughness: metal weight

@@ -324,6 +324,7 @@ struct Writer {
       default:
         throw InputError("export: material type " + std::to_string(int(m.type)) + " has no JSON form");
     }
+    if (m.aniso_rotation != 0.f) o.set("anisotropy_rotation", JV::dbl(degrees_for_radians(m.aniso_rotation)));
     if (two_sided_key && (m.flags & kTwoSided)) o.set("two_sided", JV::boolean(true));
     if (m.tex_normal >= 0) {
       JV s = JV::flt(m.normal_scale);

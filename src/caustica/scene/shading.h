@@ -34,13 +34,26 @@ CHD bool triangle_dpduv(const SceneView& s, uint32_t tri, Vec3f& dpdu, Vec3f& dp
 // along dp_du). Meshes with UVs: triangle_dpduv; spheres: the direction of increasing u = phi / 2pi about
 // +z (sphere_uv), (-n.y, n.x, 0). Zero where there is none (a mesh without UVs, a degenerate mapping, a
 // sphere's pole) and for isotropic materials, whose frame about the normal is arbitrary.
+// A material's aniso_rotation (KHR_materials_anisotropy's anisotropyRotation) turns that direction about
+// the shading normal, counter-clockwise from dp/du towards dp/dv.
 CHD Vec3f shading_tangent(const SceneView& s, const SurfaceHit& sh, const Material& m) {
   if (m.alpha_x == m.alpha_y) return Vec3f(0.f);
+  Vec3f dpdu, dpdv;
   if (sh.prim < s.num_triangles) {
-    Vec3f dpdu, dpdv;
-    return triangle_dpduv(s, sh.prim, dpdu, dpdv) ? dpdu : Vec3f(0.f);
+    if (!triangle_dpduv(s, sh.prim, dpdu, dpdv)) return Vec3f(0.f);
+  } else {
+    const Vec3f n = sh.ng;  // v = 1 - theta / pi grows towards the +z pole
+    dpdu = Vec3f(-n.y, n.x, 0.f);
+    dpdv = Vec3f(-n.z * n.x, -n.z * n.y, n.x * n.x + n.y * n.y);
   }
-  return Vec3f(-sh.ng.y, sh.ng.x, 0.f);
+  if (m.aniso_rotation == 0.f) return dpdu;
+  const Vec3f n = sh.ns;
+  Vec3f t = dpdu - n * dot(n, dpdu);
+  if (!(length_sq(t) > 0.f)) return Vec3f(0.f);
+  t = normalize(t);
+  Vec3f b = cross(n, t);
+  if (dot(b, dpdv) < 0.f) b = -b;  // mirrored UVs
+  return t * std::cos(m.aniso_rotation) + b * std::sin(m.aniso_rotation);
 }
 
 // The shading frame about unit normal n whose first axis is tangent t made orthogonal to n (Gram-Schmidt),
@@ -95,8 +108,18 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
   if (m.tex_roughness >= 0) {
     RGBA r = texture_lookup(s.textures[m.tex_roughness], sh.uv);
     if (m.type == MaterialType::kMetallicRoughness) {
-      float rough = std::sqrt(maxf(m.alpha_x, 0.f)) * r.g;
-      m.alpha_x = m.alpha_y = rough * rough;
+      if (m.alpha_x == m.alpha_y) {
+        float rough = std::sqrt(maxf(m.alpha_x, 0.f)) * r.g;
+        m.alpha_x = m.alpha_y = rough * rough;
+      } else {
+        // Anisotropic (KHR_materials_anisotropy): the texture scales the roughness across the direction,
+        // alpha_y = (sqrt(alpha) G)^2, and alpha_x keeps its share s^2 of the way to 1 (alpha_x = mix(alpha_y,
+        // 1, s^2), s the anisotropy strength).
+        float s2 = m.alpha_y < 1.f ? (m.alpha_x - m.alpha_y) / (1.f - m.alpha_y) : 0.f;
+        float rough = std::sqrt(maxf(m.alpha_y, 0.f)) * r.g;
+        m.alpha_y = maxf(rough * rough, 1e-4f);
+        m.alpha_x = maxf(m.alpha_y + (1.f - m.alpha_y) * s2, 1e-4f);
+      }
       m.metallic *= r.b;
     } else if (m.type == MaterialType::kRoughConductor || m.type == MaterialType::kRoughDielectric) {
       m.alpha_x = m.alpha_y = maxf(r.r, 1e-4f);

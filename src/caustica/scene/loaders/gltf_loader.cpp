@@ -39,15 +39,15 @@ constexpr int kByte = 5120, kUByte = 5121, kShort = 5122, kUShort = 5123, kUInt 
 const std::set<std::string>& supported_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
-      "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_texture_transform",
-      "KHR_mesh_quantization"};
+      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_lights_punctual",
+      "KHR_texture_transform", "KHR_mesh_quantization"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",  "KHR_materials_iridescence",
-      "KHR_materials_anisotropy", "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants",
+      "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants",
       "KHR_materials_pbrSpecularGlossiness", "KHR_texture_basisu", "KHR_draco_mesh_compression",
       "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld",
       "EXT_mesh_gpu_instancing"};
@@ -812,7 +812,7 @@ int Converter::material(size_t i) {
   }
   float metallic = unit_interval(c_, pb, "metallicFactor", pp, 1.f);
   float roughness = unit_interval(c_, pb, "roughnessFactor", pp, 1.f);
-  float transmission = 0.f, ior = 1.5f;
+  float transmission = 0.f, ior = 1.5f, aniso_strength = 0.f, aniso_rotation = 0.f;
   RGB absorption(0.f);
   MatExtra ex;
   if (const json* e = member(m, "emissiveFactor")) ex.emission = nonneg_color(c_, *e, P(p, "emissiveFactor"), 3);
@@ -846,6 +846,18 @@ int Converter::material(size_t i) {
         }
       }
     }
+    if (const json* t = member(*exts, "KHR_materials_anisotropy")) {
+      // The roughness along the direction (dp/du turned by anisotropyRotation towards dp/dv) becomes
+      // mix(alpha, 1, strength^2), across it alpha stays (the extension's definition); scene/shading.h.
+      std::string ap = P(ep, "KHR_materials_anisotropy");
+      object_at(c_, *t, ap);
+      aniso_strength = unit_interval(c_, *t, "anisotropyStrength", ap, 0.f);
+      double rot = number_or(c_, *t, "anisotropyRotation", ap, 0.0);
+      if (!std::isfinite(rot)) c_.fail(P(ap, "anisotropyRotation"), "expected a finite angle in radians");
+      aniso_rotation = float(rot);
+      if (member(*t, "anisotropyTexture"))
+        warn_once("anisotropyTexture is not supported; anisotropyStrength and anisotropyRotation are used");
+    }
     if (const json* t = member(*exts, "KHR_materials_emissive_strength")) {
       std::string sp = P(ep, "KHR_materials_emissive_strength");
       object_at(c_, *t, sp);
@@ -856,6 +868,12 @@ int Converter::material(size_t i) {
   }
   Material mat = make_metallic_roughness(base, metallic, roughness, transmission, ior);
   mat.absorption = absorption;
+  if (aniso_strength > 0.f) {
+    const float a = roughness * roughness, s2 = aniso_strength * aniso_strength;
+    mat.alpha_y = maxf(a, 1e-4f);
+    mat.alpha_x = maxf(a * (1.f - s2) + s2, 1e-4f);
+    if (mat.alpha_x != mat.alpha_y) mat.aniso_rotation = aniso_rotation;
+  }
   if (const json* t = member(pb, "baseColorTexture")) mat.tex_color = texture(*t, P(pp, "baseColorTexture"), true);
   if (const json* t = member(pb, "metallicRoughnessTexture"))
     mat.tex_roughness = texture(*t, P(pp, "metallicRoughnessTexture"), false);

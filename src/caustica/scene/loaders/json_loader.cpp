@@ -350,7 +350,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map"});
     m = make_diffuse(get_ct("reflectance", RGB(0.5f)));
   } else if (type == "conductor") {
-    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "two_sided", "normal_map"});
+    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "two_sided", "normal_map"});
     Vec2f a = roughness("roughness");
     if (j.contains("eta") != j.contains("k")) c.fail(path, "give both 'eta' and 'k' (or neither for a tinted mirror)");
     RGB spec = get_ct("specular", RGB(1.f));
@@ -365,7 +365,8 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
       set_alpha(m, a);
     }
   } else if (type == "dielectric") {
-    check_keys(c, j, path, {"type", "eta", "roughness", "specular", "transmission", "absorption", "normal_map"});
+    check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "specular", "transmission", "absorption",
+                            "normal_map"});
     Vec2f a = roughness("roughness");
     m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
     if (a.x > 0.f || a.y > 0.f) {
@@ -393,8 +394,8 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     RGB kd = get_ct("diffuse", RGB(0.1f));
     m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
   } else if (type == "metallic_roughness") {
-    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "transmission", "eta", "absorption",
-                            "two_sided", "normal_map"});
+    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "transmission",
+                            "eta", "absorption", "two_sided", "normal_map"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = 0.5f;
@@ -419,6 +420,9 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     c.fail(path + "/type", "unknown material type '" + type + "' (allowed: " + kMaterialTypes + ")");
   }
   if (j.contains("two_sided") && boolean(c, j["two_sided"], path + "/two_sided")) m.flags |= kTwoSided;
+  if (j.contains("anisotropy_rotation")) {  // degrees from dp/du towards dp/dv (scene/shading.h)
+    m.aniso_rotation = float(numd(c, j["anisotropy_rotation"], path + "/anisotropy_rotation") * kPiD / 180.0);
+  }
   m.tex_color = tex_color;
   m.tex_roughness = tex_rough;
   if (j.contains("normal_map")) {
