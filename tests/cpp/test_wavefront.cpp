@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <numeric>
+#include <thread>
 
 #include <unistd.h>
 
@@ -420,6 +422,43 @@ TEST(WavefrontPhoton, AdaptiveRegionsGrowWithoutChangingTheImage) {
   double total = 0.0;
   for (float v : grown.first) total += v;
   EXPECT_GT(total, 0.0);
+}
+
+// A cancel request reaches the chains inside the adaptive stage on the CPU backend (HostCancelFlag), not only
+// between stages: a pass cancelled a tenth of the way through returns long before an uncancelled one ends,
+// and returns false (the pass leaves nothing behind; AdaptiveChainState commits only completed passes).
+// Relative times on the same machine: without the in-chain check the cancelled pass runs to its end (ratio
+// ~1); with it, ~0.1 plus the stages before the chains. The bound 0.5 leaves room for scheduling noise.
+TEST(WavefrontPhoton, AdaptiveChainsStopWhenCancelled) {
+  auto sc = small_scene("cornell", 8, 8);
+  PhotonWavefrontParams p;
+  p.adaptive = true;
+  p.seed = 3;
+  p.photons = 1000000;  // 128 chains of ~7800 steps: long enough for their time to dwarf the stages around them
+  p.radius = 0.05f;
+  auto timed_pass = [&](double cancel_after_s, bool& finished) {
+    auto wf = make_cpu_photon_wavefront(sc, p, &sc->accel());
+    std::atomic<bool> cancel{false};
+    WavefrontPassStats st;
+    EXPECT_TRUE(wf->render_pass(0, &cancel, st));  // a first pass: the regions have their size
+    const auto t0 = std::chrono::steady_clock::now();
+    std::thread stopper;
+    if (cancel_after_s > 0.0)
+      stopper = std::thread([&] {
+        std::this_thread::sleep_for(std::chrono::duration<double>(cancel_after_s));
+        cancel = true;
+      });
+    finished = wf->render_pass(1, &cancel, st);
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (stopper.joinable()) stopper.join();
+    return t;
+  };
+  bool done = false, stopped = true;
+  const double full = timed_pass(0.0, done);
+  ASSERT_TRUE(done);
+  const double cut = timed_pass(0.1 * full, stopped);
+  EXPECT_FALSE(stopped);
+  EXPECT_LT(cut, 0.5 * full) << "full pass " << full << " s, cancelled pass " << cut << " s";
 }
 
 // light, bdpt, bpm, vcm and upg on the CPU backend (integrator/wavefront_vcm.h) run the CPU drivers' stage

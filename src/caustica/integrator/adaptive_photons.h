@@ -9,6 +9,7 @@
 // Both drivers run the same chains with the same numbers, so their photons are the same, in the same
 // order (chain by chain, step by step).
 #pragma once
+#include <atomic>
 #include <cstdint>
 
 #include "../base/host_device.h"
@@ -77,6 +78,20 @@ struct PhotonSlot {
 CHD uint64_t adaptive_chain_steps(uint64_t photons, uint32_t chains, uint32_t c) {
   return photons / chains + (c < photons % chains ? 1 : 0);
 }
+
+// A host cancel flag that a kernel may poll: on the CPU backend the render's own flag (so a long adaptive
+// pass stops within 256 chain steps of Ctrl-C, as the CPU driver's chains do); in device code there is no
+// host memory to read and it is never set (the wavefront checks the flag between stages instead).
+struct HostCancelFlag {
+  const std::atomic<bool>* flag = nullptr;
+  CHD bool operator()() const {
+#if defined(__CUDA_ARCH__)
+    return false;
+#else
+    return flag && flag->load(std::memory_order_relaxed);
+#endif
+  }
+};
 
 // Runs chain `chain` of pass `abs_pass` (photon/adaptive.h's run_visibility_chain) on photon paths of at most
 // `photon_depth` segments. A path's photons that `visible` accepts, other than its direct ones (direct

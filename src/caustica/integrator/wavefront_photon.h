@@ -418,7 +418,9 @@ class WavefrontPhoton {
   // n_vis / S (photon/adaptive.h), become photons_[0, count): the CPU driver's photons in its order. The
   // chains' counts wait in pass_counts_ until the pass completes (render_pass commits them: the mutation
   // size for the next pass adapts to this pass's acceptance). Few threads (at most 128
-  // chains) but exact parity with the CPU driver. False when cancelled (checked between stages).
+  // chains) but exact parity with the CPU driver. False when cancelled: checked between stages and, on the
+  // CPU backend, by every chain each 256 steps (HostCancelFlag), so Ctrl-C stops a long pass as promptly as
+  // the CPU driver's; a CUDA kernel runs its chains to the end.
   bool trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax, const std::atomic<bool>* cancel,
                               WavefrontPassStats& stats, uint32_t& count) {
     const SceneView s = b_.scene();
@@ -473,6 +475,7 @@ class WavefrontPhoton {
       AdaptiveChainResult* out = chain_results_.data();
       const uint32_t pcap = payload_cap_;
       const uint64_t dcap = deposit_cap_;
+      const HostCancelFlag host_cancel{cancel};
       b_.parallel_for_long(chains, CAUSTICA_KERNEL(uint32_t c) {
         AdaptiveChainResult r;
         PhotonSlot slots[2];
@@ -490,7 +493,7 @@ class WavefrontPhoton {
               for (uint32_t j = 0; j < state.n; ++j, ++r.deposited)
                 if (j < state.cap && r.deposited < dcap) region[r.deposited] = state.photons[j];
             },
-            [] { return false; }, r.counts);
+            host_cancel, r.counts);
         out[c] = r;
       });
       b_.to_host(chain_results_, results.data(), chains);
