@@ -84,6 +84,11 @@ Material make_metallic_roughness(RGB base_color, float metallic, float roughness
   return m;
 }
 
+void set_alpha(Material& m, float ax, float ay) {
+  m.alpha_x = ax != ay ? maxf(ax, 1e-4f) : ax;
+  m.alpha_y = ax != ay ? maxf(ay, 1e-4f) : ay;
+}
+
 float diffuse_fresnel_reflectance(float eta) {
   // Midpoint rule in mu; F is smooth except at the critical angle, and 4096
   // steps put the error far below float precision of its use.

@@ -144,6 +144,9 @@ Material make_thin_dielectric(float eta);
 Material make_plastic(RGB diffuse, float eta = 1.49f, RGB specular = RGB(1.f));
 Material make_diffuse_transmission(RGB reflectance, RGB transmittance);
 Material make_phong(RGB kd, RGB ks, float exponent);
+// Sets GGX alpha (ax along the anisotropy direction, ay across it; scene/shading.h). An anisotropic pair keeps
+// each alpha >= 1e-4, as Mitsuba 3 clamps them: GGX's D divides by both.
+void set_alpha(Material& m, float ax, float ay);
 // glTF 2.0 metallic-roughness: base colour, metallic in [0,1], perceptual
 // roughness in [0,1] (GGX alpha = roughness^2), KHR_materials_transmission
 // weight, KHR_materials_ior.

@@ -870,8 +870,7 @@ int Converter::material(size_t i) {
   mat.absorption = absorption;
   if (aniso_strength > 0.f) {
     const float a = roughness * roughness, s2 = aniso_strength * aniso_strength;
-    mat.alpha_y = maxf(a, 1e-4f);
-    mat.alpha_x = maxf(a * (1.f - s2) + s2, 1e-4f);
+    set_alpha(mat, a * (1.f - s2) + s2, a);
     if (mat.alpha_x != mat.alpha_y) mat.aniso_rotation = aniso_rotation;
   }
   if (const json* t = member(pb, "baseColorTexture")) mat.tex_color = texture(*t, P(pp, "baseColorTexture"), true);

@@ -340,11 +340,6 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     if (v.is_object()) c.fail(p, "expected a number, [alpha_x, alpha_y] or a texture ({\"texture\": file})");
     return alpha_value(v, p);
   };
-  // Anisotropic alphas are kept >= 1e-4 each (as Mitsuba 3 clamps them): GGX's D divides by both.
-  auto set_alpha = [](Material& m, Vec2f a) {
-    m.alpha_x = a.x != a.y ? maxf(a.x, 1e-4f) : a.x;
-    m.alpha_y = a.x != a.y ? maxf(a.y, 1e-4f) : a.y;
-  };
   Material m;
   if (type == "diffuse") {
     check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map"});
@@ -358,11 +353,11 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
       m = make_conductor(get_c("eta", RGB(0.f)), get_c("k", RGB(0.f)), spec, a.x);
     } else {
       m = make_mirror(spec);
-      if (a.x > 0.f || a.y > 0.f) set_alpha(m, a);
+      if (a.x > 0.f || a.y > 0.f) set_alpha(m, a.x, a.y);
     }
     if (a.x > 0.f || a.y > 0.f) {
       m.type = MaterialType::kRoughConductor;
-      set_alpha(m, a);
+      set_alpha(m, a.x, a.y);
     }
   } else if (type == "dielectric") {
     check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "specular", "transmission", "absorption",
@@ -371,7 +366,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
     if (a.x > 0.f || a.y > 0.f) {
       m.type = MaterialType::kRoughDielectric;
-      set_alpha(m, a);
+      set_alpha(m, a.x, a.y);
     }
     m.specular = get_c("specular", RGB(1.f));
     m.transmission = get_ct("transmission", RGB(1.f));
@@ -414,7 +409,10 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     }
     float transmission = unit("transmission", get_f("transmission", 0.f));
     m = make_metallic_roughness(base, metallic, rough, transmission, positive("eta", get_f("eta", 1.5f)));
-    if (j.contains("alpha")) set_alpha(m, alpha_value(j["alpha"], path + "/alpha"));
+    if (j.contains("alpha")) {
+      const Vec2f al = alpha_value(j["alpha"], path + "/alpha");
+      set_alpha(m, al.x, al.y);
+    }
     m.absorption = get_c("absorption", RGB(0.f));
   } else {
     c.fail(path + "/type", "unknown material type '" + type + "' (allowed: " + kMaterialTypes + ")");

@@ -650,12 +650,7 @@ class Loader {
     }
     if (!(alpha >= 0.f)) fail(p.get("alpha"), "expected alpha >= 0");
     p.get("sample_visible");  // sampling only
-    m.alpha_x = alpha;
-    m.alpha_y = alpha_v >= 0.f ? alpha_v : alpha;
-    if (m.alpha_x != m.alpha_y) {  // GGX's D divides by both (Mitsuba 3 clamps them the same way)
-      m.alpha_x = maxf(m.alpha_x, 1e-4f);
-      m.alpha_y = maxf(m.alpha_y, 1e-4f);
-    }
+    set_alpha(m, alpha, alpha_v >= 0.f ? alpha_v : alpha);
     m.tex_roughness = tex;
   }
 
