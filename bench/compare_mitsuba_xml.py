@@ -14,7 +14,8 @@ environment map with coloured quadrants and a sun over a diffuse sphere, a rough
 (checks the envmap's orientation and importance sampling), and a textured floor with a plastic sphere, a
 point light and an area light, an orthographic sensor over a cube, a sphere and a floor, anisotropic rough
 gold (alpha_u != alpha_v) on a rectangle, a sphere and a disk, and glass (smooth and rough dielectric spheres, a
-thin dielectric pane, a copper mirror).
+thin dielectric pane, a copper mirror), and turned spheres (a texture and an anisotropic grain that turn with
+the sphere's to_world, beside an unturned textured sphere).
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -154,10 +155,38 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.3, 0.35, 0.4"/></emitter>
 </scene>
 """)
+    # Turned spheres: a sphere's UVs are measured in its own frame, so a texture (coloured quadrants in u,
+    # darker towards v = 1) and the anisotropic grain turn with its to_world's rotation; an unturned
+    # textured sphere beside them checks the unrotated layout.
+    quads = np.zeros((16, 32, 3), np.float32)
+    for q, col in enumerate([(0.8, 0.2, 0.2), (0.2, 0.8, 0.2), (0.2, 0.2, 0.8), (0.8, 0.8, 0.2)]):
+        quads[:, q * 8:(q + 1) * 8] = col
+    quads[:5] *= 0.3  # the image's top rows: v near 1 in Mitsuba's uv (theta near 0, the +z pole)
+    caustica.write_image(os.path.join(OUT, "quadrants.exr"), quads)
+    tex_bsdf = """<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename"
+      value="quadrants.exr"/><string name="filter_type" value="nearest"/></texture></bsdf>"""
+    with open(os.path.join(OUT, "turned.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="-70"/>
+      <rotate y="1" angle="40"/><translate x="-1.3" y="0.6" z="0"/></transform>{tex_bsdf}</shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.6"/><translate x="0" y="0.6" z="-0.4"/></transform>
+    {tex_bsdf}</shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.6"/><rotate z="1" angle="60"/>
+      <rotate x="1" angle="50"/><translate x="1.3" y="0.6" z="0"/></transform>{aniso}</shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate x="1" y="3" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="15, 14, 12"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.3, 0.35, 0.4"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
-            "glass": os.path.join(OUT, "glass.xml")}
+            "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml")}
 
 
 def render_caustica(path, res, spp, seed):

@@ -90,6 +90,11 @@ void expect_desc_eq(const SceneDesc& a, const SceneDesc& b, bool texture_names =
     for (size_t k = 0; k < x.normals.size(); ++k) expect_same(x.normals[k], y.normals[k], "normal");
     ASSERT_EQ(x.uvs.size(), y.uvs.size());
     for (size_t k = 0; k < x.uvs.size(); ++k) expect_same(x.uvs[k], y.uvs[k], "uv");
+    ASSERT_EQ(x.tangents.size(), y.tangents.size());
+    for (size_t k = 0; k < x.tangents.size(); ++k) {
+      expect_same(x.tangents[k].t, y.tangents[k].t, "tangent");
+      EXPECT_EQ(x.tangents[k].w, y.tangents[k].w) << "tangent handedness";
+    }
     EXPECT_EQ(x.indices, y.indices);
   }
   ASSERT_EQ(a.shapes.size(), b.shapes.size());
@@ -289,9 +294,11 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, -0.f}};
   m.normals = {{0, 0, 1}, {0, 0, 1}, {0.f, 0.6f, 0.8f}};
   m.uvs = {{0, 0}, {1, 0}, {0, 1.f / 3.f}};
+  m.tangents = {Tangent{Vec3f(1, 0, 0), 1.f}, Tangent{}, Tangent{normalize(Vec3f(0.6f, 0.f, -0.8f)), -1.f}};
   m.indices = {0, 1, 2};
   d.meshes.push_back(m);
   m.normals.clear();
+  m.tangents.clear();
   d.meshes.push_back(m);  // the same name twice
   for (int i = 0; i < 14; ++i) {
     ShapeDesc s;
@@ -533,6 +540,17 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "flip_normals, transform)"},
       {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2], "uvs": [[0,0]]})"),
        "s.json: /shapes/0/uvs: expected one [u,v] per position"},
+      {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2], "tangents": [[1,0,0,1]]})"),
+       "s.json: /shapes/0/tangents: expected one tangent [tx,ty,tz,w] per position"},
+      {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2],
+                          "tangents": [[1,0,0,1],[1,0,0,0.5],[1,0,0,1]]})"),
+       "s.json: /shapes/0/tangents/1/3: expected the handedness 1 or -1 (or [0,0,0,0]: no tangent)"},
+      {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2],
+                          "tangents": [[1,0,0,1],[1,0,0,1],[0,0,0,-1]]})"),
+       "s.json: /shapes/0/tangents/2: expected a non-zero tangent"},
+      {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2],
+                          "tangents": [[1,0,0,1],[1,0,0,1],[1,0,0]]})"),
+       "s.json: /shapes/0/tangents/2: expected an array of 4 numbers [tx,ty,tz,w]"},
       {scene_with("", R"({"type": "cube", "transform": {"look_at": {"origin": [0,0,0], "target": [0,0,0]}}})"),
        "s.json: /shapes/0/transform/look_at/target: must differ from the origin"},
       {scene_with("", R"({"type": "cube", "transform": {"look_at": {"origin": [0,0,0], "target": [0,1,0]}}})"),

@@ -326,6 +326,186 @@ TEST(Texture, AnisotropicShadingFrameFollowsDpDu) {
   EXPECT_GT(std::fabs(a.x - c.x), 0.1f * a.x);  // and the frame does matter for it
 }
 
+// Vertex tangents (generate_tangents, JSON "tangents", glTF TANGENT): on a flat half-annulus of 8 facets with
+// polar UVs (u along the arc, v outwards), the generated tangents are the circle's (the facets' chords,
+// averaged), the anisotropic frame is continuous across an edge where the triangles' own dp/du jump by the
+// facet angle, and mirroring transforms and flipped normals keep the axes along +u and +v.
+TEST(Texture, VertexTangentsAreSmoothAndKeepHandedness) {
+  const int kFacets = 8;
+  MeshDesc ring;  // radii 1 and 2 in z = 0, a from 0 to pi; u = a / pi, v = r - 1
+  for (int i = 0; i <= kFacets; ++i) {
+    float a = kPi * float(i) / float(kFacets);
+    for (int r = 1; r <= 2; ++r) {
+      ring.positions.push_back(Vec3f(float(r) * std::cos(a), float(r) * std::sin(a), 0.f));
+      ring.normals.push_back(Vec3f(0.f, 0.f, 1.f));
+      ring.uvs.push_back(Vec2f(float(i) / float(kFacets), float(r - 1)));
+    }
+  }
+  for (uint32_t i = 0; i < uint32_t(kFacets); ++i) {
+    uint32_t a0 = 2 * i, a1 = 2 * i + 1, b0 = 2 * i + 2, b1 = 2 * i + 3;  // a: inner/outer at a_i, b: at a_i+1
+    for (uint32_t k : {a0, b0, b1, a0, b1, a1}) ring.indices.push_back(k);  // counter-clockwise seen from +z
+  }
+  generate_tangents(ring);
+  ASSERT_EQ(ring.tangents.size(), ring.positions.size());
+  for (size_t k = 0; k < ring.positions.size(); ++k) {
+    float a = kPi * float(k / 2) / float(kFacets);
+    const Tangent& t = ring.tangents[k];
+    ASSERT_EQ(t.w, -1.f) << k;  // cross(+z, tangent) points inwards, v outwards
+    Vec3f b = cross(ring.normals[k], t.t) * t.w;
+    Vec3f circle(-std::sin(a), std::cos(a), 0.f);
+    if (k >= 2 && k < ring.positions.size() - 2) {  // interior vertices: the two chords' mean is the circle's tangent
+      EXPECT_NEAR(dot(t.t, circle), 1.f, 1e-5f) << k;
+      EXPECT_NEAR(dot(b, Vec3f(std::cos(a), std::sin(a), 0.f)), 1.f, 1e-5f) << k;
+    } else {  // the ends have one facet: its chord
+      EXPECT_NEAR(dot(t.t, circle), std::cos(0.5f * kPi / float(kFacets)), 1e-5f) << k;
+    }
+  }
+
+  Material aniso = make_conductor(RGB(0.2f), RGB(3.f), RGB(1.f), 0.05f);
+  aniso.alpha_y = 0.4f;
+  // Shape 0: the ring; 1: mirrored in x (negative determinant); 2: flipped normals; 3: the ring without
+  // tangents (the facets' dp/du). Each is moved 6 units along x.
+  SceneDesc d;
+  d.add_material("aniso", aniso);
+  d.meshes.push_back(ring);
+  MeshDesc bare = ring;
+  bare.tangents.clear();
+  d.meshes.push_back(bare);
+  for (int k = 0; k < 4; ++k) {
+    ShapeDesc s;
+    s.mesh = k == 3 ? 1 : 0;
+    if (k == 1) s.to_world.m[0][0] = -1.f;
+    s.flip_normals = k == 2;
+    s.to_world.m[0][3] = 6.f * float(k);
+    d.shapes.push_back(s);
+  }
+  d.lights.push_back(Light{});
+  auto sc = Scene::build(d);
+  const SceneView& v = sc->view();
+  ASSERT_NE(v.tangents, nullptr);
+  auto hit_at = [&](int shape, float a, SurfaceHit& sh) {
+    float sx = shape == 1 ? -1.f : 1.f;
+    Ray r{Vec3f(6.f * float(shape) + sx * 1.5f * std::cos(a), 1.5f * std::sin(a), 1.f), Vec3f(0, 0, -1), kInf};
+    Hit h;
+    EXPECT_TRUE(scene_intersect(v, r, h));
+    sh = make_surface_hit(v, r, h);
+    return surface_material(v, sh);
+  };
+  const float edge = kPi * 3.f / float(kFacets), eps = 1e-3f;
+  for (int shape = 0; shape < 4; ++shape) {
+    SurfaceHit lo, hi;
+    Material mlo = hit_at(shape, edge - eps, lo), mhi = hit_at(shape, edge + eps, hi);
+    Frame flo = shading_frame(v, lo, mlo), fhi = shading_frame(v, hi, mhi);
+    Vec3f tlo, blo, thi, bhi;
+    ASSERT_TRUE(triangle_dpduv(v, lo.prim, tlo, blo));
+    ASSERT_TRUE(triangle_dpduv(v, hi.prim, thi, bhi));
+    float jump = std::acos(clampf(dot(normalize(tlo), normalize(thi)), -1.f, 1.f));
+    EXPECT_NEAR(jump, kPi / float(kFacets), 1e-3f) << shape;  // the facets' own dp/du turn by the facet angle
+    float turn = std::acos(clampf(dot(flo.s, fhi.s), -1.f, 1.f));
+    if (shape == 3) {
+      EXPECT_NEAR(turn, kPi / float(kFacets), 1e-3f) << shape;  // without tangents the frame jumps with them
+      continue;
+    }
+    EXPECT_LT(turn, 0.01f) << shape;  // with them it is continuous (2 eps of arc = 0.002 rad; the jump is 0.39)
+    // The interpolated axes point the way the transformed UVs grow, whatever the transform did.
+    for (const SurfaceHit* sh : {&lo, &hi}) {
+      Vec3f tu, tv, du, dv;
+      ASSERT_TRUE(surface_uv_axes(v, *sh, tu, tv));
+      ASSERT_TRUE(triangle_dpduv(v, sh->prim, du, dv));
+      EXPECT_GT(dot(normalize(tu), normalize(du)), 0.95f) << shape;
+      EXPECT_GT(dot(normalize(tv), normalize(dv)), 0.95f) << shape;
+    }
+  }
+
+  // A mirrored seam: two quads share an edge, u growing towards it from both sides. Their vertices there get
+  // w = 0, and each quad keeps its own dp/du.
+  MeshDesc seam;
+  seam.positions = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 1, 0}, {1, 1, 0}, {2, 1, 0}};
+  seam.normals.assign(6, Vec3f(0, 0, 1));
+  seam.uvs = {{0, 0}, {1, 0}, {0, 0}, {0, 1}, {1, 1}, {0, 1}};
+  seam.indices = {0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4};
+  generate_tangents(seam);
+  EXPECT_EQ(seam.tangents[1].w, 0.f);
+  EXPECT_EQ(seam.tangents[4].w, 0.f);
+  EXPECT_EQ(seam.tangents[0].w, 1.f);
+  EXPECT_EQ(seam.tangents[2].w, -1.f);
+  SceneDesc ds;
+  ds.add_material("aniso", aniso);
+  ds.meshes.push_back(seam);
+  ShapeDesc q;
+  q.mesh = 0;
+  ds.shapes.push_back(q);
+  ds.lights.push_back(Light{});
+  auto scs = Scene::build(ds);
+  for (float x : {0.5f, 1.5f}) {
+    Ray r{Vec3f(x, 0.3f, 1.f), Vec3f(0, 0, -1), kInf};
+    Hit h;
+    ASSERT_TRUE(scene_intersect(scs->view(), r, h));
+    SurfaceHit sh = make_surface_hit(scs->view(), r, h);
+    Vec3f tu, tv;
+    ASSERT_TRUE(surface_uv_axes(scs->view(), sh, tu, tv));
+    EXPECT_NEAR(normalize(tu).x, x < 1.f ? 1.f : -1.f, 1e-6f) << x;
+    EXPECT_NEAR(normalize(tv).y, 1.f, 1e-6f) << x;
+  }
+}
+
+// A sphere's UVs are measured in its own frame (Mitsuba 3 and pbrt-v4 spheres use object space): turned a
+// quarter about x (local +z to world -y), its +z pole, the top row of its texture, faces -y; its anisotropy
+// direction (the longitude) and a normal map turn with it. Spheres take normal maps (longitude and latitude
+// as tangent and bitangent).
+TEST(Texture, RotatedSphereTurnsItsUVsAndFrame) {
+  SceneDesc d;
+  d.textures.push_back(make_texture(1, 1, [](int, int) { return RGB(0.5f, 1.f, 1.f); }));  // (0, 1, 1): towards +v
+  Material aniso = make_conductor(RGB(0.2f), RGB(3.f), RGB(1.f), 0.05f);
+  aniso.alpha_y = 0.4f;
+  d.add_material("aniso", aniso);
+  Material mapped = make_diffuse(RGB(1.f));
+  mapped.tex_normal = 0;
+  d.add_material("mapped", mapped);
+  for (int k = 0; k < 3; ++k) {  // 0: turned, 1: unturned, 2: unturned with the normal map
+    ShapeDesc sp;
+    sp.type = ShapeType::kSphere;
+    sp.material = k == 2 ? 1 : 0;
+    if (k == 0) {  // rotation by +90 degrees about x, scaled by 2: (x, y, z) -> 2 (x, -z, y)
+      sp.to_world.m[0][0] = 2.f;
+      sp.to_world.m[1][1] = 0.f;
+      sp.to_world.m[1][2] = -2.f;
+      sp.to_world.m[2][1] = 2.f;
+      sp.to_world.m[2][2] = 0.f;
+    }
+    sp.to_world.m[0][3] = 5.f * float(k);
+    d.shapes.push_back(sp);
+  }
+  d.lights.push_back(Light{});
+  auto sc = Scene::build(d);
+  const SceneView& v = sc->view();
+  ASSERT_NE(v.sphere_frames, nullptr);
+  auto hit = [&](int k, Vec3f n, SurfaceHit& sh) {
+    Vec3f c(5.f * float(k), 0.f, 0.f);
+    Ray r{c + n * 4.f, -n, kInf};
+    Hit h;
+    EXPECT_TRUE(scene_intersect(v, r, h));
+    sh = make_surface_hit(v, r, h);
+    return surface_material(v, sh);
+  };
+  SurfaceHit sh;
+  hit(0, Vec3f(0, -1, 0), sh);
+  EXPECT_NEAR(sh.uv.y, 1.f, 1e-5f);  // the turned sphere's +z pole
+  hit(1, Vec3f(0, -1, 0), sh);
+  EXPECT_NEAR(sh.uv.y, 0.5f, 1e-5f);  // on the unturned one's equator
+  EXPECT_NEAR(sh.uv.x, 0.75f, 1e-5f);  // phi = 270 degrees
+  // At world +x (local +x on both) the longitude runs along local +y: world +z on the turned sphere.
+  Material m = hit(0, Vec3f(1, 0, 0), sh);
+  EXPECT_NEAR(sh.uv.x, 0.f, 1e-5f);
+  EXPECT_NEAR(dot(shading_frame(v, sh, m).s, Vec3f(0, 0, 1)), 1.f, 1e-5f);
+  m = hit(1, Vec3f(1, 0, 0), sh);
+  EXPECT_NEAR(dot(shading_frame(v, sh, m).s, Vec3f(0, 1, 0)), 1.f, 1e-5f);
+  // The normal map (0, 1, 1) tilts the normal 45 degrees towards +v, the +z pole, on the equator.
+  m = hit(2, Vec3f(1, 0, 0), sh);
+  EXPECT_NEAR(sh.ns.x, std::sqrt(0.5f), 1e-5f);
+  EXPECT_NEAR(sh.ns.z, std::sqrt(0.5f), 1e-5f);
+}
+
 TEST(EnvMap, OrientationFollowsMitsubaConvention) {
   // Column u = 0.25 is +x, u = 0.5 is +z, u = 0 is -z; the top row is +y.
   EXPECT_NEAR(length(envmap_direction_local(Vec2f(0.25f, 0.5f)) - Vec3f(1, 0, 0)), 0.f, 1e-6f);

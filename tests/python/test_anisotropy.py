@@ -175,3 +175,108 @@ def test_gltf_khr_materials_anisotropy(tmp_path):
         caustica.load_scene(g.write(tmp_path / "aniso_tex.gltf"))
     said = [str(w.message) for w in caught]
     assert [m for m in said if "anisotropyTexture is not supported" in m], said
+
+
+def tangent_quad(g, material, tangent=None):
+    """g.quad with an optional TANGENT attribute ([tx, ty, tz, w] at every vertex)."""
+    mesh = g.quad(material)
+    if tangent is not None:
+        prim = g.doc["meshes"][mesh]["primitives"][0]
+        prim["attributes"]["TANGENT"] = g.accessor(list(tangent) * 4, "VEC4")
+    return mesh
+
+
+def gltf_module():
+    import sys
+    sys.path.insert(0, os.path.dirname(__file__))
+    import test_gltf
+    return test_gltf
+
+
+def test_gltf_tangents_are_read_generated_and_exported(tmp_path):
+    """glTF TANGENT becomes the mesh's vertex tangents for a material with anisotropy or a normal map; without
+    it tangents are generated from the normals and UVs (on the quad: dp/du = +x, bitangent +y, so w = +1);
+    a material that needs no tangent frame gets none; the JSON export keeps them, and a zero tangent is
+    reported."""
+    tg = gltf_module()
+
+    def exported(tangent, ext=True, name="t"):
+        g = tg.Gltf()
+        m = {"pbrMetallicRoughness": {"metallicFactor": 1.0, "roughnessFactor": 0.5}}
+        if ext:
+            m["extensions"] = {"KHR_materials_anisotropy": {"anisotropyStrength": 0.9}}
+            g.doc["extensionsUsed"] = ["KHR_materials_anisotropy"]
+        mat = g.add("materials", m)
+        g.scene([g.add("nodes", {"mesh": tangent_quad(g, mat, tangent)}), g.camera(3.0, tg.FILL_FOV)])
+        out = tmp_path / (name + ".json")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            caustica.export_scene(g.write(tmp_path / (name + ".gltf")), str(out))
+        doc = json.loads(out.read_text())
+        (mesh,) = doc["meshes"].values() if "meshes" in doc else [s for s in doc["shapes"] if s["type"] == "mesh"]
+        return mesh.get("tangents"), [str(w.message) for w in caught if "no lights" not in str(w.message)]
+
+    t, said = exported([0, 1, 0, -1], name="read")
+    assert t == [[0, 1, 0, -1]] * 4 and not said
+    t, said = exported([0, 3, 0, 1], name="scaled")
+    assert t == [[0, 1, 0, 1]] * 4  # normalised
+    t, said = exported(None, name="generated")
+    assert t == [[1, 0, 0, 1]] * 4 and not said
+    t, said = exported([0, 1, 0, 1], ext=False, name="unused")
+    assert t is None
+    t, said = exported([0, 0, 0, 1], name="zero")
+    assert t == [[0, 0, 0, 0]] * 4
+    assert [m for m in said if "4 zero or non-finite tangents" in m], said
+
+
+def test_gltf_tangent_orients_anisotropy_like_a_rotation(tmp_path):
+    """A TANGENT along +y (dp/dv) turns the anisotropy direction a quarter, as anisotropyRotation = pi/2 does
+    with the UVs' own dp/du: the highlights agree region by region, and differ from the unturned one."""
+    tg = gltf_module()
+
+    def scene(tangent, rotation):
+        g = tg.Gltf()
+        mat = g.add("materials", {"pbrMetallicRoughness": {"metallicFactor": 1.0, "roughnessFactor": 0.5},
+                                  "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.9,
+                                                                              "anisotropyRotation": rotation}}})
+        g.doc["extensionsUsed"] = ["KHR_lights_punctual", "KHR_materials_anisotropy"]
+        g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 683.0 * 8}]}}
+        light = g.add("nodes", {"translation": [0.2, 0.1, 1.2], "extensions": {"KHR_lights_punctual": {"light": 0}}})
+        g.scene([g.add("nodes", {"mesh": tangent_quad(g, mat, tangent)}), light, g.camera(3.0, tg.FILL_FOV)])
+        path = g.write(tmp_path / ("q%d.gltf" % len(list(tmp_path.iterdir()))))
+        return caustica.load_scene(path, width=RES, height=RES)
+
+    seeds = range(1, 9)
+    by_tangent = region_stats(scene([0, 1, 0, 1], 0.0), seeds, spp=16)
+    by_rotation = region_stats(scene(None, math.pi / 2), seeds, spp=16)
+    unturned = region_stats(scene(None, 0.0), seeds, spp=16)
+    assert z_scores(by_tangent, by_rotation).max() < 4.5, z_scores(by_tangent, by_rotation)
+    assert z_scores(by_tangent, unturned).max() > 10.0, z_scores(by_tangent, unturned)
+
+
+def test_gltf_tangent_handedness_orients_the_normal_map(tmp_path):
+    """A normal map whose texels tilt the normal towards +B (green up): with TANGENT w = +1 (B = +y, as the
+    UVs' v) the tilted plane faces a lamp above its centre more where the lamp lies towards +y, i.e. on the
+    half with y < 0; w = -1 turns B to -y and the brighter half with it; the generated tangents agree with
+    w = +1."""
+    tg = gltf_module()
+
+    def render_plane(tangent):
+        g = tg.Gltf()
+        g.image_data_uri(tg.png_bytes(np.full((2, 2, 3), [128, 200, 220], np.uint8)))
+        g.add("textures", {"source": 0})
+        mat = g.add("materials", {"pbrMetallicRoughness": {"metallicFactor": 0.0, "roughnessFactor": 1.0},
+                                  "normalTexture": {"index": 0},
+                                  "extensions": {"KHR_materials_ior": {"ior": 1.0}}})
+        g.doc["extensionsUsed"] = ["KHR_lights_punctual", "KHR_materials_ior"]
+        g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 683.0 * 4}]}}
+        light = g.add("nodes", {"translation": [0, 0, 0.5], "extensions": {"KHR_lights_punctual": {"light": 0}}})
+        g.scene([g.add("nodes", {"mesh": tangent_quad(g, mat, tangent)}), light, g.camera(3.0, tg.FILL_FOV)])
+        path = g.write(tmp_path / ("n%d.gltf" % len(list(tmp_path.iterdir()))))
+        img = caustica.render(caustica.load_scene(path, width=RES, height=RES), spp=8, seed=3)
+        rows = img[:, :, 1].mean(axis=1)  # row 0 = the image top = +y
+        return rows[RES // 2:].mean() / rows[:RES // 2].mean()  # the y < 0 half over the y > 0 half
+
+    up, down, generated = render_plane([1, 0, 0, 1]), render_plane([1, 0, 0, -1]), render_plane(None)
+    assert up > 1.3 and down < 1 / 1.3, (up, down)
+    assert generated == pytest.approx(up, rel=1e-6)

@@ -56,7 +56,7 @@ class Gltf:
 
     def accessor(self, values, type_, fmt="f", component=5126):
         values = list(values)
-        comps = {"SCALAR": 1, "VEC2": 2, "VEC3": 3}[type_]
+        comps = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[type_]
         bv = self.view(struct.pack("<%d%s" % (len(values), fmt), *values))
         return self.add("accessors", {"bufferView": bv, "componentType": component,
                                       "count": len(values) // comps, "type": type_})

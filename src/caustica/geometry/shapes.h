@@ -14,6 +14,14 @@ struct Sphere {
   float radius;
 };
 
+// A mesh vertex's tangent (glTF 2.0 TANGENT, pbrt-v4's per-vertex s): t points along +u of the texture
+// parameterisation, and the bitangent (along +v, v up) is w * cross(normal, t) with the vertex normal.
+// w is +1 or -1 (mirrored UVs); w = 0 marks a vertex without one, where the triangle's own dp/du is used.
+struct Tangent {
+  Vec3f t;
+  float w = 0.f;
+};
+
 // Returns true and fills t, b1, b2 (the weights of p1 and p2) when the ray hits
 // triangle (p0, p1, p2) at 0 < t < tmax. Watertight (Woop, Benthin, Wald 2013,
 // "Watertight Ray/Triangle Intersection", JCGT 2(1)): the vertices are moved into a

@@ -379,7 +379,7 @@ CHD bool vcm_sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Ve
         const Sphere& sp = s.spheres[l.prim - s.num_triangles];
         e.n = square_to_uniform_sphere(u_pos);
         e.p = sp.center + e.n * sp.radius;
-        uv = sphere_uv(e.n);
+        uv = sphere_uv_at(s, l.prim - s.num_triangles, e.n);
       }
       Vec3f n_side = e.n;
       if (l.two_sided && u_side < 0.5f) n_side = -n_side;

@@ -63,7 +63,7 @@ CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f 
         n = square_to_uniform_sphere(u_pos);
         p = sp.center + n * sp.radius;
         area = 4.f * kPi * sp.radius * sp.radius;
-        uv = sphere_uv(n);
+        uv = sphere_uv_at(s, l.prim - s.num_triangles, n);
       }
       float sides = 1.f;
       if (l.two_sided) {

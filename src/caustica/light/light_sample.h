@@ -117,7 +117,7 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       ls.dist = std::sqrt(d2);
       ls.wi = d / ls.dist;
       ls.pdf = light_pdf(s, l, ref, p, n);
-      ls.uv_l = sphere_uv(n);
+      ls.uv_l = sphere_uv_at(s, l.prim - s.num_triangles, n);
       ls.Li = area_radiance(s, l, n, -ls.wi, ls.uv_l);
       ls.delta = false;
       ls.p_l = p;

@@ -29,6 +29,14 @@ CHD Vec2f sphere_uv(Vec3f n) {
   return Vec2f(phi * (0.5f * kInvPi), 1.f - std::acos(clampf(n.z, -1.f, 1.f)) * kInvPi);
 }
 
+// Direction n from sphere i's centre in the sphere's own frame (SceneView::sphere_frames; the world's when
+// it has none), and the texture coordinates there: a rotated sphere's texture turns with it, as in Mitsuba 3
+// and pbrt-v4, whose spheres measure (phi, theta) in object space.
+CHD Vec3f sphere_local(const SceneView& s, uint32_t i, Vec3f n) {
+  return s.sphere_frames ? s.sphere_frames[i].to_local(n) : n;
+}
+CHD Vec2f sphere_uv_at(const SceneView& s, uint32_t i, Vec3f n) { return sphere_uv(sphere_local(s, i, n)); }
+
 CHD void triangle_vertices(const SceneView& s, uint32_t tri, Vec3f& p0, Vec3f& p1, Vec3f& p2) {
   p0 = s.positions[s.indices[3 * tri + 0]];
   p1 = s.positions[s.indices[3 * tri + 1]];
@@ -59,7 +67,7 @@ CHD SurfaceHit make_surface_hit(const SceneView& s, const Ray& r, const Hit& h) 
     sh.ng = normalize(p - sp.center);
     sh.p = sp.center + sh.ng * sp.radius;  // re-project onto the surface
     sh.ns = sh.ng;
-    sh.uv = sphere_uv(sh.ng);
+    sh.uv = sphere_uv_at(s, h.prim - s.num_triangles, sh.ng);
   }
   return sh;
 }

@@ -404,6 +404,15 @@ struct Writer {
       for (Vec2f v : m.uvs) u.push(vec2(v));
       o.set("uvs", u);
     }
+    if (!m.tangents.empty()) {
+      JV ta = JV::array();
+      for (const Tangent& t : m.tangents) {
+        JV e = JV::array();
+        for (float x : {t.t.x, t.t.y, t.t.z, t.w}) e.push(JV::flt(x));
+        ta.push(e);
+      }
+      o.set("tangents", ta);
+    }
     return o;
   }
 

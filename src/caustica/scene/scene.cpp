@@ -147,6 +147,47 @@ Camera make_camera(const CameraDesc& c) {
   return cam;
 }
 
+void generate_tangents(MeshDesc& m) {
+  const size_t n = m.positions.size();
+  if (m.normals.size() != n || m.uvs.size() != n) return;
+  std::vector<Vec3f> tsum(n, Vec3f(0.f)), bsum(n, Vec3f(0.f));
+  std::vector<uint8_t> hand(n, 0);  // bit 0: a triangle with +1 handedness met the vertex, bit 1: one with -1
+  for (size_t k = 0; k + 2 < m.indices.size(); k += 3) {
+    const uint32_t ix[3] = {m.indices[k], m.indices[k + 1], m.indices[k + 2]};
+    if (ix[0] >= n || ix[1] >= n || ix[2] >= n) continue;
+    Vec3f p0 = m.positions[ix[0]], p1 = m.positions[ix[1]], p2 = m.positions[ix[2]];
+    Vec2f t0 = m.uvs[ix[0]], t1 = m.uvs[ix[1]], t2 = m.uvs[ix[2]];
+    float du1 = t1.x - t0.x, dv1 = t1.y - t0.y, du2 = t2.x - t0.x, dv2 = t2.y - t0.y;
+    float det = du1 * dv2 - dv1 * du2;
+    if (!(std::fabs(det) > 1e-20f)) continue;
+    Vec3f e1 = p1 - p0, e2 = p2 - p0;
+    Vec3f dpdu = (e1 * dv2 - e2 * dv1) / det, dpdv = (e2 * du1 - e1 * du2) / det;
+    if (!isfinite3(dpdu) || !isfinite3(dpdv)) continue;
+    const Vec3f pts[3] = {p0, p1, p2};
+    for (int c = 0; c < 3; ++c) {
+      Vec3f a = pts[(c + 1) % 3] - pts[c], b = pts[(c + 2) % 3] - pts[c];
+      float la = length(a), lb = length(b);
+      if (!(la > 0.f) || !(lb > 0.f)) continue;
+      float angle = std::acos(clampf(dot(a, b) / (la * lb), -1.f, 1.f));
+      Vec3f nv = m.normals[ix[c]];
+      Vec3f t = dpdu - nv * dot(nv, dpdu), bt = dpdv - nv * dot(nv, dpdv);
+      if (!(length_sq(t) > 0.f) || !(length_sq(bt) > 0.f)) continue;
+      tsum[ix[c]] += normalize(t) * angle;
+      bsum[ix[c]] += normalize(bt) * angle;
+      hand[ix[c]] |= dot(cross(nv, t), bt) >= 0.f ? 1 : 2;
+    }
+  }
+  m.tangents.assign(n, Tangent{});
+  for (size_t i = 0; i < n; ++i) {
+    if (hand[i] != 1 && hand[i] != 2) continue;  // no triangle, or a mirrored seam: w = 0
+    Vec3f nv = m.normals[i];
+    Vec3f t = tsum[i] - nv * dot(nv, tsum[i]);
+    float l2 = length_sq(t);
+    if (!(l2 > 1e-12f * length_sq(tsum[i])) || !std::isfinite(l2)) continue;
+    m.tangents[i] = Tangent{t / std::sqrt(l2), hand[i] == 1 ? 1.f : -1.f};
+  }
+}
+
 namespace {
 // Mean luminance of a texture's texels (textured area lights' power).
 float texture_mean_luminance(const TextureView& t) {
@@ -468,6 +509,18 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
         area.push_back({uint32_t(s.spheres.size()), true, sh.emission, sh.emission_two_sided, sh.emission_texture});
       s.spheres.push_back(sp);
       sphere_material.push_back(uint32_t(sh.material));
+      // The sphere's axes (its transform's rotation or reflection, the scale divided out), kept only when
+      // some sphere is turned: its UVs, textures and anisotropy turn with it.
+      Frame axes;
+      axes.s = sx / a;
+      axes.t = sy / b;
+      axes.n = sz / c;
+      bool turned = false;
+      const Vec3f id[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+      const Vec3f* ax[3] = {&axes.s, &axes.t, &axes.n};
+      for (int k = 0; k < 3; ++k) turned |= length_sq(*ax[k] - id[k]) > 1e-12f;
+      if (turned && s.sphere_frames.empty()) s.sphere_frames.assign(s.spheres.size() - 1, Frame());
+      if (turned || !s.sphere_frames.empty()) s.sphere_frames.push_back(axes);
       continue;
     }
     const MeshDesc* mesh = nullptr;
@@ -491,6 +544,19 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       // Meshes without UVs get zeros (a texture shows its corner texel there).
       s.uvs.resize(base, Vec2f(0.f, 0.f));
       for (size_t i = 0; i < mesh->positions.size(); ++i) s.uvs.push_back(has_uv ? mesh->uvs[i] : Vec2f(0.f, 0.f));
+    }
+    if (!mesh->tangents.empty() || !s.tangents.empty()) {
+      // A tangent moves with the surface (lin t); its handedness flips with a mirroring transform (the
+      // normal goes by the inverse transpose: cross(M^-T n, M t) = det(M) M (n x t) for orthogonal M, and
+      // the sign carries over to any M) and with flipped normals. Meshes without tangents get w = 0.
+      s.tangents.resize(base, Tangent{});
+      float wsign = ((det3(lin) < 0.0) != sh.flip_normals) ? -1.f : 1.f;
+      for (size_t i = 0; i < mesh->positions.size(); ++i) {
+        Tangent t = i < mesh->tangents.size() ? mesh->tangents[i] : Tangent{};
+        Vec3f tw = apply(lin, t.t);
+        if (t.w != 0.f && length_sq(tw) > 0.f && isfinite3(tw)) s.tangents.push_back(Tangent{normalize(tw), t.w * wsign});
+        else s.tangents.push_back(Tangent{});
+      }
     }
     if (has_n || !s.normals.empty()) {
       // Keep normals aligned with positions: meshes without them get zero
@@ -538,6 +604,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   skipped(skipped_degenerate, "degenerate (zero-area) triangles");
   skipped(skipped_spheres, "spheres with a non-finite centre or a radius that is not positive");
   if (!s.uvs.empty()) s.uvs.resize(s.positions.size(), Vec2f(0.f, 0.f));
+  if (!s.tangents.empty()) s.tangents.resize(s.positions.size(), Tangent{});
   uint32_t num_tri = uint32_t(s.indices.size() / 3);
   for (uint32_t m : sphere_material) s.prim_material.push_back(m);
   s.prim_light.assign(s.prim_material.size(), -1);
@@ -753,6 +820,7 @@ void Scene::update_view() {
   v.positions = positions.data();
   v.normals = normals.empty() ? nullptr : normals.data();
   v.uvs = uvs.empty() ? nullptr : uvs.data();
+  v.tangents = tangents.empty() ? nullptr : tangents.data();
   v.textures = textures.data();
   v.num_textures = uint32_t(textures.size());
   if (v.environment_light >= 0 && lights[v.environment_light].texture >= 0) {
@@ -764,6 +832,7 @@ void Scene::update_view() {
   v.indices = indices.data();
   v.num_triangles = uint32_t(indices.size() / 3);
   v.spheres = spheres.data();
+  v.sphere_frames = sphere_frames.empty() ? nullptr : sphere_frames.data();
   v.num_spheres = uint32_t(spheres.size());
   v.prim_material = prim_material.data();
   v.prim_light = prim_light.data();

@@ -33,10 +33,12 @@ class Scene {
 
   std::vector<Vec3f> positions, normals;
   std::vector<Vec2f> uvs;  // empty, or one per position
+  std::vector<Tangent> tangents;  // empty, or one per position (w = 0 where a mesh has none)
   std::vector<TextureView> textures;  // views into desc().textures
   std::vector<float> env_func, env_cond_cdf, env_marg_cdf, env_marg_func;
   std::vector<uint32_t> indices;
   std::vector<Sphere> spheres;
+  std::vector<Frame> sphere_frames;  // empty, or one per sphere (where any sphere is rotated)
   std::vector<uint32_t> prim_material;
   std::vector<int32_t> prim_light;
   std::vector<Material> materials;

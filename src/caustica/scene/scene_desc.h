@@ -6,6 +6,7 @@
 #include <vector>
 #include "../camera/camera.h"
 #include "../film/filter.h"
+#include "../geometry/shapes.h"
 #include "../light/light.h"
 #include "../material/material.h"
 #include "../texture/texture.h"
@@ -17,8 +18,17 @@ struct MeshDesc {
   std::vector<Vec3f> positions;
   std::vector<Vec3f> normals;  // empty, or one per position
   std::vector<Vec2f> uvs;      // empty, or one per position; (0,0) = bottom-left of a texture image
+  std::vector<Tangent> tangents;  // empty, or one per position (geometry/shapes.h; w = +-1, or 0: none there)
   std::vector<uint32_t> indices;  // 3 per triangle
 };
+
+// Per-vertex tangents for a mesh with normals and UVs and none of its own (what glTF 2.0 asks for a normal
+// map without a TANGENT attribute): each triangle's dp/du and dp/dv (pbrt-v4 Eq. 6.7), made orthogonal to
+// the vertex normal, summed with the triangle's angle at the vertex as weight (the weighting MikkTSpace
+// uses; the sum itself is Lengyel 2001, "Computing Tangent Space Basis Vectors for an Arbitrary Mesh").
+// A vertex whose triangles disagree on the UVs' handedness (a mirrored seam) or whose sum vanishes gets
+// w = 0, so the triangles there keep their own dp/du. Does nothing without normals or UVs.
+void generate_tangents(MeshDesc& m);
 
 // An image texture: linear RGBA floats, row 0 = the TOP row of the image (as
 // stored in files). Lookups use uv with v = 0 at the BOTTOM (OBJ, Mitsuba and

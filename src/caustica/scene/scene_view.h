@@ -58,11 +58,15 @@ struct SceneView {
   const Vec3f* positions = nullptr;
   const Vec3f* normals = nullptr;  // per vertex, or null
   const Vec2f* uvs = nullptr;      // per vertex, or null (then uv = barycentrics (b1, b2))
+  const Tangent* tangents = nullptr;  // per vertex, or null (then the triangles' dp/du: shading.h)
   const uint32_t* indices = nullptr;  // 3 per triangle
   uint32_t num_triangles = 0;
   // Spheres
   const Sphere* spheres = nullptr;
   uint32_t num_spheres = 0;
+  // Per sphere, or null when none is rotated: the sphere's own axes in world space (its transform's rotation,
+  // or reflection), in which its UVs are measured (sphere_uv_at in interaction.h).
+  const Frame* sphere_frames = nullptr;
   // Per primitive
   const uint32_t* prim_material = nullptr;
   const int32_t* prim_light = nullptr;  // light index of an emissive primitive, else -1

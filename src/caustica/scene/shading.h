@@ -5,8 +5,9 @@
 //                  from B (glTF 2.0 Sec. 3.9.2), other rough types alpha from R;
 //   tex_normal:    tangent-space normal map (glTF 2.0 Sec. 3.9.3): n =
 //                  normalize(T x s + B y s + N z) with (x, y, z) = 2 rgb - 1,
-//                  s = normal_scale, T = dp/du and B = dp/dv made orthogonal
-//                  to the shading normal N (v up, so green points towards +v).
+//                  s = normal_scale, T = dp/du and B = dp/dv (surface_uv_axes: vertex
+//                  tangents where the mesh has them) made orthogonal to the shading
+//                  normal N (v up, so green points towards +v).
 #pragma once
 #include "interaction.h"
 
@@ -29,23 +30,63 @@ CHD bool triangle_dpduv(const SceneView& s, uint32_t tri, Vec3f& dpdu, Vec3f& dp
   return isfinite3(dpdu) && isfinite3(dpdv);
 }
 
+// The directions of increasing u and v at a hit (unnormalised, not yet orthogonal to the shading normal):
+//   triangles of a mesh with vertex tangents (Tangent: glTF's TANGENT, or generate_tangents): the
+//     tangents interpolated at the hit and w * cross(vertex normal, tangent), as pbrt-v4 does with a mesh's
+//     s and glTF 2.0 with TANGENT; smooth across triangles, as the normals are;
+//   other triangles: their own dp/du and dp/dv (triangle_dpduv; Mitsuba 3 and pbrt-v4 without
+//     tangents), constant over each triangle;
+//   spheres: u = phi / 2pi about their own +z (sphere_uv_at), dp/du along (-n.y, n.x, 0) in their frame,
+//     dp/dv towards the +z pole.
+// False where there are none: a mesh without UVs, a degenerate mapping, a sphere's pole.
+CHD bool surface_uv_axes(const SceneView& s, const SurfaceHit& sh, Vec3f& dpdu, Vec3f& dpdv) {
+  if (sh.prim >= s.num_triangles) {  // in the sphere's own frame; v = 1 - theta / pi grows towards its +z pole
+    const uint32_t i = sh.prim - s.num_triangles;
+    const Vec3f n = sphere_local(s, i, sh.ng);
+    dpdu = Vec3f(-n.y, n.x, 0.f);
+    dpdv = Vec3f(-n.z * n.x, -n.z * n.y, n.x * n.x + n.y * n.y);
+    if (s.sphere_frames) {
+      dpdu = s.sphere_frames[i].to_world(dpdu);
+      dpdv = s.sphere_frames[i].to_world(dpdv);
+    }
+    return length_sq(dpdu) > 0.f;
+  }
+  if (s.tangents) {
+    const uint32_t* ix = s.indices + 3 * sh.prim;
+    const Tangent t0 = s.tangents[ix[0]], t1 = s.tangents[ix[1]], t2 = s.tangents[ix[2]];
+    if (t0.w != 0.f && t0.w == t1.w && t0.w == t2.w) {  // one handedness over the triangle
+      Vec3f p0, p1, p2;
+      triangle_vertices(s, sh.prim, p0, p1, p2);
+      Vec3f e1 = p1 - p0, e2 = p2 - p0, d = sh.p - p0, nt = cross(e1, e2);
+      float inv = 1.f / length_sq(nt);
+      float b1 = dot(cross(d, e2), nt) * inv, b2 = dot(cross(e1, d), nt) * inv, b0 = 1.f - b1 - b2;
+      Vec3f t = t0.t * b0 + t1.t * b1 + t2.t * b2;
+      Vec3f nv = sh.ng;
+      if (s.normals) {
+        Vec3f n = s.normals[ix[0]] * b0 + s.normals[ix[1]] * b1 + s.normals[ix[2]] * b2;
+        if (length_sq(n) > 0.f) nv = n;  // the vertex normals' side, which w refers to
+      }
+      Vec3f b = cross(nv, t) * t0.w;
+      if (length_sq(t) > 0.f && length_sq(b) > 0.f && isfinite3(t) && isfinite3(b)) {
+        dpdu = t;
+        dpdv = b;
+        return true;
+      }
+    }
+  }
+  return triangle_dpduv(s, sh.prim, dpdu, dpdv);
+}
+
 // The direction anisotropic roughness is measured along (alpha_x along it, alpha_y across it): dp/du of
-// the surface's texture parameterisation, as in pbrt-v4 (uroughness along dpdu) and Mitsuba 3 (alpha_u
-// along dp_du). Meshes with UVs: triangle_dpduv; spheres: the direction of increasing u = phi / 2pi about
-// +z (sphere_uv), (-n.y, n.x, 0). Zero where there is none (a mesh without UVs, a degenerate mapping, a
-// sphere's pole) and for isotropic materials, whose frame about the normal is arbitrary.
+// the surface's texture parameterisation (surface_uv_axes), as in pbrt-v4 (uroughness along dpdu) and
+// Mitsuba 3 (alpha_u along dp_du). Zero where there is none and for isotropic materials, whose frame
+// about the normal is arbitrary.
 // A material's aniso_rotation (KHR_materials_anisotropy's anisotropyRotation) turns that direction about
 // the shading normal, counter-clockwise from dp/du towards dp/dv.
 CHD Vec3f shading_tangent(const SceneView& s, const SurfaceHit& sh, const Material& m) {
   if (m.alpha_x == m.alpha_y) return Vec3f(0.f);
   Vec3f dpdu, dpdv;
-  if (sh.prim < s.num_triangles) {
-    if (!triangle_dpduv(s, sh.prim, dpdu, dpdv)) return Vec3f(0.f);
-  } else {
-    const Vec3f n = sh.ng;  // v = 1 - theta / pi grows towards the +z pole
-    dpdu = Vec3f(-n.y, n.x, 0.f);
-    dpdv = Vec3f(-n.z * n.x, -n.z * n.y, n.x * n.x + n.y * n.y);
-  }
+  if (!surface_uv_axes(s, sh, dpdu, dpdv)) return Vec3f(0.f);
   if (m.aniso_rotation == 0.f) return dpdu;
   const Vec3f n = sh.ns;
   Vec3f t = dpdu - n * dot(n, dpdu);
@@ -76,7 +117,7 @@ CHD Frame shading_frame(const SceneView& s, const SurfaceHit& sh, const Material
 
 CHD void apply_normal_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
   Vec3f dpdu, dpdv;
-  if (!triangle_dpduv(s, sh.prim, dpdu, dpdv)) return;
+  if (!surface_uv_axes(s, sh, dpdu, dpdv)) return;
   Vec3f n = sh.ns;
   Vec3f t = dpdu - n * dot(n, dpdu);
   if (length_sq(t) == 0.f) return;

@@ -46,8 +46,10 @@ class DeviceScene {
     v.positions = upload(sc.positions);
     v.normals = upload(sc.normals);
     v.uvs = upload(sc.uvs);
+    v.tangents = upload(sc.tangents);
     v.indices = upload(sc.indices);
     v.spheres = upload(sc.spheres);
+    v.sphere_frames = upload(sc.sphere_frames);
     v.prim_material = upload(sc.prim_material);
     v.prim_light = upload(sc.prim_light);
     v.materials = upload(sc.materials);

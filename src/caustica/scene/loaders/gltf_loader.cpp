@@ -949,6 +949,35 @@ int Converter::mesh(size_t mi, size_t pi) {
       d_.warnings.push_back(c_.file + ": " + p + ": non-finite texture coordinates; the primitive is untextured");
     }
   }
+  // Vertex tangents, for the materials that use a tangent frame (a normal map, anisotropic roughness):
+  // TANGENT where the primitive has one (ignored without NORMAL, as glTF 2.0 Sec. 3.7.2.1 says), else
+  // generated from the normals and UVs (generate_tangents; the spec asks for MikkTSpace, whose angle
+  // weighting it shares but not its splitting of vertices at tangent-space seams).
+  bool wants_tangents = false, generate = false;
+  if (const json* mt = member(pr, "material")) {
+    const Material& mat = d_.materials[size_t(material(mt->get<size_t>()))];
+    wants_tangents = mat.tex_normal >= 0 || mat.alpha_x != mat.alpha_y;
+  }
+  if (wants_tangents && !md.normals.empty() && !md.uvs.empty()) {
+    if (const json* gj = member(attrs, "TANGENT")) {
+      size_t ng;
+      std::vector<float> tg = read_floats(gj->get<size_t>(), P(P(p, "attributes"), "TANGENT"), {"VEC4"}, ng, nc);
+      if (ng != n) c_.fail(P(P(p, "attributes"), "TANGENT"), "has " + std::to_string(ng) + " elements, POSITION has " + std::to_string(n));
+      md.tangents.resize(n);
+      size_t bad = 0;
+      for (size_t i = 0; i < n; ++i) {
+        Vec3f t(tg[4 * i], tg[4 * i + 1], tg[4 * i + 2]);
+        float l = length(t), w = tg[4 * i + 3];
+        if (!(l > 0.f) || !std::isfinite(l) || !std::isfinite(w) || w == 0.f) ++bad;  // w = 0: the triangle's dp/du
+        else md.tangents[i] = Tangent{t / l, w < 0.f ? -1.f : 1.f};
+      }
+      if (bad)
+        d_.warnings.push_back(c_.file + ": " + p + ": " + std::to_string(bad) +
+                              " zero or non-finite tangents; those triangles use their UVs' dp/du");
+    } else {
+      generate = true;  // once the triangles are known
+    }
+  }
   if (member(attrs, "COLOR_0")) warn_once("vertex colours (COLOR_0) are not supported and are ignored");
   if (member(attrs, "JOINTS_0") || member(pr, "targets")) warn_once("skinning and morph targets are not supported; meshes are used in their rest pose");
   std::vector<uint32_t> idx;
@@ -997,6 +1026,7 @@ int Converter::mesh(size_t mi, size_t pi) {
     for (Vec3f& q : md.positions)
       if (!(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z))) q = safe;
   }
+  if (generate) generate_tangents(md);
   if (md.indices.empty()) {
     mesh_of_[key] = -1;
     return -1;

@@ -463,6 +463,27 @@ MeshDesc parse_mesh_data(const Ctx& c, const json& j, const std::string& p) {
     if (!U.is_array() || U.size() != m.positions.size()) c.fail(p + "/uvs", "expected one [u,v] per position");
     for (size_t k = 0; k < U.size(); ++k) m.uvs.push_back(vec2(c, U[k], p + "/uvs/" + std::to_string(k), false));
   }
+  if (j.contains("tangents")) {
+    // [tx, ty, tz, w]: the tangent along +u and the handedness w = 1 or -1 (bitangent w * cross(n, t); glTF's
+    // TANGENT), or [0, 0, 0, 0] for a vertex without one.
+    const json& T = j["tangents"];
+    if (!T.is_array() || T.size() != m.positions.size())
+      c.fail(p + "/tangents", "expected one tangent [tx,ty,tz,w] per position");
+    for (size_t k = 0; k < T.size(); ++k) {
+      std::string tp = p + "/tangents/" + std::to_string(k);
+      if (!T[k].is_array() || T[k].size() != 4) c.fail(tp, "expected an array of 4 numbers [tx,ty,tz,w]");
+      Vec3f t(num(c, T[k][0], tp + "/0"), num(c, T[k][1], tp + "/1"), num(c, T[k][2], tp + "/2"));
+      float w = num(c, T[k][3], tp + "/3");
+      if (w == 0.f && length_sq(t) == 0.f) {
+        m.tangents.push_back(Tangent{});
+        continue;
+      }
+      if (w != 1.f && w != -1.f) c.fail(tp + "/3", "expected the handedness 1 or -1 (or [0,0,0,0]: no tangent)");
+      float l2 = length_sq(t);
+      if (!(l2 > 0.f) || !std::isfinite(l2)) c.fail(tp, "expected a non-zero tangent");
+      m.tangents.push_back(Tangent{t / std::sqrt(l2), w});
+    }
+  }
   return m;
 }
 
@@ -816,7 +837,7 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     for (auto it = meshes.begin(); it != meshes.end(); ++it) {
       std::string p = "/meshes/" + esc(it.key());
       const json& j = it.value();
-      check_keys(c, j, p, {"file", "positions", "indices", "normals", "uvs"});
+      check_keys(c, j, p, {"file", "positions", "indices", "normals", "uvs", "tangents"});
       if (j.contains("file")) {
         if (j.size() > 1) c.fail(p, "a mesh is a 'file' or inline 'positions' and 'indices', not both");
         named[it.key()] = load_mesh_file_parts(c, j["file"], p + "/file", it.key());
@@ -848,7 +869,7 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
                            "center", "radius"});
     else if (type == "mesh")
       check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
-                           "positions", "indices", "normals", "uvs", "file", "mesh"});
+                           "positions", "indices", "normals", "uvs", "tangents", "file", "mesh"});
     else if (type == "rectangle" || type == "cube" || type == "disk")
       check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform"});
     else
@@ -879,7 +900,8 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     else if (type == "disk") s.type = ShapeType::kDisk;
     else {
       s.type = ShapeType::kMesh;
-      bool inline_data = j.contains("positions") || j.contains("indices") || j.contains("normals") || j.contains("uvs");
+      bool inline_data = j.contains("positions") || j.contains("indices") || j.contains("normals") || j.contains("uvs") ||
+                         j.contains("tangents");
       int forms = int(inline_data) + int(j.contains("file")) + int(j.contains("mesh"));
       if (forms != 1)
         c.fail(p, forms == 0 ? "a mesh needs inline 'positions' and 'indices', a 'file' or a 'mesh' name from /meshes"
