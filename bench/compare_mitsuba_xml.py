@@ -15,7 +15,8 @@ environment map with coloured quadrants and a sun over a diffuse sphere, a rough
 point light and an area light, an orthographic sensor over a cube, a sphere and a floor, anisotropic rough
 gold (alpha_u != alpha_v) on a rectangle, a sphere and a disk, and glass (smooth and rough dielectric spheres, a
 thin dielectric pane, a copper mirror), and turned spheres (a texture and an anisotropic grain that turn with
-the sphere's to_world, beside an unturned textured sphere).
+the sphere's to_world, beside an unturned textured sphere), and bumps (Mitsuba's bumpmap on a floor, normalmap on a
+gold sphere and a diffuse rectangle).
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -183,10 +184,52 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.3, 0.35, 0.4"/></emitter>
 </scene>
 """)
+    # Bumps: a floor with a height map (raw, bilinear: Mitsuba's bumpmap) of round bumps, a sphere and a
+    # rectangle with a normal map (raw: Mitsuba's normalmap) of tilted tiles over rough gold, lit from low
+    # on one side so that the slopes' directions show.
+    n = 64
+    yy, xx = np.mgrid[0:n, 0:n] + 0.5
+    height = (0.5 + 0.5 * np.sin(xx * 2 * math.pi / 16) * np.sin(yy * 2 * math.pi / 16)).astype(np.float32)
+    caustica.write_image(os.path.join(OUT, "height.exr"), np.repeat(height[:, :, None], 3, axis=2))
+    tiles = np.zeros((n, n, 3), np.float32)
+    tx = np.where((xx // 16) % 2 == 0, 0.35, -0.35)  # tangent-space x tilt alternating per column of tiles
+    ty = np.where((yy // 16) % 2 == 0, 0.25, -0.25)
+    nz = np.sqrt(1 - tx ** 2 - ty ** 2)
+    tiles[:, :, 0], tiles[:, :, 1], tiles[:, :, 2] = 0.5 * tx + 0.5, 0.5 * ty + 0.5, 0.5 * nz + 0.5
+    caustica.write_image(os.path.join(OUT, "tiles.exr"), tiles)
+    # Mitsuba >= 3.7.1 flips normals that face away from the viewer and adds a terminator shadowing term in
+    # both wrappers by default; caustica does neither, so the comparison turns them off.
+    plain = ('<boolean name="flip_invalid_normals" value="false"/>'
+             '<boolean name="use_shadowing_function" value="false"/>')
+    with open(os.path.join(OUT, "bumpy.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="bumpmap">{plain}<texture type="bitmap"><string name="filename" value="height.exr"/>
+      <boolean name="raw" value="true"/></texture><float name="scale" value="0.02"/>
+      <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.7"/><translate x="-0.9" y="0.7" z="0"/></transform>
+    <bsdf type="normalmap">{plain}<texture type="bitmap" name="normalmap"><string name="filename" value="tiles.exr"/>
+      <boolean name="raw" value="true"/></texture>
+      <bsdf type="roughconductor"><string name="material" value="Au"/><string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.15"/></bsdf></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate y="1" angle="-30"/>
+      <translate x="1" y="0.7" z="0"/></transform>
+    <bsdf type="normalmap">{plain}<texture type="bitmap" name="normalmap"><string name="filename" value="tiles.exr"/>
+      <boolean name="raw" value="true"/></texture>
+      <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.1, 0.12, 0.15"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
-            "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml")}
+            "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml"),
+            "bumpy": os.path.join(OUT, "bumpy.xml")}
 
 
 def render_caustica(path, res, spp, seed):

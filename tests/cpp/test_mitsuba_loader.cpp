@@ -254,7 +254,7 @@ TEST(MitsubaInclude, IncludesRelativeToTheIncludingFile) {
   std::string bad = write_file("inc_bad_child.xml", "<scene version=\"3.0.0\">\n\n  <bsdf type=\"velvet\"/>\n</scene>\n");
   g = scene_file("inc_error.xml", "<include filename=\"inc_bad_child.xml\"/>\n");
   EXPECT_EQ(error_of(g), bad + ":3: <bsdf type=\"velvet\">: unsupported BSDF type (supported: diffuse, conductor, "
-                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided)");
+                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap)");
   g = scene_file("inc_self.xml", "<include filename=\"inc_self.xml\"/>\n");
   EXPECT_EQ(error_of(g), g + ":2: <include>: '" + g + "' includes itself (an include cycle)");
 }
@@ -400,6 +400,50 @@ TEST(MitsubaBsdf, Textures) {
                                  "value=\"tex/t.pfm\"/></texture></bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":3: <texture type=\"bitmap\" name=\"specular_reflectance\">: a texture is not supported "
                              "for this property");
+
+  // normalmap and bumpmap wrap a BSDF with a texture of any name (or none); raw decides sRGB as elsewhere;
+  // twosided can hold them.
+  f = scene_file("wrapped.xml", kCamera +
+      "<shape type=\"rectangle\"><bsdf type=\"normalmap\"><texture type=\"bitmap\" name=\"normalmap\">"
+      "<string name=\"filename\" value=\"tex/t.pfm\"/><boolean name=\"raw\" value=\"true\"/></texture>"
+      "<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"ggx\"/></bsdf></bsdf></shape>\n"
+      "<shape type=\"rectangle\"><bsdf type=\"twosided\"><bsdf type=\"bumpmap\"><texture type=\"bitmap\">"
+      "<string name=\"filename\" value=\"tex/t.pfm\"/></texture><float name=\"scale\" value=\"0.25\"/>"
+      "<bsdf type=\"diffuse\"/></bsdf></bsdf></shape>\n");
+  d = load_mitsuba_scene(f);
+  ASSERT_EQ(d.shapes.size(), 2u);
+  const Material& nm = d.materials[d.shapes[0].material];
+  EXPECT_EQ(nm.type, MaterialType::kRoughConductor);
+  ASSERT_GE(nm.tex_normal, 0);
+  EXPECT_FALSE(d.textures[nm.tex_normal].srgb);
+  EXPECT_EQ(nm.tex_bump, -1);
+  const Material& bm = d.materials[d.shapes[1].material];
+  EXPECT_EQ(bm.type, MaterialType::kDiffuse);
+  EXPECT_TRUE(bm.flags & kTwoSided);
+  ASSERT_GE(bm.tex_bump, 0);
+  EXPECT_TRUE(d.textures[bm.tex_bump].srgb);  // raw not given: Mitsuba decodes it too
+  EXPECT_EQ(bm.bump_scale, 0.25f);
+  EXPECT_EQ(bm.tex_normal, -1);
+  EXPECT_TRUE(nm.flags & kNormalMapCross);  // Mitsuba's y axis is n x dp/du
+  EXPECT_FALSE(bm.flags & kNormalMapCross);
+  // Mitsuba's terminator options (on by default) are reported once; with both false nothing is said.
+  auto said = [](const SceneDesc& sd) {
+    int k = 0;
+    for (const std::string& w : sd.warnings) k += w.find("flip_invalid_normals") != std::string::npos;
+    return k;
+  };
+  EXPECT_EQ(said(d), 1);
+  f = scene_file("wrapped_plain.xml", kCamera +
+      "<shape type=\"rectangle\"><bsdf type=\"normalmap\"><boolean name=\"flip_invalid_normals\" value=\"false\"/>"
+      "<boolean name=\"use_shadowing_function\" value=\"false\"/><texture type=\"bitmap\" name=\"normalmap\">"
+      "<string name=\"filename\" value=\"tex/t.pfm\"/><boolean name=\"raw\" value=\"true\"/></texture>"
+      "<bsdf type=\"diffuse\"/></bsdf></shape>\n");
+  EXPECT_EQ(said(load_mitsuba_scene(f)), 0);
+  g = scene_file("wrap_notex.xml", "<shape type=\"cube\"><bsdf type=\"bumpmap\">\n<bsdf type=\"diffuse\"/></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"bumpmap\">: expected a nested <texture> (the height map)");
+  g = scene_file("wrap_nobsdf.xml", "<shape type=\"cube\"><bsdf type=\"normalmap\">\n<texture type=\"bitmap\">"
+                                    "<string name=\"filename\" value=\"tex/t.pfm\"/></texture></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"normalmap\">: expected a nested <bsdf> or <ref>");
 }
 
 TEST(MitsubaBsdf, Errors) {
@@ -409,7 +453,7 @@ TEST(MitsubaBsdf, Errors) {
   std::vector<Case> cases = {
       {"<bsdf type=\"velvet\" id=\"v\"/>\n",
        ":2: <bsdf type=\"velvet\" id=\"v\">: unsupported BSDF type (supported: diffuse, conductor, roughconductor, "
-       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided)"},
+       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectanse\" value=\"1\"/></bsdf>\n",
        ":3: <rgb name=\"reflectanse\">: unknown property of bsdf diffuse (supported: reflectance)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectance\" value=\"1, 2\"/></bsdf>\n",

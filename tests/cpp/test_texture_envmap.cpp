@@ -449,6 +449,40 @@ TEST(Texture, VertexTangentsAreSmoothAndKeepHandedness) {
   }
 }
 
+// A normal map's y axis on mirrored UVs (v growing along -y): turned to dp/dv's side by default (MikkTSpace,
+// glTF), n x dp/du with kNormalMapCross (Mitsuba 3, pbrt-v4).
+TEST(Texture, NormalMapBitangentOnMirroredUVs) {
+  SceneDesc d;
+  d.textures.push_back(make_texture(1, 1, [](int, int) { return RGB(0.5f, 1.f, 1.f); }));  // (0, 1, 1): towards +y
+  for (int k = 0; k < 2; ++k) {
+    Material m = make_diffuse(RGB(1.f));
+    m.tex_normal = 0;
+    if (k == 1) m.flags |= kNormalMapCross;
+    d.add_material("m" + std::to_string(k), m);
+    MeshDesc q;  // u along +x, v along -y
+    q.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    q.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
+    q.indices = {0, 1, 2, 0, 2, 3};
+    d.meshes.push_back(q);
+    ShapeDesc s;
+    s.mesh = k;
+    s.material = k;
+    s.to_world.m[0][3] = 3.f * float(k);
+    d.shapes.push_back(s);
+  }
+  d.lights.push_back(Light{});
+  auto sc = Scene::build(d);
+  for (int k = 0; k < 2; ++k) {
+    Ray r{Vec3f(3.f * float(k) + 0.5f, 0.5f, 1.f), Vec3f(0, 0, -1), kInf};
+    Hit h;
+    ASSERT_TRUE(scene_intersect(sc->view(), r, h));
+    SurfaceHit sh = make_surface_hit(sc->view(), r, h);
+    surface_material(sc->view(), sh);
+    EXPECT_NEAR(sh.ns.y, k == 0 ? -std::sqrt(0.5f) : std::sqrt(0.5f), 1e-5f) << k;  // dp/dv = -y; n x dp/du = +y
+    EXPECT_NEAR(sh.ns.z, std::sqrt(0.5f), 1e-5f) << k;
+  }
+}
+
 // A sphere's UVs are measured in its own frame (Mitsuba 3 and pbrt-v4 spheres use object space): turned a
 // quarter about x (local +z to world -y), its +z pole, the top row of its texture, faces -y; its anisotropy
 // direction (the longitude) and a normal map turn with it. Spheres take normal maps (longitude and latitude
@@ -504,6 +538,106 @@ TEST(Texture, RotatedSphereTurnsItsUVsAndFrame) {
   m = hit(2, Vec3f(1, 0, 0), sh);
   EXPECT_NEAR(sh.ns.x, std::sqrt(0.5f), 1e-5f);
   EXPECT_NEAR(sh.ns.z, std::sqrt(0.5f), 1e-5f);
+}
+
+// texture_luminance_gradient is the derivative of the bilinear lookup's luminance: against central
+// differences of texture_lookup inside texel cells, with a uv scale, rotation and offset, and exactly on a
+// ramp (luminance u along u: slope 1).
+TEST(Texture, LuminanceGradientIsTheLookupsSlope) {
+  PCG32 rng(7, 1);
+  TextureDesc t = make_texture(8, 4, [&](int, int) { return RGB(rng.next_float(), rng.next_float(), rng.next_float()); });
+  TextureView v = view_of(t);
+  auto lum = [&](Vec2f uv) {
+    RGB c = texture_lookup(v, uv).rgb();
+    return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+  };
+  int compared = 0;
+  for (int setting = 0; setting < 3; ++setting) {
+    if (setting == 1) v.uv_scale = Vec2f(2.f, -1.5f);
+    if (setting == 2) {
+      v.cos_rot = std::cos(0.7f);
+      v.sin_rot = std::sin(0.7f);
+      v.uv_offset = Vec2f(0.3f, -0.2f);
+    }
+    for (int k = 0; k < 200; ++k) {
+      Vec2f uv(rng.next_float() * 3.f - 1.f, rng.next_float() * 3.f - 1.f);
+      const float h = 1e-4f;
+      Vec2f fd((lum(uv + Vec2f(h, 0.f)) - lum(uv - Vec2f(h, 0.f))) / (2.f * h),
+               (lum(uv + Vec2f(0.f, h)) - lum(uv - Vec2f(0.f, h))) / (2.f * h));
+      Vec2f g = texture_luminance_gradient(v, uv);
+      // Float differences of h = 1e-4 in values of order 1: about 1e-3 absolute error; a point within h of a
+      // cell border (where the slope jumps) is skipped by comparing with both one-sided differences.
+      Vec2f fwd((lum(uv + Vec2f(h, 0.f)) - lum(uv)) / h, (lum(uv + Vec2f(0.f, h)) - lum(uv)) / h);
+      if (std::fabs(fwd.x - fd.x) > 0.05f * (1.f + std::fabs(fd.x)) ||
+          std::fabs(fwd.y - fd.y) > 0.05f * (1.f + std::fabs(fd.y)))
+        continue;
+      EXPECT_NEAR(g.x, fd.x, 0.02f * (1.f + std::fabs(fd.x))) << setting << " " << uv.x << " " << uv.y;
+      EXPECT_NEAR(g.y, fd.y, 0.02f * (1.f + std::fabs(fd.y))) << setting << " " << uv.x << " " << uv.y;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 500);  // of 600: few points lie within h of a cell border
+  TextureDesc ramp = make_texture(8, 2, [](int x, int) { return RGB((float(x) + 0.5f) / 8.f); });
+  TextureView r = view_of(ramp);
+  Vec2f g = texture_luminance_gradient(r, Vec2f(0.4f, 0.3f));
+  EXPECT_NEAR(g.x, 1.f, 1e-5f);
+  EXPECT_NEAR(g.y, 0.f, 1e-6f);
+}
+
+// Bump mapping: a height h = scale L(u) rising along u on a plane (u = x) tilts the normal away from the
+// rise, to normalize(-dh/dx, 0, 1); a height rising with v does so along y; on a sphere of radius 2 a height
+// growing towards the +z pole tilts the equator's normal towards -z by atan(dh/dv / |dp/dv|), |dp/dv| = pi r.
+TEST(Texture, BumpMapTiltsTheNormalAgainstTheSlope) {
+  SceneDesc d;
+  d.textures.push_back(make_texture(8, 2, [](int x, int) { return RGB((float(x) + 0.5f) / 8.f); }));  // L = u
+  d.textures.push_back(make_texture(2, 8, [](int, int y) { return RGB((7.5f - float(y)) / 8.f); }));  // L = v
+  for (int k = 0; k < 2; ++k) {
+    Material m = make_diffuse(RGB(0.5f));
+    m.tex_bump = k;
+    m.bump_scale = 0.3f;
+    d.add_material("bump" + std::to_string(k), m);
+  }
+  for (int k = 0; k < 2; ++k) {
+    MeshDesc q;  // the unit square in z = 0, u = x, v = y
+    q.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    q.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    q.indices = {0, 1, 2, 0, 2, 3};
+    d.meshes.push_back(q);
+    ShapeDesc s;
+    s.mesh = k;
+    s.material = k;
+    s.to_world.m[0][3] = 3.f * float(k);
+    d.shapes.push_back(s);
+  }
+  ShapeDesc sp;
+  sp.type = ShapeType::kSphere;
+  sp.radius = 2.f;
+  sp.center = Vec3f(0.f, 0.f, -10.f);
+  sp.material = 1;
+  d.shapes.push_back(sp);
+  d.lights.push_back(Light{});
+  auto sc = Scene::build(d);
+  const SceneView& v = sc->view();
+  auto shade = [&](Vec3f o, Vec3f dir) {
+    Ray r{o, dir, kInf};
+    Hit h;
+    EXPECT_TRUE(scene_intersect(v, r, h));
+    SurfaceHit sh = make_surface_hit(v, r, h);
+    surface_material(v, sh);
+    return sh.ns;
+  };
+  Vec3f n = shade(Vec3f(0.4f, 0.3f, 1.f), Vec3f(0, 0, -1));
+  Vec3f want = normalize(Vec3f(-0.3f, 0.f, 1.f));  // dh/dx = 0.3 x dL/du = 0.3
+  EXPECT_NEAR(n.x, want.x, 1e-5f);
+  EXPECT_NEAR(n.y, 0.f, 1e-6f);
+  EXPECT_NEAR(n.z, want.z, 1e-5f);
+  n = shade(Vec3f(3.4f, 0.3f, 1.f), Vec3f(0, 0, -1));
+  EXPECT_NEAR(n.x, 0.f, 1e-6f);
+  EXPECT_NEAR(n.y, want.x, 1e-5f);
+  n = shade(Vec3f(5.f, 0.f, -10.f), Vec3f(-1, 0, 0));  // the equator at +x: u = 0, v = 0.5
+  float tilt = std::atan(0.3f / (kPi * 2.f));
+  EXPECT_NEAR(n.x, std::cos(tilt), 1e-5f);
+  EXPECT_NEAR(n.z, -std::sin(tilt), 1e-5f);
 }
 
 TEST(EnvMap, OrientationFollowsMitsubaConvention) {

@@ -25,6 +25,9 @@ enum class MaterialType : uint32_t {
 enum MaterialFlags : uint32_t {
   kTwoSided = 1u,       // reflective materials: the same from both sides
   kConductorTint = 2u,  // conductor: Fresnel ignored, reflectance = specular
+  // Normal map: its y axis is n x dp/du whatever the UVs' handedness (Mitsuba 3's normalmap, pbrt-v4), rather
+  // than turned to dp/dv's side (MikkTSpace and glTF, caustica's default; scene/shading.h).
+  kNormalMapCross = 4u,
 };
 
 // Radiance flows from lights to the camera; importance flows the other way.
@@ -50,9 +53,11 @@ struct Material {
   //     mirror's or conductor's `specular`; a dielectric's `transmission`);
   //   tex_roughness: metallic-roughness reads roughness from G (alpha =
   //     (G * roughness)^2) and metallic from B; other rough types read alpha from R;
-  //   tex_normal: a tangent-space normal map (RGB in [0,1] -> [-1,1]).
-  int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1;
-  float normal_scale = 1.f;
+  //   tex_normal: a tangent-space normal map (RGB in [0,1] -> [-1,1]);
+  //   tex_bump: a height map (its luminance times bump_scale, in scene units per unit of height), used when
+  //     there is no normal map (scene/shading.h, apply_bump_map).
+  int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1;
+  float normal_scale = 1.f, bump_scale = 1.f;
   // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
   // applied to path segments that end on the back side of this material
   // (closed, non-nested glass; glTF KHR_materials_volume: -ln(colour)/distance).

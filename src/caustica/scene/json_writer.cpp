@@ -328,7 +328,12 @@ struct Writer {
     if (two_sided_key && (m.flags & kTwoSided)) o.set("two_sided", JV::boolean(true));
     if (m.tex_normal >= 0) {
       JV s = JV::flt(m.normal_scale);
-      o.set("normal_map", texture(m.tex_normal, false, &s));
+      JV t = texture(m.tex_normal, false, &s);
+      if (m.flags & kNormalMapCross) t.set("bitangent", JV::str("cross"));
+      o.set("normal_map", t);
+    } else if (m.tex_bump >= 0) {
+      JV s = JV::flt(m.bump_scale);
+      o.set("bump_map", texture(m.tex_bump, false, &s));
     }
     return o;
   }
@@ -543,6 +548,7 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
     mark(m.tex_color);
     mark(m.tex_roughness);
     mark(m.tex_normal);
+    mark(m.tex_bump);
   }
   for (const ShapeDesc& sh : desc.shapes) mark(sh.emission_texture);
   for (const Light& l : desc.lights) mark(l.texture);

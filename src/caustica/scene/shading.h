@@ -7,7 +7,8 @@
 //                  normalize(T x s + B y s + N z) with (x, y, z) = 2 rgb - 1,
 //                  s = normal_scale, T = dp/du and B = dp/dv (surface_uv_axes: vertex
 //                  tangents where the mesh has them) made orthogonal to the shading
-//                  normal N (v up, so green points towards +v).
+//                  normal N (v up, so green points towards +v);
+//   tex_bump:      a height map, when there is no normal map (apply_bump_map).
 #pragma once
 #include "interaction.h"
 
@@ -30,27 +31,33 @@ CHD bool triangle_dpduv(const SceneView& s, uint32_t tri, Vec3f& dpdu, Vec3f& dp
   return isfinite3(dpdu) && isfinite3(dpdv);
 }
 
+// dp/du and dp/dv of sphere i at outward normal n (world space), in scene units per unit of u and v:
+// u = phi / 2pi about the sphere's own +z, v = 1 - theta / pi (sphere_uv_at), so with n = (sin theta cos phi,
+// sin theta sin phi, cos theta) in its frame dp/du = 2 pi r (-n.y, n.x, 0) and dp/dv = pi r (-cos theta cos phi,
+// -cos theta sin phi, sin theta). False at the poles, where phi has no direction.
+CHD bool sphere_dpduv(const SceneView& s, uint32_t i, Vec3f n_world, Vec3f& dpdu, Vec3f& dpdv) {
+  const Vec3f n = sphere_local(s, i, n_world);
+  const float r = s.spheres[i].radius, sin_theta = std::sqrt(n.x * n.x + n.y * n.y);
+  if (!(sin_theta > 0.f)) return false;
+  dpdu = Vec3f(-n.y, n.x, 0.f) * (2.f * kPi * r);
+  dpdv = Vec3f(-n.z * n.x / sin_theta, -n.z * n.y / sin_theta, sin_theta) * (kPi * r);
+  if (s.sphere_frames) {
+    dpdu = s.sphere_frames[i].to_world(dpdu);
+    dpdv = s.sphere_frames[i].to_world(dpdv);
+  }
+  return true;
+}
+
 // The directions of increasing u and v at a hit (unnormalised, not yet orthogonal to the shading normal):
 //   triangles of a mesh with vertex tangents (Tangent: glTF's TANGENT, or generate_tangents): the
 //     tangents interpolated at the hit and w * cross(vertex normal, tangent), as pbrt-v4 does with a mesh's
 //     s and glTF 2.0 with TANGENT; smooth across triangles, as the normals are;
 //   other triangles: their own dp/du and dp/dv (triangle_dpduv; Mitsuba 3 and pbrt-v4 without
 //     tangents), constant over each triangle;
-//   spheres: u = phi / 2pi about their own +z (sphere_uv_at), dp/du along (-n.y, n.x, 0) in their frame,
-//     dp/dv towards the +z pole.
+//   spheres: sphere_dpduv (u = phi / 2pi about their own +z, v growing towards their +z pole).
 // False where there are none: a mesh without UVs, a degenerate mapping, a sphere's pole.
 CHD bool surface_uv_axes(const SceneView& s, const SurfaceHit& sh, Vec3f& dpdu, Vec3f& dpdv) {
-  if (sh.prim >= s.num_triangles) {  // in the sphere's own frame; v = 1 - theta / pi grows towards its +z pole
-    const uint32_t i = sh.prim - s.num_triangles;
-    const Vec3f n = sphere_local(s, i, sh.ng);
-    dpdu = Vec3f(-n.y, n.x, 0.f);
-    dpdv = Vec3f(-n.z * n.x, -n.z * n.y, n.x * n.x + n.y * n.y);
-    if (s.sphere_frames) {
-      dpdu = s.sphere_frames[i].to_world(dpdu);
-      dpdv = s.sphere_frames[i].to_world(dpdv);
-    }
-    return length_sq(dpdu) > 0.f;
-  }
+  if (sh.prim >= s.num_triangles) return sphere_dpduv(s, sh.prim - s.num_triangles, sh.ng, dpdu, dpdv);
   if (s.tangents) {
     const uint32_t* ix = s.indices + 3 * sh.prim;
     const Tangent t0 = s.tangents[ix[0]], t1 = s.tangents[ix[1]], t2 = s.tangents[ix[2]];
@@ -123,12 +130,35 @@ CHD void apply_normal_map(const SceneView& s, const Material& m, SurfaceHit& sh)
   if (length_sq(t) == 0.f) return;
   t = normalize(t);
   Vec3f b = cross(n, t);
-  if (dot(b, dpdv) < 0.f) b = -b;  // mirrored UVs
+  if (!(m.flags & kNormalMapCross) && dot(b, dpdv) < 0.f) b = -b;  // mirrored UVs
   RGB c = texture_lookup(s.textures[m.tex_normal], sh.uv).rgb();
   Vec3f ts((2.f * c.x - 1.f) * m.normal_scale, (2.f * c.y - 1.f) * m.normal_scale, 2.f * c.z - 1.f);
   Vec3f nn = t * ts.x + b * ts.y + n * ts.z;
   if (!(length_sq(nn) > 0.f)) return;
   nn = normalize(nn);
+  if (dot(nn, sh.ng) * dot(n, sh.ng) <= 0.f) return;  // would cross the geometric surface
+  sh.ns = nn;
+}
+
+// Bump mapping with height h = bump_scale x (the texture's luminance) along the shading normal n, as
+// Mitsuba 3's bumpmap does it (pbrt-v4 Sec. 10.5.1 with the dn/du term dropped): dp/du' = dp/du - n (n . dp/du)
+// + n dh/du (and for v, with dh/du and dh/dv from texture_luminance_gradient), n' = dp/du' x dp/dv' normalised
+// and put on n's side. The derivatives are the geometry's own (triangle_dpduv, sphere_dpduv; vertex
+// tangents have no lengths), so dh/du is in scene units per unit of u. As with a normal map, a normal that
+// would cross the geometric surface is not used.
+CHD void apply_bump_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
+  Vec3f dpdu, dpdv;
+  bool ok = sh.prim < s.num_triangles ? triangle_dpduv(s, sh.prim, dpdu, dpdv)
+                                      : sphere_dpduv(s, sh.prim - s.num_triangles, sh.ng, dpdu, dpdv);
+  if (!ok) return;
+  Vec2f g = texture_luminance_gradient(s.textures[m.tex_bump], sh.uv) * m.bump_scale;
+  const Vec3f n = sh.ns;
+  Vec3f du = dpdu + n * (g.x - dot(n, dpdu)), dv = dpdv + n * (g.y - dot(n, dpdv));
+  Vec3f nn = cross(du, dv);
+  float l2 = length_sq(nn);
+  if (!(l2 > 0.f) || !std::isfinite(l2)) return;
+  nn = nn / std::sqrt(l2);
+  if (dot(nn, n) < 0.f) nn = -nn;
   if (dot(nn, sh.ng) * dot(n, sh.ng) <= 0.f) return;  // would cross the geometric surface
   sh.ns = nn;
 }
@@ -167,6 +197,7 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
     }
   }
   if (m.tex_normal >= 0) apply_normal_map(s, m, sh);
+  else if (m.tex_bump >= 0) apply_bump_map(s, m, sh);
   return m;
 }
 

@@ -70,4 +70,26 @@ CHD RGBA texture_lookup(const TextureView& t, Vec2f uv_in) {
           wa * a.b + wb * b.b + wc * c.b + wd * d.b, wa * a.a + wb * b.a + wc * c.a + wd * d.a};
 }
 
+// The gradient (d/du, d/dv, v up) of the texture's luminance (Rec. 709 weights, what Mitsuba 3's eval_1 reads
+// from an RGB bitmap) at uv_in: the slope of the bilinear interpolant over the texel cell that holds uv (also
+// for nearest lookups, whose piecewise-constant height would have none), through the uv transform
+// (uv' = R S uv + o, so d/duv = S R^T d/duv').
+CHD Vec2f texture_luminance_gradient(const TextureView& t, Vec2f uv_in) {
+  Vec2f uv = texture_uv(t, uv_in);
+  float x = uv.x * float(t.width) - 0.5f, y = (1.f - uv.y) * float(t.height) - 0.5f;
+  if (!(std::isfinite(x) && std::isfinite(y))) return Vec2f(0.f, 0.f);
+  float fx = std::floor(x), fy = std::floor(y);
+  int x0 = int(fx), y0 = int(fy);
+  float dx = x - fx, dy = y - fy;
+  auto lum = [&](int xi, int yi) {
+    RGBA c = texel(t, xi, yi);
+    return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b;
+  };
+  float a = lum(x0, y0), b = lum(x0 + 1, y0), c = lum(x0, y0 + 1), d = lum(x0 + 1, y0 + 1);
+  float ddx = (1.f - dy) * (b - a) + dy * (d - c), ddy = (1.f - dx) * (c - a) + dx * (d - b);
+  Vec2f g(ddx * float(t.width), -ddy * float(t.height));  // x grows with u, y against v
+  Vec2f gs(t.cos_rot * g.x + t.sin_rot * g.y, -t.sin_rot * g.x + t.cos_rot * g.y);
+  return Vec2f(gs.x * t.uv_scale.x, gs.y * t.uv_scale.y);
+}
+
 }  // namespace caustica

@@ -234,7 +234,7 @@ bool same_sampling(const TextureDesc& a, const TextureDesc& b) {
 
 // "file.png" or {"texture": "file.png", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation", "scale"};
 // "scale" is read by the caller.
-int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_default) {
+int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_default, bool normal_map = false) {
   std::string file;
   TextureDesc want;
   bool srgb = srgb_default;
@@ -242,7 +242,10 @@ int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_defa
   if (j.is_string()) {
     file = j.get<std::string>();
   } else {
-    check_keys(c, j, path, {"texture", "scale", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation"});
+    if (normal_map)
+      check_keys(c, j, path, {"texture", "scale", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation", "bitangent"});
+    else
+      check_keys(c, j, path, {"texture", "scale", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation"});
     fpath = path + "/texture";
     file = str(c, j["texture"], fpath);
     if (j.contains("srgb")) srgb = boolean(c, j["srgb"], path + "/srgb");
@@ -342,10 +345,10 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
   };
   Material m;
   if (type == "diffuse") {
-    check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map"});
+    check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map", "bump_map"});
     m = make_diffuse(get_ct("reflectance", RGB(0.5f)));
   } else if (type == "conductor") {
-    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "two_sided", "normal_map"});
+    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "two_sided", "normal_map", "bump_map"});
     Vec2f a = roughness("roughness");
     if (j.contains("eta") != j.contains("k")) c.fail(path, "give both 'eta' and 'k' (or neither for a tinted mirror)");
     RGB spec = get_ct("specular", RGB(1.f));
@@ -361,7 +364,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     }
   } else if (type == "dielectric") {
     check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "specular", "transmission", "absorption",
-                            "normal_map"});
+                            "normal_map", "bump_map"});
     Vec2f a = roughness("roughness");
     m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
     if (a.x > 0.f || a.y > 0.f) {
@@ -372,25 +375,25 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     m.transmission = get_ct("transmission", RGB(1.f));
     m.absorption = get_c("absorption", RGB(0.f));
   } else if (type == "thindielectric") {
-    check_keys(c, j, path, {"type", "eta", "specular", "transmission", "normal_map"});
+    check_keys(c, j, path, {"type", "eta", "specular", "transmission", "normal_map", "bump_map"});
     m = make_thin_dielectric(positive("eta", get_f("eta", 1.5f)));
     m.specular = get_c("specular", RGB(1.f));
     m.transmission = get_ct("transmission", RGB(1.f));
   } else if (type == "plastic") {
-    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map"});
+    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map", "bump_map"});
     RGB kd = get_ct("diffuse", RGB(0.5f));
     m = make_plastic(kd, positive("eta", get_f("eta", 1.49f)), get_c("specular", RGB(1.f)));
   } else if (type == "difftrans") {
-    check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map"});
+    check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map", "bump_map"});
     RGB r = get_ct("reflectance", RGB(0.f));
     m = make_diffuse_transmission(r, get_c("transmittance", RGB(0.5f)));
   } else if (type == "phong") {
-    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map"});
+    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map", "bump_map"});
     RGB kd = get_ct("diffuse", RGB(0.1f));
     m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
   } else if (type == "metallic_roughness") {
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "transmission",
-                            "eta", "absorption", "two_sided", "normal_map"});
+                            "eta", "absorption", "two_sided", "normal_map", "bump_map"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = 0.5f;
@@ -423,12 +426,28 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
   }
   m.tex_color = tex_color;
   m.tex_roughness = tex_rough;
+  if (j.contains("normal_map") && j.contains("bump_map")) c.fail(path + "/bump_map", "give normal_map or bump_map, not both");
   if (j.contains("normal_map")) {
     const json& v = j["normal_map"];
     std::string p = path + "/normal_map";
     if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
-    m.tex_normal = parse_texture(c, v, p, false);
+    m.tex_normal = parse_texture(c, v, p, false, true);
     if (v.is_object() && v.contains("scale")) m.normal_scale = num(c, v["scale"], p + "/scale");
+    if (v.is_object() && v.contains("bitangent")) {
+      // "uv": the y axis along dp/dv (mirrored UVs mirror the map: MikkTSpace, glTF); "cross": n x dp/du
+      // (Mitsuba 3, pbrt-v4).
+      std::string b = str(c, v["bitangent"], p + "/bitangent");
+      if (b == "cross") m.flags |= kNormalMapCross;
+      else if (b != "uv") c.fail(p + "/bitangent", "unknown bitangent '" + b + "' (allowed: uv, cross)");
+    }
+  }
+  if (j.contains("bump_map")) {
+    // A height map: its luminance times `scale` (scene units) is the height along the normal.
+    const json& v = j["bump_map"];
+    std::string p = path + "/bump_map";
+    if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
+    m.tex_bump = parse_texture(c, v, p, false);
+    if (v.is_object() && v.contains("scale")) m.bump_scale = num(c, v["scale"], p + "/scale");
   }
   return m;
 }

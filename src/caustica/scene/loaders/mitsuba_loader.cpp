@@ -233,6 +233,22 @@ struct Props {
   Vec3f get_point(const std::string& name, Vec3f def);
   M4 get_transform(const std::string& name, bool* present = nullptr);
   float get_ior(const std::string& name, float def);
+  // The one texture a wrapper plugin (normalmap, bumpmap) holds, whatever its name: a nested <texture>, named
+  // or not, or a named <ref> other than a BSDF's (marked used); null if there is none.
+  xml_node take_texture() {
+    for (size_t i = 0; i < props.size(); ++i)
+      if (!used[i] && (std::string(props[i].name()) == "texture" ||
+                       (std::string(props[i].name()) == "ref" && names[i] != "bsdf"))) {
+        used[i] = true;
+        return props[i];
+      }
+    for (size_t i = 0; i < objects.size(); ++i)
+      if (!obj_used[i] && std::string(objects[i].name()) == "texture") {
+        obj_used[i] = true;
+        return objects[i];
+      }
+    return xml_node();
+  }
   // Nested plugin elements with the given tag (marked used).
   std::vector<xml_node> take_objects(const std::string& tag) {
     std::vector<xml_node> r;
@@ -586,7 +602,7 @@ class Loader {
       bool fresh = td.wrap == TexWrap::kRepeat && !td.nearest && td.uv_scale.x == 1.f && td.uv_scale.y == 1.f &&
                    td.uv_offset.x == 0.f && td.uv_offset.y == 0.f && td.uv_rotation == 0.f;
       bool shared = false;
-      for (const Material& m : d.materials) shared |= m.tex_color == t || m.tex_roughness == t || m.tex_normal == t;
+      for (const Material& m : d.materials) shared |= m.tex_color == t || m.tex_roughness == t || m.tex_normal == t || m.tex_bump == t;
       for (const ShapeDesc& s : d.shapes) shared |= s.emission_texture == t;
       for (const Light& l : d.lights) shared |= l.texture == t;
       for (const auto& kv : ids) shared |= kv.second.kind == "texture" && kv.second.index == t;
@@ -748,6 +764,40 @@ class Loader {
              "model, metallic 0): the same GGX coat, with the smooth-coat Fresnel transmittance for the diffuse part");
       }
       m.tex_color = kd.texture;
+    } else if (type == "normalmap" || type == "bumpmap") {
+      // Mitsuba 3's wrappers: the nested BSDF shaded about a normal from a tangent-space normal map (n = 2 rgb
+      // - 1 in the frame of dp/du and the normal) or from a height map's gradient (its value times `scale`
+      // as height): Material::tex_normal / tex_bump (scene/shading.h). The texture is read as Mitsuba reads
+      // it: linear with raw="true", else decoded from sRGB.
+      if (type == "bumpmap") p.declare({"scale"});
+      float scale = type == "bumpmap" ? p.get_float("scale", 1.f) : 1.f;
+      // Since Mitsuba 3.7.1 both wrappers flip a perturbed normal that faces away from the viewer and
+      // multiply by Conty Estevez et al.'s (2019) terminator shadowing term, unless told not to; caustica
+      // does neither (the shading normal is used as it is: docs/formats-mitsuba.md).
+      bool flip = p.get_bool("flip_invalid_normals", true), shadowing = p.get_bool("use_shadowing_function", true);
+      if (flip || shadowing)
+        warn(n, "wrapper-terminator",
+             type + ": Mitsuba's flip_invalid_normals and use_shadowing_function (on unless set to false) are not "
+             "applied; images differ near the shading terminator (set both to false for the same model)");
+      xml_node tn = p.take_texture();
+      if (!tn) fail(n, "expected a nested <texture> (the " + std::string(type == "normalmap" ? "normal" : "height") + " map)");
+      int tex = std::string(tn.name()) == "ref" ? lookup(tn, "texture").index : parse_texture(tn, false);
+      std::vector<xml_node> inner = p.take_objects("bsdf");
+      std::vector<xml_node> refs = p.take_objects("ref");
+      inner.insert(inner.end(), refs.begin(), refs.end());
+      if (inner.empty()) fail(n, "expected a nested <bsdf> or <ref>");
+      if (inner.size() > 1) fail(inner[1], "a " + type + " wraps one BSDF");
+      m = d.materials[parse_bsdf(inner[0])];
+      if (m.tex_normal >= 0 || m.tex_bump >= 0)
+        fail(inner[0], "a normalmap or bumpmap inside another is not supported");
+      if (type == "normalmap") {
+        m.tex_normal = tex;
+        m.normal_scale = 1.f;
+        m.flags |= kNormalMapCross;  // Mitsuba's y axis is n x dp/du
+      } else {
+        m.tex_bump = tex;
+        m.bump_scale = scale;
+      }
     } else if (type == "twosided") {
       std::vector<xml_node> inner = p.take_objects("bsdf");
       std::vector<xml_node> refs = p.take_objects("ref");
@@ -767,7 +817,7 @@ class Loader {
       m.flags |= kTwoSided;
     } else {
       fail(n, "unsupported BSDF type (supported: diffuse, conductor, roughconductor, dielectric, roughdielectric, "
-              "thindielectric, plastic, roughplastic, twosided)");
+              "thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap)");
     }
     p.finish();
     return m;
@@ -1476,7 +1526,7 @@ bool uses_parameterisation(const SceneDesc& d, const ShapeDesc& s) {
   if (s.emission_texture >= 0) return true;
   if (s.material < 0 || size_t(s.material) >= d.materials.size()) return false;
   const Material& m = d.materials[s.material];
-  return m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0 || m.alpha_x != m.alpha_y;
+  return m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0 || m.tex_bump >= 0 || m.alpha_x != m.alpha_y;
 }
 
 void mitsuba_shape_uvs(SceneDesc& d) {
