@@ -67,6 +67,7 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_EQ(a.tex_normal, b.tex_normal) << w;
   EXPECT_TRUE(same(a.normal_scale, b.normal_scale)) << w << ".normal_scale";
   EXPECT_EQ(a.tex_bump, b.tex_bump) << w;
+  EXPECT_EQ(a.tex_aniso, b.tex_aniso) << w;
   EXPECT_TRUE(same(a.bump_scale, b.bump_scale)) << w << ".bump_scale";
   expect_same(a.absorption, b.absorption, w + ".absorption");
 }
@@ -279,6 +280,11 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   bumpy.tex_bump = 1;
   bumpy.bump_scale = 0.015f;
   d.add_material("bumpy", bumpy);
+  Material brushed = make_conductor(RGB(0.2f), RGB(3.f), RGB(1.f), 0.1f);
+  brushed.alpha_x = 0.4f;
+  brushed.tex_aniso = 1;
+  brushed.aniso_rotation = 0.5f;
+  d.add_material("brushed", brushed);
   Material glass = make_dielectric(1.33f, 0.f);
   glass.absorption = {0.5f, 0.1f, 0.f};
   glass.transmission = RGB(0.9f, 0.95f, 1.f);
@@ -548,6 +554,8 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /shapes/0/uvs: expected one [u,v] per position"},
       {scene_with(R"("materials": {"m": {"type": "diffuse", "normal_map": "a.png", "bump_map": "b.png"}})"),
        "s.json: /materials/m/bump_map: give normal_map or bump_map, not both"},
+      {scene_with(R"("materials": {"m": {"type": "conductor", "roughness": 0.2, "anisotropy_texture": "a.png"}})"),
+       "s.json: /materials/m/anisotropy_texture: needs anisotropic roughness ([alpha_x, alpha_y] with alpha_x != alpha_y)"},
       {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2], "tangents": [[1,0,0,1]]})"),
        "s.json: /shapes/0/tangents: expected one tangent [tx,ty,tz,w] per position"},
       {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2],

@@ -144,7 +144,7 @@ def test_anisotropy_rotation_turns_the_direction_towards_dp_dv():
 def test_gltf_khr_materials_anisotropy(tmp_path):
     """KHR_materials_anisotropy: along the direction (dp/du turned by anisotropyRotation) alpha becomes
     mix(roughness^2, 1, strength^2), across it roughness^2 (the extension's definition); the JSON export
-    keeps both alphas and the rotation in degrees. An anisotropyTexture is reported and ignored."""
+    keeps both alphas, the rotation in degrees and the anisotropyTexture."""
     import sys
     sys.path.insert(0, os.path.dirname(__file__))
     from test_gltf import Gltf, FILL_FOV, png_bytes
@@ -170,11 +170,13 @@ def test_gltf_khr_materials_anisotropy(tmp_path):
     ext["anisotropyTexture"] = {"index": 0}
     g.image_data_uri(png_bytes(np.full((2, 2, 3), 128, np.uint8)))
     g.add("textures", {"source": 0})
+    out = tmp_path / "aniso_tex.json"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        caustica.load_scene(g.write(tmp_path / "aniso_tex.gltf"))
-    said = [str(w.message) for w in caught]
-    assert [m for m in said if "anisotropyTexture is not supported" in m], said
+        caustica.export_scene(g.write(tmp_path / "aniso_tex.gltf"), str(out))
+    assert not [w for w in caught if "anisotropy" in str(w.message)]
+    (m,) = json.loads(out.read_text())["materials"].values()
+    assert "texture" in m["anisotropy_texture"]
 
 
 def tangent_quad(g, material, tangent=None):
@@ -280,3 +282,38 @@ def test_gltf_tangent_handedness_orients_the_normal_map(tmp_path):
     up, down, generated = render_plane([1, 0, 0, 1]), render_plane([1, 0, 0, -1]), render_plane(None)
     assert up > 1.3 and down < 1 / 1.3, (up, down)
     assert generated == pytest.approx(up, rel=1e-6)
+
+
+def test_gltf_anisotropy_texture_turns_and_scales(tmp_path):
+    """anisotropyTexture: (2r - 1, 2g - 1) turns the direction by its angle and b scales the strength, as the
+    extension defines them: a constant texture renders as the same material with that rotation and strength
+    written out (8-bit texels: r = 128 is 2 x 128/255 - 1, not 0), and differs from the untextured one."""
+    tg = gltf_module()
+
+    def scene(strength, rotation, texel=None):
+        g = tg.Gltf()
+        ext = {"anisotropyStrength": strength, "anisotropyRotation": rotation}
+        if texel is not None:
+            g.image_data_uri(tg.png_bytes(np.full((2, 2, 3), texel, np.uint8)))
+            g.add("textures", {"source": 0})
+            ext["anisotropyTexture"] = {"index": 0}
+        mat = g.add("materials", {"pbrMetallicRoughness": {"metallicFactor": 1.0, "roughnessFactor": 0.5},
+                                  "extensions": {"KHR_materials_anisotropy": ext}})
+        g.doc["extensionsUsed"] = ["KHR_lights_punctual", "KHR_materials_anisotropy"]
+        g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 683.0 * 8}]}}
+        light = g.add("nodes", {"translation": [0.2, 0.1, 1.2], "extensions": {"KHR_lights_punctual": {"light": 0}}})
+        g.scene([g.add("nodes", {"mesh": g.quad(mat)}), light, g.camera(3.0, tg.FILL_FOV)])
+        path = g.write(tmp_path / ("a%d.gltf" % len(list(tmp_path.iterdir()))))
+        return caustica.load_scene(path, width=RES, height=RES)
+
+    half = 2 * 128 / 255 - 1
+    seeds = range(1, 9)
+    turned = region_stats(scene(0.9, 0.1, [128, 255, 255]), seeds, spp=16)
+    turned_ref = region_stats(scene(0.9, 0.1 + math.atan2(1, half)), seeds, spp=16)
+    weaker = region_stats(scene(0.9, 0.0, [255, 128, 128]), seeds, spp=16)
+    weaker_ref = region_stats(scene(0.9 * 128 / 255, math.atan2(half, 1)), seeds, spp=16)
+    plain = region_stats(scene(0.9, 0.1), seeds, spp=16)
+    assert z_scores(turned, turned_ref).max() < 4.5, z_scores(turned, turned_ref)
+    assert z_scores(weaker, weaker_ref).max() < 4.5, z_scores(weaker, weaker_ref)
+    assert z_scores(turned, plain).max() > 10.0, z_scores(turned, plain)
+    assert z_scores(weaker, plain).max() > 10.0, z_scores(weaker, plain)

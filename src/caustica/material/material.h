@@ -56,7 +56,9 @@ struct Material {
   //   tex_normal: a tangent-space normal map (RGB in [0,1] -> [-1,1]);
   //   tex_bump: a height map (its luminance times bump_scale, in scene units per unit of height), used when
   //     there is no normal map (scene/shading.h, apply_bump_map).
-  int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1;
+  //   tex_aniso: KHR_materials_anisotropy's anisotropyTexture: RG (2 rg - 1) a direction in the tangent
+  //     frame that turns the anisotropy direction further, B scales the anisotropy strength.
+  int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
   // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
   // applied to path segments that end on the back side of this material

@@ -325,6 +325,7 @@ struct Writer {
         throw InputError("export: material type " + std::to_string(int(m.type)) + " has no JSON form");
     }
     if (m.aniso_rotation != 0.f) o.set("anisotropy_rotation", JV::dbl(degrees_for_radians(m.aniso_rotation)));
+    if (m.tex_aniso >= 0) o.set("anisotropy_texture", texture(m.tex_aniso, false, nullptr));
     if (two_sided_key && (m.flags & kTwoSided)) o.set("two_sided", JV::boolean(true));
     if (m.tex_normal >= 0) {
       JV s = JV::flt(m.normal_scale);
@@ -549,6 +550,7 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
     mark(m.tex_roughness);
     mark(m.tex_normal);
     mark(m.tex_bump);
+    mark(m.tex_aniso);
   }
   for (const ShapeDesc& sh : desc.shapes) mark(sh.emission_texture);
   for (const Light& l : desc.lights) mark(l.texture);

@@ -472,7 +472,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     if (m.type == MaterialType::kPlastic || m.type == MaterialType::kMetallicRoughness) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
 
   for (const Material& m : s.materials)
-    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump})
+    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso})
       if (t >= int(desc.textures.size())) throw InputError("scene '" + desc.name + "': texture index out of range");
   struct PendingArea {
     uint32_t prim;  // triangle index or sphere index (offset later)

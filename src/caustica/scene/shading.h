@@ -196,6 +196,16 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
       m.alpha_x = m.alpha_y = maxf(r.r, 1e-4f);
     }
   }
+  if (m.tex_aniso >= 0 && m.alpha_x != m.alpha_y) {
+    // KHR_materials_anisotropy's texture: the strength s (alpha_x = mix(alpha_y, 1, s^2)) times B, the
+    // direction turned by the angle of (2R - 1, 2G - 1) from the tangent towards the bitangent.
+    RGBA a = texture_lookup(s.textures[m.tex_aniso], sh.uv);
+    float s2 = m.alpha_y < 1.f ? (m.alpha_x - m.alpha_y) / (1.f - m.alpha_y) : 0.f;
+    float st = std::sqrt(maxf(s2, 0.f)) * clampf(a.b, 0.f, 1.f);
+    m.alpha_x = maxf(m.alpha_y + (1.f - m.alpha_y) * st * st, 1e-4f);
+    float dx = 2.f * a.r - 1.f, dy = 2.f * a.g - 1.f;
+    if (dx != 0.f || dy != 0.f) m.aniso_rotation += std::atan2(dy, dx);
+  }
   if (m.tex_normal >= 0) apply_normal_map(s, m, sh);
   else if (m.tex_bump >= 0) apply_bump_map(s, m, sh);
   return m;

@@ -813,6 +813,8 @@ int Converter::material(size_t i) {
   float metallic = unit_interval(c_, pb, "metallicFactor", pp, 1.f);
   float roughness = unit_interval(c_, pb, "roughnessFactor", pp, 1.f);
   float transmission = 0.f, ior = 1.5f, aniso_strength = 0.f, aniso_rotation = 0.f;
+  const json* aniso_texture = nullptr;
+  std::string aniso_texture_path;
   RGB absorption(0.f);
   MatExtra ex;
   if (const json* e = member(m, "emissiveFactor")) ex.emission = nonneg_color(c_, *e, P(p, "emissiveFactor"), 3);
@@ -855,8 +857,10 @@ int Converter::material(size_t i) {
       double rot = number_or(c_, *t, "anisotropyRotation", ap, 0.0);
       if (!std::isfinite(rot)) c_.fail(P(ap, "anisotropyRotation"), "expected a finite angle in radians");
       aniso_rotation = float(rot);
-      if (member(*t, "anisotropyTexture"))
-        warn_once("anisotropyTexture is not supported; anisotropyStrength and anisotropyRotation are used");
+      if (const json* at = member(*t, "anisotropyTexture")) {
+        aniso_texture = at;
+        aniso_texture_path = P(ap, "anisotropyTexture");
+      }
     }
     if (const json* t = member(*exts, "KHR_materials_emissive_strength")) {
       std::string sp = P(ep, "KHR_materials_emissive_strength");
@@ -872,6 +876,9 @@ int Converter::material(size_t i) {
     const float a = roughness * roughness, s2 = aniso_strength * aniso_strength;
     set_alpha(mat, a * (1.f - s2) + s2, a);
     if (mat.alpha_x != mat.alpha_y) mat.aniso_rotation = aniso_rotation;
+    // The texture's RG turn the direction and its B scales the strength (material.h, tex_aniso); with
+    // strength 0 there is nothing for it to scale.
+    if (aniso_texture && mat.alpha_x != mat.alpha_y) mat.tex_aniso = texture(*aniso_texture, aniso_texture_path, false);
   }
   if (const json* t = member(pb, "baseColorTexture")) mat.tex_color = texture(*t, P(pp, "baseColorTexture"), true);
   if (const json* t = member(pb, "metallicRoughnessTexture"))

@@ -348,7 +348,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map", "bump_map"});
     m = make_diffuse(get_ct("reflectance", RGB(0.5f)));
   } else if (type == "conductor") {
-    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "two_sided", "normal_map", "bump_map"});
+    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "anisotropy_texture", "two_sided", "normal_map", "bump_map"});
     Vec2f a = roughness("roughness");
     if (j.contains("eta") != j.contains("k")) c.fail(path, "give both 'eta' and 'k' (or neither for a tinted mirror)");
     RGB spec = get_ct("specular", RGB(1.f));
@@ -363,7 +363,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
       set_alpha(m, a.x, a.y);
     }
   } else if (type == "dielectric") {
-    check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "specular", "transmission", "absorption",
+    check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "anisotropy_texture", "specular", "transmission", "absorption",
                             "normal_map", "bump_map"});
     Vec2f a = roughness("roughness");
     m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
@@ -392,7 +392,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     RGB kd = get_ct("diffuse", RGB(0.1f));
     m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
   } else if (type == "metallic_roughness") {
-    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "transmission",
+    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
@@ -423,6 +423,14 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
   if (j.contains("two_sided") && boolean(c, j["two_sided"], path + "/two_sided")) m.flags |= kTwoSided;
   if (j.contains("anisotropy_rotation")) {  // degrees from dp/du towards dp/dv (scene/shading.h)
     m.aniso_rotation = float(numd(c, j["anisotropy_rotation"], path + "/anisotropy_rotation") * kPiD / 180.0);
+  }
+  if (j.contains("anisotropy_texture")) {  // glTF's anisotropyTexture: RG direction, B strength (material.h)
+    const json& v = j["anisotropy_texture"];
+    std::string p = path + "/anisotropy_texture";
+    if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file})");
+    if (v.is_object() && v.contains("scale")) c.fail(p + "/scale", "unknown key (the texture's blue channel scales the strength)");
+    if (m.alpha_x == m.alpha_y) c.fail(p, "needs anisotropic roughness ([alpha_x, alpha_y] with alpha_x != alpha_y)");
+    m.tex_aniso = parse_texture(c, v, p, false);
   }
   m.tex_color = tex_color;
   m.tex_roughness = tex_rough;

@@ -602,7 +602,7 @@ class Loader {
       bool fresh = td.wrap == TexWrap::kRepeat && !td.nearest && td.uv_scale.x == 1.f && td.uv_scale.y == 1.f &&
                    td.uv_offset.x == 0.f && td.uv_offset.y == 0.f && td.uv_rotation == 0.f;
       bool shared = false;
-      for (const Material& m : d.materials) shared |= m.tex_color == t || m.tex_roughness == t || m.tex_normal == t || m.tex_bump == t;
+      for (const Material& m : d.materials) shared |= m.tex_color == t || m.tex_roughness == t || m.tex_normal == t || m.tex_bump == t || m.tex_aniso == t;
       for (const ShapeDesc& s : d.shapes) shared |= s.emission_texture == t;
       for (const Light& l : d.lights) shared |= l.texture == t;
       for (const auto& kv : ids) shared |= kv.second.kind == "texture" && kv.second.index == t;
