@@ -595,7 +595,7 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   float cos_y = std::fabs(wl.z);
   float K = c.orthographic ? cos_y / camera_pixel_area(c)
                            : cos_y / (d2 * camera_pixel_area(c) * cos_theta * cos_theta * cos_theta);
-  sp.C = st.beta * f * (K / p.n_light);
+  sp.C = st.beta * f * (K * shading_normal_adjoint(st.sh, st.wo_world, w) / p.n_light);
   sp.K = K;
   VcmMis lm = vcm_mis_commit(p, st.mis);
   sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p) + lm.dVCM + lm.dVC * vcm_mis(p, bsdf_pdf(st.m, wl, st.wo));
@@ -657,6 +657,7 @@ CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
   st.specular = st.specular && bs.delta;
   RGB prev = st.beta;
   st.beta *= bs.weight;
+  if (light) st.beta *= shading_normal_adjoint(st.sh, st.wo_world, wi_world);
   if (is_black(st.beta) || !isfinite3(st.beta)) return st.active = false;
   if (st.length >= p.rr_depth) {
     float q = minf(1.f, max_component(st.beta) * vcm_rr_eta2(bs, mode) / maxf(max_component(prev), 1e-30f));
@@ -839,7 +840,7 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   Material vm = surface_material(s, vsh);
   const Frame vf = shading_frame(s, vsh, vm);
   Vec3f vwo = vf.to_local(v.wi), vwl = vf.to_local(-w);
-  RGB fl = bsdf_eval(vm, vwo, vwl, TransportMode::kImportance);
+  RGB fl = bsdf_eval(vm, vwo, vwl, TransportMode::kImportance) * shading_normal_adjoint(vsh, v.wi, -w);
   if (is_black(fl)) return;
   float cos_c = std::fabs(wc.z), cos_l = std::fabs(vwl.z);
   float G = cos_c * cos_l / d2;
@@ -867,7 +868,7 @@ CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& 
     const VcmMergeVertex& v = vertices[id];
     if (v.length + st.length > p.max_depth) return;
     Vec3f wl = st.frame.to_local(v.wi);
-    RGB f = bsdf_eval(st.m, st.wo, wl);
+    RGB f = bsdf_eval(st.m, st.wo, wl) * photon_gather_cosines(st.sh.ns, st.sh.ng, v.wi);
     if (is_black(f)) return;
     VcmMis lm;
     lm.dVCM = v.dVCM;

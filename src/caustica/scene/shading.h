@@ -211,6 +211,24 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
   return m;
 }
 
+// Shading normals make scattering asymmetric (Veach 1997, Sec. 5.3.2, Eq. 5.19): particles carrying
+// importance-weighted power (light subpaths, photons) scatter with the adjoint f*(wo -> wi) =
+// f(wi -> wo) |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) (wo towards the previous vertex, wi the new direction), so
+// this factor multiplies their BSDF weights (bs.weight, which holds |wi.ns|); it is 1 where ns = ng.
+// pbrt-v3/v4's BDPT apply the same (CorrectShadingNormal). 0 when a direction grazes the geometric surface.
+CHD float shading_normal_adjoint(const SurfaceHit& sh, Vec3f wo, Vec3f wi) {
+  float den = absdot(wo, sh.ng) * absdot(wi, sh.ns);
+  return den > 0.f ? absdot(wo, sh.ns) * absdot(wi, sh.ng) / den : 0.f;
+}
+// A density estimate counts photons per unit of geometric area, where they arrive with |wi.ng| (wi towards
+// where the photon came from), while the radiance the BSDF reflects weighs them with |wi.ns|: each photon's
+// f(wo, wi) beta is multiplied by |wi.ns| / |wi.ng| (1 where ns = ng), so that merging, photon mapping and
+// path tracing agree on smooth-shaded and normal-mapped surfaces.
+CHD float photon_gather_cosines(Vec3f ns, Vec3f ng, Vec3f wi) {
+  float den = absdot(wi, ng);
+  return den > 0.f ? absdot(wi, ns) / den : 0.f;
+}
+
 // Beer-Lambert transmittance of the segment that ended at `sh` after distance t
 // when it ran inside absorbing glass (the hit is on the glass's back side).
 CHD RGB segment_transmittance(const SceneView& s, Vec3f dir, float t, const SurfaceHit& sh) {
