@@ -48,6 +48,21 @@ TextureDesc make_texture(int w, int h, std::function<RGB(int, int)> f) {
   return t;
 }
 
+// Adds the unit square in z = 0 facing +z (corners (0,0), (1,0), (1,1), (0,1)) with these UVs (empty: none)
+// as a shape of `material`, moved x along the x axis.
+void add_unit_quad(SceneDesc& d, std::vector<Vec2f> uvs, int material, float x) {
+  MeshDesc m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  m.uvs = std::move(uvs);
+  m.indices = {0, 1, 2, 0, 2, 3};
+  d.meshes.push_back(m);
+  ShapeDesc s;
+  s.mesh = int(d.meshes.size()) - 1;
+  s.material = material;
+  s.to_world.m[0][3] = x;
+  d.shapes.push_back(s);
+}
+
 TextureView view_of(const TextureDesc& t) {
   TextureView v;
   v.rgba = t.rgba.data();
@@ -159,20 +174,7 @@ TEST(Texture, ColourRoughnessAndNormalMapsApplyAtTheHit) {
   Material tilted = make_diffuse(RGB(1.f));
   tilted.tex_normal = 3;
   d.add_material("tilted", tilted);
-  for (int i = 0; i < 2; ++i) {
-    MeshDesc m;  // a unit quad in z = 0 facing +z, u along +x and v along +y
-    m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-    m.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-    m.indices = {0, 1, 2, 0, 2, 3};
-    d.meshes.push_back(m);
-    ShapeDesc s;
-    s.mesh = i;
-    s.material = i;
-    Affine t;
-    t.m[0][3] = 3.f * i;
-    s.to_world = t;
-    d.shapes.push_back(s);
-  }
+  for (int i = 0; i < 2; ++i) add_unit_quad(d, {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, i, 3.f * i);  // u along +x, v +y
   d.lights.push_back(Light{});
   auto sc = Scene::build(d);
   const SceneView& v = sc->view();
@@ -213,18 +215,7 @@ TEST(Texture, AnisotropicShadingFrameFollowsDpDu) {
   // UVs, 3 = 0 with the isotropic material; each 3 units further along x.
   const std::vector<std::vector<Vec2f>> uvs = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}, {{0, 1}, {0, 0}, {1, 0}, {1, 1}}, {},
                                                {{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
-  for (int i = 0; i < 4; ++i) {
-    MeshDesc m;
-    m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-    m.uvs = uvs[i];
-    m.indices = {0, 1, 2, 0, 2, 3};
-    d.meshes.push_back(m);
-    ShapeDesc s;
-    s.mesh = i;
-    s.material = i == 3 ? 1 : 0;
-    s.to_world.m[0][3] = 3.f * i;
-    d.shapes.push_back(s);
-  }
+  for (int i = 0; i < 4; ++i) add_unit_quad(d, uvs[i], i == 3 ? 1 : 0, 3.f * i);
   ShapeDesc sphere;
   sphere.type = ShapeType::kSphere;
   sphere.center = Vec3f(0.f, 0.f, -5.f);
@@ -293,14 +284,7 @@ TEST(Texture, AnisotropicShadingFrameFollowsDpDu) {
   {
     SceneDesc dm;
     dm.add_material("aniso", aniso);
-    MeshDesc m;  // u along +x, v along -y: mirrored
-    m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-    m.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
-    m.indices = {0, 1, 2, 0, 2, 3};
-    dm.meshes.push_back(m);
-    ShapeDesc q;
-    q.mesh = 0;
-    dm.shapes.push_back(q);
+    add_unit_quad(dm, {{0, 1}, {1, 1}, {1, 0}, {0, 0}}, 0, 0.f);  // u along +x, v along -y: mirrored
     dm.lights.push_back(Light{});
     auto scm = Scene::build(dm);
     const SceneView& vm = scm->view();
@@ -459,16 +443,7 @@ TEST(Texture, NormalMapBitangentOnMirroredUVs) {
     m.tex_normal = 0;
     if (k == 1) m.flags |= kNormalMapCross;
     d.add_material("m" + std::to_string(k), m);
-    MeshDesc q;  // u along +x, v along -y
-    q.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-    q.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
-    q.indices = {0, 1, 2, 0, 2, 3};
-    d.meshes.push_back(q);
-    ShapeDesc s;
-    s.mesh = k;
-    s.material = k;
-    s.to_world.m[0][3] = 3.f * float(k);
-    d.shapes.push_back(s);
+    add_unit_quad(d, {{0, 1}, {1, 1}, {1, 0}, {0, 0}}, k, 3.f * float(k));  // u along +x, v along -y
   }
   d.lights.push_back(Light{});
   auto sc = Scene::build(d);
@@ -597,18 +572,7 @@ TEST(Texture, BumpMapTiltsTheNormalAgainstTheSlope) {
     m.bump_scale = 0.3f;
     d.add_material("bump" + std::to_string(k), m);
   }
-  for (int k = 0; k < 2; ++k) {
-    MeshDesc q;  // the unit square in z = 0, u = x, v = y
-    q.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-    q.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-    q.indices = {0, 1, 2, 0, 2, 3};
-    d.meshes.push_back(q);
-    ShapeDesc s;
-    s.mesh = k;
-    s.material = k;
-    s.to_world.m[0][3] = 3.f * float(k);
-    d.shapes.push_back(s);
-  }
+  for (int k = 0; k < 2; ++k) add_unit_quad(d, {{0, 0}, {1, 0}, {1, 1}, {0, 1}}, k, 3.f * float(k));  // u = x, v = y
   ShapeDesc sp;
   sp.type = ShapeType::kSphere;
   sp.radius = 2.f;
