@@ -421,23 +421,24 @@ TEST(ObjLoader, GroupsMaterialsAndTheMtlMapping) {
         "newmtl glass\nKd 0 0 0\nNi 1.33\nTf 0.9 1 0.9\nillum 7\n"
         "newmtl pane\nd 0.5\nillum 2\n"
         "newmtl lamp\nKe 10 9 8\n"
-        "newmtl wood\nKd 0.6 0.6 0.6\nmap_Kd -s 1 1 1 tex/wood.pfm\nmap_Bump bump.png\n");
+        "newmtl wood\nKd 0.6 0.6 0.6\nmap_Kd -s 1 1 1 tex/wood.pfm\nmap_Bump bump.png\n"
+        "newmtl leaf\nKd 0.2 0.6 0.1\nmap_d tex/wood.pfm\n");
   std::string obj = "mtllib mats.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\n";
-  const char* names[] = {"red", "grey1", "shiny", "hot", "mirror", "varnish", "glass", "pane", "lamp", "wood"};
+  const char* names[] = {"red", "grey1", "shiny", "hot", "mirror", "varnish", "glass", "pane", "lamp", "wood", "leaf"};
   for (const char* n : names) obj += std::string("g ") + n + "\nusemtl " + n + "\nf 1 2 3 4\n";
   obj += "g two\nusemtl red\nf 1 2 3\nusemtl grey1\nf 1 3 4\n";
   std::string p = write("mats.obj", obj);
   SceneDesc d = load_obj(p);
-  ASSERT_EQ(d.shapes.size(), 12u);
-  EXPECT_EQ(d.shapes[10].name, "mats/two/red");
-  EXPECT_EQ(d.shapes[11].name, "mats/two/grey1");
+  ASSERT_EQ(d.shapes.size(), 13u);
+  EXPECT_EQ(d.shapes[11].name, "mats/two/red");
+  EXPECT_EQ(d.shapes[12].name, "mats/two/grey1");
   auto mat = [&](const std::string& n) -> const Material& {
     int i = d.material_index("mats/" + n);
     EXPECT_GE(i, 0) << n;
     return d.materials[size_t(std::max(i, 0))];
   };
   EXPECT_EQ(d.shapes[0].material, d.material_index("mats/red"));
-  EXPECT_EQ(d.shapes[10].material, d.material_index("mats/red"));
+  EXPECT_EQ(d.shapes[11].material, d.material_index("mats/red"));
   EXPECT_EQ(mat("red").type, MaterialType::kDiffuse);
   EXPECT_EQ(mat("red").diffuse.x, 0.8f);
   EXPECT_EQ(mat("grey1").diffuse.z, 0.3f);  // one number = grey
@@ -460,8 +461,15 @@ TEST(ObjLoader, GroupsMaterialsAndTheMtlMapping) {
   EXPECT_EQ(d.shapes[8].emission.x, 10.f);
   EXPECT_EQ(d.shapes[8].emission.z, 8.f);
   EXPECT_EQ(d.shapes[0].emission.x, 0.f);
-  ASSERT_EQ(d.textures.size(), 1u);
+  ASSERT_EQ(d.textures.size(), 2u);
   EXPECT_EQ(mat("wood").tex_color, 0);
+  // map_d: a cut-out mask, linear, read by its luminance when the image has no alpha channel.
+  EXPECT_EQ(mat("leaf").type, MaterialType::kDiffuse);
+  EXPECT_EQ(mat("leaf").tex_opacity, 1);
+  EXPECT_FALSE(d.textures[1].srgb);
+  EXPECT_TRUE(mat("leaf").flags & kOpacityLuminance);
+  EXPECT_LT(mat("leaf").opacity_cutoff, 0.f);
+  EXPECT_EQ(mat("wood").tex_opacity, -1);
   EXPECT_EQ(mat("wood").diffuse.x, 1.f);  // the texture replaces Kd
   EXPECT_EQ(d.textures[0].width, 2);
   EXPECT_FLOAT_EQ(d.textures[0].rgba[0], 0.25f);

@@ -254,7 +254,7 @@ TEST(MitsubaInclude, IncludesRelativeToTheIncludingFile) {
   std::string bad = write_file("inc_bad_child.xml", "<scene version=\"3.0.0\">\n\n  <bsdf type=\"velvet\"/>\n</scene>\n");
   g = scene_file("inc_error.xml", "<include filename=\"inc_bad_child.xml\"/>\n");
   EXPECT_EQ(error_of(g), bad + ":3: <bsdf type=\"velvet\">: unsupported BSDF type (supported: diffuse, conductor, "
-                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap)");
+                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask)");
   g = scene_file("inc_self.xml", "<include filename=\"inc_self.xml\"/>\n");
   EXPECT_EQ(error_of(g), g + ":2: <include>: '" + g + "' includes itself (an include cycle)");
 }
@@ -439,6 +439,36 @@ TEST(MitsubaBsdf, Textures) {
       "<string name=\"filename\" value=\"tex/t.pfm\"/><boolean name=\"raw\" value=\"true\"/></texture>"
       "<bsdf type=\"diffuse\"/></bsdf></shape>\n");
   EXPECT_EQ(said(load_mitsuba_scene(f)), 0);
+  // mask: the nested BSDF with stochastic opacity, a number (default 0.5) or a texture read by luminance;
+  // twosided inside or outside it.
+  f = scene_file("masked.xml", kCamera +
+      "<shape type=\"rectangle\"><bsdf type=\"mask\"><float name=\"opacity\" value=\"0.3\"/>"
+      "<bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf></bsdf></shape>\n"
+      "<shape type=\"rectangle\"><bsdf type=\"twosided\"><bsdf type=\"mask\"><texture type=\"bitmap\" "
+      "name=\"opacity\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>"
+      "<bsdf type=\"diffuse\"/></bsdf></bsdf></shape>\n"
+      "<shape type=\"rectangle\"><bsdf type=\"mask\"><bsdf type=\"roughconductor\"/></bsdf></shape>\n");
+  d = load_mitsuba_scene(f);
+  ASSERT_EQ(d.shapes.size(), 3u);
+  const Material& m0 = d.materials[d.shapes[0].material];
+  EXPECT_EQ(m0.type, MaterialType::kDiffuse);
+  EXPECT_TRUE(m0.flags & kTwoSided);
+  EXPECT_FLOAT_EQ(m0.opacity, 0.3f);
+  EXPECT_EQ(m0.tex_opacity, -1);
+  EXPECT_LT(m0.opacity_cutoff, 0.f);  // stochastic, as Mitsuba's
+  const Material& m1 = d.materials[d.shapes[1].material];
+  EXPECT_TRUE(m1.flags & kTwoSided);
+  ASSERT_GE(m1.tex_opacity, 0);
+  EXPECT_TRUE(m1.flags & kOpacityLuminance);
+  EXPECT_EQ(m1.opacity, 1.f);
+  const Material& m2 = d.materials[d.shapes[2].material];
+  EXPECT_EQ(m2.type, MaterialType::kRoughConductor);
+  EXPECT_EQ(m2.opacity, 0.5f);
+  g = scene_file("mask_nobsdf.xml", "<shape type=\"cube\"><bsdf type=\"mask\">\n</bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"mask\">: expected a nested <bsdf> or <ref>");
+  g = scene_file("mask_range.xml", "<shape type=\"cube\"><bsdf type=\"mask\">\n<float name=\"opacity\" value=\"2\"/>"
+                                   "<bsdf type=\"diffuse\"/></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":3: <float name=\"opacity\">: expected an opacity in [0, 1]");
   g = scene_file("wrap_notex.xml", "<shape type=\"cube\"><bsdf type=\"bumpmap\">\n<bsdf type=\"diffuse\"/></bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"bumpmap\">: expected a nested <texture> (the height map)");
   g = scene_file("wrap_nobsdf.xml", "<shape type=\"cube\"><bsdf type=\"normalmap\">\n<texture type=\"bitmap\">"
@@ -453,7 +483,7 @@ TEST(MitsubaBsdf, Errors) {
   std::vector<Case> cases = {
       {"<bsdf type=\"velvet\" id=\"v\"/>\n",
        ":2: <bsdf type=\"velvet\" id=\"v\">: unsupported BSDF type (supported: diffuse, conductor, roughconductor, "
-       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap)"},
+       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectanse\" value=\"1\"/></bsdf>\n",
        ":3: <rgb name=\"reflectanse\">: unknown property of bsdf diffuse (supported: reflectance)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectance\" value=\"1, 2\"/></bsdf>\n",

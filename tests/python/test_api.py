@@ -173,7 +173,7 @@ def test_accelerator_choice():
     big = _eleven_cubes()
     assert caustica.render_job(big, spp=1).stats["accel"] == "embree"
     with pytest.raises(caustica.InputError, match="--accel small takes scenes of at most 128 triangles and 8 "
-                                                  "spheres on a CPU with AVX2; this one has 132 triangles"):
+                                                  "spheres without cut-outs \\(opacity\\) on a CPU with AVX2; this one has 132 triangles"):
         caustica.render_job(big, spp=1, accel="small")
 
 

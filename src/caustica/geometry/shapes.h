@@ -65,8 +65,8 @@ CHD bool intersect_triangle(const Ray& r, Vec3f p0, Vec3f p1, Vec3f p2, float& t
   return true;
 }
 
-// Nearest intersection of the ray with the sphere beyond t = 0 and below tmax.
-CHD bool intersect_sphere(const Ray& r, const Sphere& s, float& t_out) {
+// Both roots t0 <= t1 of |o + t d - c| = r (false when the ray's line misses the sphere).
+CHD bool sphere_roots(const Ray& r, const Sphere& s, float& t0, float& t1) {
   Vec3f f = r.o - s.center;
   float a = dot(r.d, r.d);
   float b = -dot(f, r.d);  // b' of Eq. 7.5 with the sign folded in
@@ -76,13 +76,29 @@ CHD bool intersect_sphere(const Ray& r, const Sphere& s, float& t_out) {
   float sq = std::sqrt(disc);
   float q = b + std::copysign(sq, b);  // Eq. 7.8: no cancellation
   float c = dot(f, f) - s.radius * s.radius;
-  float t0 = c / q, t1 = q / a;
+  t0 = c / q;
+  t1 = q / a;
   if (t0 > t1) { float tmp = t0; t0 = t1; t1 = tmp; }
-  float t = t0 > 0.f ? t0 : t1;
-  if (!(t > 0.f) || !(t < r.tmax)) return false;
-  // Reject hits that lie on the surface the ray starts from (|o - c| ~ r).
-  if (t == t0 && t < 1e-6f * s.radius) { if (t1 > 0.f && t1 < r.tmax) t = t1; else return false; }
-  t_out = t;
+  return true;
+}
+
+// Whether root t0 (the near crossing) counts as a hit: beyond t = 0 and below tmax, and not on the surface the
+// ray starts from (|o - c| ~ r).
+CHD bool sphere_near_root_ok(const Ray& r, const Sphere& s, float t0) {
+  return t0 > 0.f && t0 < r.tmax && !(t0 < 1e-6f * s.radius);
+}
+
+// Nearest intersection of the ray with the sphere beyond t = 0 and below tmax.
+CHD bool intersect_sphere(const Ray& r, const Sphere& s, float& t_out) {
+  float t0, t1;
+  if (!sphere_roots(r, s, t0, t1)) return false;
+  if (sphere_near_root_ok(r, s, t0)) {
+    t_out = t0;
+    return true;
+  }
+  if (t0 > 0.f && !(t0 < 1e-6f * s.radius)) return false;  // the near crossing is beyond tmax
+  if (!(t1 > 0.f) || !(t1 < r.tmax)) return false;
+  t_out = t1;
   return true;
 }
 

@@ -153,7 +153,7 @@ CHD RGB restir_contribution(const SceneView& s, const RestirShading& v, const Li
         if (!inside && cos_l >= 0.f) return RGB(0.f);  // the far side: outside the cone sampling covers
       }
       if (cos_l == 0.f) return RGB(0.f);
-      Le = area_radiance(s, l, y.n, -wi, y.uv);
+      Le = area_radiance(s, l, y.n, -wi, y.uv) * area_coverage(s, l.prim, y.uv);
       J = std::fabs(cos_l) / d2;
       break;
     }

@@ -389,7 +389,7 @@ CHD bool vcm_sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Ve
       e.cos_light = wl.z;
       e.emission_pdf_w = vcm_emission_pdf(s, l, e.n, d);
       e.direct_pdf_a = -1.f;
-      RGB Le = l.L;
+      RGB Le = l.L * area_coverage(s, l.prim, uv);
       if (l.texture >= 0) Le = Le * texture_lookup(s.textures[l.texture], uv).rgb();
       e.Le_cos = Le * wl.z;
       return e.emission_pdf_w > 0.f && !is_black(e.Le_cos);

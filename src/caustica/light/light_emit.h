@@ -75,7 +75,7 @@ CHD bool sample_emission(const SceneView& s, const Light& l, Vec2f u_pos, Vec2f 
       e.ray.d = d;
       e.ray.tmax = kInf;
       e.n = n;
-      RGB Le = l.L;
+      RGB Le = l.L * area_coverage(s, l.prim, uv);
       if (l.texture >= 0) Le = Le * texture_lookup(s.textures[l.texture], uv).rgb();
       e.weight = Le * (kPi * area * sides);  // Le cos / (1/A * cos/pi) per side
       return !is_black(e.weight);

@@ -1,7 +1,7 @@
 // Next-event estimation: sampling a point or direction on a light as seen from
 // a reference point, and the matching solid-angle density for MIS.
 #pragma once
-#include "../scene/interaction.h"
+#include "../scene/opacity.h"
 #include "light.h"
 
 namespace caustica {
@@ -16,7 +16,9 @@ struct LightSample {
   Vec2f uv_l;       // area lights: the sampled point's texture coordinates
 };
 
-// Radiance of an area light at surface texture coordinates uv (emission texture applied).
+// Radiance of an area light at surface texture coordinates uv (emission texture applied). A point sampled on
+// the light is further weighted by area_coverage (scene/opacity.h) where the light has cut-outs; a ray that
+// hits the light has passed them already.
 CHD RGB area_radiance(const SceneView& s, const Light& l, Vec3f n, Vec3f w, Vec2f uv) {
   RGB Le = area_le(l, n, w);
   if (l.texture >= 0 && !is_black(Le)) Le = Le * texture_lookup(s.textures[l.texture], uv).rgb();
@@ -84,7 +86,7 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       if (c == 0.f) return false;
       ls.pdf = d2 / (c * triangle_area(p0, p1, p2));
       ls.uv_l = triangle_uv(s, l.prim, b.x, b.y);
-      ls.Li = area_radiance(s, l, n, -ls.wi, ls.uv_l);
+      ls.Li = area_radiance(s, l, n, -ls.wi, ls.uv_l) * area_coverage(s, l.prim, ls.uv_l);
       ls.delta = false;
       ls.p_l = p;
       ls.n_l = n;
@@ -118,7 +120,7 @@ CHD bool sample_light(const SceneView& s, const Light& l, Vec3f ref, Vec2f u, Li
       ls.wi = d / ls.dist;
       ls.pdf = light_pdf(s, l, ref, p, n);
       ls.uv_l = sphere_uv_at(s, l.prim - s.num_triangles, n);
-      ls.Li = area_radiance(s, l, n, -ls.wi, ls.uv_l);
+      ls.Li = area_radiance(s, l, n, -ls.wi, ls.uv_l) * area_coverage(s, l.prim, ls.uv_l);
       ls.delta = false;
       ls.p_l = p;
       ls.n_l = n;

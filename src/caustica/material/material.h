@@ -28,6 +28,8 @@ enum MaterialFlags : uint32_t {
   // Normal map: its y axis is n x dp/du whatever the UVs' handedness (Mitsuba 3's normalmap, pbrt-v4), rather
   // than turned to dp/dv's side (MikkTSpace and glTF, caustica's default; scene/shading.h).
   kNormalMapCross = 4u,
+  kOpacityLuminance = 8u,  // the opacity texture's luminance is the opacity, rather than its alpha channel
+  kAlphaTested = 16u,      // set by Scene::build where opacity < 1 or an opacity texture makes cut-outs
 };
 
 // Radiance flows from lights to the camera; importance flows the other way.
@@ -64,6 +66,15 @@ struct Material {
   // applied to path segments that end on the back side of this material
   // (closed, non-nested glass; glTF KHR_materials_volume: -ln(colour)/distance).
   RGB absorption{0.f};
+  // Opacity, for cut-outs (leaves, fences: glTF alphaMode MASK and BLEND, Mitsuba 3's mask, OBJ map_d):
+  // `opacity` times tex_opacity's alpha channel (or its luminance with kOpacityLuminance). With
+  // opacity_cutoff >= 0 the surface is there where that is >= the cutoff and absent elsewhere (an alpha test,
+  // glTF MASK); with a negative cutoff a ray passes through with probability 1 - opacity (stochastic
+  // transparency, glTF BLEND, Mitsuba's mask). Rays pass through inside the intersection queries
+  // (scene/opacity.h), so every integrator, shadow rays and photons see the same surface.
+  float opacity = 1.f;
+  int32_t tex_opacity = -1;
+  float opacity_cutoff = -1.f;
 };
 
 CHD bool material_is_transmissive(const Material& m) {

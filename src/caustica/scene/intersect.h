@@ -1,7 +1,7 @@
 // Closest-hit and any-hit queries over the portable BVH: what the GPU runs,
 // and the CPU's reference against Embree.
 #pragma once
-#include "scene_view.h"
+#include "opacity.h"
 
 namespace caustica {
 
@@ -14,8 +14,10 @@ struct PrimIntersector {
     if (prim < s->num_triangles) {
       const uint32_t* ix = s->indices + 3 * prim;
       ok = intersect_triangle(ray, s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]], t, b1, b2);
+      // A cut-out skips the candidate (scene/opacity.h); traversal goes on beyond it.
+      if (ok && s->alpha_tested) ok = triangle_hit_kept(*s, prim, b1, b2, ray);
     } else {
-      ok = intersect_sphere(ray, s->spheres[prim - s->num_triangles], t);
+      ok = intersect_sphere_kept(*s, prim - s->num_triangles, ray, t);
     }
     if (!ok) return false;
     ray.tmax = t;

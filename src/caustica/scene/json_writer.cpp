@@ -234,12 +234,14 @@ struct Writer {
     return keys;
   }
 
-  JV texture(int index, bool srgb_default, const JV* scale) const {
+  // alpha_as_grey: the image's alpha channel, written out as a grey image (exported_alpha_texture_name).
+  JV texture(int index, bool srgb_default, const JV* scale, bool alpha_as_grey = false) const {
     if (index < 0 || size_t(index) >= d.textures.size())
       throw InputError("export: texture index " + std::to_string(index) + " out of range");
     const TextureDesc& t = d.textures[index];
     JV o = JV::object();
-    o.set("texture", JV::str(exported_texture_name(stem, size_t(index))));
+    o.set("texture", JV::str(alpha_as_grey ? exported_alpha_texture_name(stem, size_t(index))
+                                           : exported_texture_name(stem, size_t(index))));
     if (scale) o.set("scale", *scale);
     if (t.srgb != srgb_default) o.set("srgb", JV::boolean(t.srgb));
     if (t.wrap == TexWrap::kClamp) o.set("wrap", JV::str("clamp"));
@@ -336,6 +338,17 @@ struct Writer {
       JV s = JV::flt(m.bump_scale);
       o.set("bump_map", texture(m.tex_bump, false, &s));
     }
+    if (m.tex_opacity >= 0) {
+      // The written images are RGB: an alpha channel goes out as a grey image read by its luminance.
+      JV s = JV::flt(m.opacity);
+      JV t = texture(m.tex_opacity, false, &s, !(m.flags & kOpacityLuminance));
+      t.set("channel", JV::str("luminance"));
+      o.set("opacity", t);
+    } else if (m.opacity < 1.f) {
+      o.set("opacity", JV::flt(m.opacity));
+    }
+    if (m.opacity_cutoff >= 0.f && (m.tex_opacity >= 0 || m.opacity < 1.f))
+      o.set("opacity_cutoff", JV::flt(m.opacity_cutoff));
     return o;
   }
 
@@ -522,6 +535,9 @@ struct Writer {
 std::string exported_texture_name(const std::string& texture_stem, size_t index) {
   return texture_stem + ".tex" + std::to_string(index) + ".exr";
 }
+std::string exported_alpha_texture_name(const std::string& texture_stem, size_t index) {
+  return texture_stem + ".tex" + std::to_string(index) + ".alpha.exr";
+}
 
 std::string scene_desc_to_json(const SceneDesc& desc, const std::string& texture_stem) {
   Writer w{desc, texture_stem};
@@ -541,7 +557,7 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
   if (!dir.empty() && !fs::is_directory(dir, ec))
     throw InputError("cannot write '" + path + "': directory '" + dir.string() + "' does not exist");
   // Only the textures something refers to (a loader may keep images nothing uses).
-  std::vector<bool> used(desc.textures.size(), false);
+  std::vector<bool> used(desc.textures.size(), false), used_alpha(desc.textures.size(), false);
   auto mark = [&](int t) {
     if (t >= 0 && size_t(t) < used.size()) used[t] = true;
   };
@@ -551,6 +567,10 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
     mark(m.tex_normal);
     mark(m.tex_bump);
     mark(m.tex_aniso);
+    if (m.tex_opacity >= 0 && size_t(m.tex_opacity) < used.size()) {
+      if (m.flags & kOpacityLuminance) used[m.tex_opacity] = true;
+      else used_alpha[m.tex_opacity] = true;
+    }
   }
   for (const ShapeDesc& sh : desc.shapes) mark(sh.emission_texture);
   for (const Light& l : desc.lights) mark(l.texture);
@@ -561,6 +581,14 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
     for (size_t k = 0; k < size_t(t.width) * t.height; ++k)
       for (int ch = 0; ch < 3; ++ch) rgb[k * 3 + ch] = t.rgba[k * 4 + ch];
     write_image((dir / exported_texture_name(stem, i)).string(), rgb, t.width, t.height);
+  }
+  for (size_t i = 0; i < desc.textures.size(); ++i) {
+    if (!used_alpha[i]) continue;
+    const TextureDesc& t = desc.textures[i];
+    std::vector<float> grey(size_t(t.width) * t.height * 3);
+    for (size_t k = 0; k < size_t(t.width) * t.height; ++k)
+      for (int ch = 0; ch < 3; ++ch) grey[k * 3 + ch] = t.rgba[k * 4 + 3];
+    write_image((dir / exported_alpha_texture_name(stem, i)).string(), grey, t.width, t.height);
   }
   std::string tmp = path + ".tmp";
   {

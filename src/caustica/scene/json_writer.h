@@ -23,5 +23,7 @@ void write_scene_json(const SceneDesc& desc, const std::string& path);
 
 // The texture file name scene_desc_to_json uses for texture `index`.
 std::string exported_texture_name(const std::string& texture_stem, size_t index);
+// The grey image of texture `index`'s alpha channel (an opacity read from the alpha channel).
+std::string exported_alpha_texture_name(const std::string& texture_stem, size_t index);
 
 }  // namespace caustica

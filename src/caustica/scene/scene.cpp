@@ -471,9 +471,15 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   for (Material& m : s.materials)
     if (m.type == MaterialType::kPlastic || m.type == MaterialType::kMetallicRoughness) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
 
-  for (const Material& m : s.materials)
-    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso})
+  for (Material& m : s.materials) {
+    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity})
       if (t >= int(desc.textures.size())) throw InputError("scene '" + desc.name + "': texture index out of range");
+    if (!(m.opacity >= 0.f && m.opacity <= 1.f) || !(m.opacity_cutoff <= 1.f))
+      throw InputError("scene '" + desc.name + "': a material's opacity must be in [0, 1] and its cutoff at most 1");
+    // Cut-outs are tested in the ray queries (scene/opacity.h) only where a material has them.
+    m.flags &= ~uint32_t(kAlphaTested);
+    if (m.opacity < 1.f || m.tex_opacity >= 0) m.flags |= kAlphaTested;
+  }
   struct PendingArea {
     uint32_t prim;  // triangle index or sphere index (offset later)
     bool sphere;
@@ -837,6 +843,8 @@ void Scene::update_view() {
   v.prim_material = prim_material.data();
   v.prim_light = prim_light.data();
   v.materials = materials.data();
+  v.alpha_tested = 0;
+  for (const Material& m : materials) v.alpha_tested |= m.flags & kAlphaTested ? 1u : 0u;
   v.lights = lights.data();
   v.num_lights = uint32_t(lights.size());
   v.light_sampler = {alias_prob.data(), alias_index.data(), light_pmf.data(), uint32_t(light_pmf.size())};
@@ -855,9 +863,10 @@ const CpuAccel& Scene::cpu_accel(const std::string& accel) const {
   if (accel == "embree") return embree();
   if (accel == "small" && accel_->kind() != CpuAccel::Kind::kSmall)
     throw InputError("--accel small takes scenes of at most " + std::to_string(SmallAccel::kMaxTriangles) +
-                     " triangles and " + std::to_string(CpuAccel::kMaxSmallSpheres) + " spheres on a CPU with AVX2; " +
+                     " triangles and " + std::to_string(CpuAccel::kMaxSmallSpheres) +
+                     " spheres without cut-outs (opacity) on a CPU with AVX2; " +
                      "this one has " + std::to_string(view_.num_triangles) + " triangles and " +
-                     std::to_string(view_.num_spheres) + " spheres" +
+                     std::to_string(view_.num_spheres) + " spheres" + (view_.alpha_tested ? ", and cut-outs" : "") +
                      (SmallAccel::available() ? "" : ", and this CPU lacks AVX2"));
   return *accel_;
 }

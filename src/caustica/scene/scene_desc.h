@@ -132,6 +132,8 @@ struct SceneDesc {
 // a second request for the same (path, srgb) returns the same index. Errors
 // throw InputError naming `referrer` (the scene file) and the image.
 int load_texture(SceneDesc& desc, const std::string& path, bool srgb, const std::string& referrer);
+// Whether the image has an alpha channel that is not 1 everywhere (an opacity texture's default channel).
+bool texture_has_alpha(const TextureDesc& t);
 // The same from an encoded image in memory (PNG/JPEG/... bytes, e.g. a GLB
 // buffer or a data URI); `name` is the cache key.
 int load_texture_from_memory(SceneDesc& desc, const std::string& name, const unsigned char* bytes, size_t size,

@@ -70,6 +70,8 @@ struct SceneView {
   // Per primitive
   const uint32_t* prim_material = nullptr;
   const int32_t* prim_light = nullptr;  // light index of an emissive primitive, else -1
+  // Non-zero when some material has kAlphaTested: then the intersection queries test opacity (scene/opacity.h).
+  uint32_t alpha_tested = 0;
   // Shading
   const Material* materials = nullptr;
   const Light* lights = nullptr;

@@ -58,6 +58,12 @@ TextureDesc from_stb(const std::string& name, int w, int h, int n, const unsigne
 
 }  // namespace
 
+bool texture_has_alpha(const TextureDesc& t) {
+  for (size_t i = 3; i < t.rgba.size(); i += 4)
+    if (t.rgba[i] < 1.f) return true;
+  return false;
+}
+
 int load_texture(SceneDesc& d, const std::string& path, bool srgb, const std::string& referrer) {
   int hit = find_cached(d, path, srgb);
   if (hit >= 0) return hit;

@@ -10,8 +10,8 @@ namespace caustica {
 namespace {
 
 void sphere_bounds_fn(const RTCBoundsFunctionArguments* args) {
-  const Sphere* spheres = static_cast<const Sphere*>(args->geometryUserPtr);
-  Bounds3 b = sphere_bounds(spheres[args->primID]);
+  const SceneView* v = static_cast<const SceneView*>(args->geometryUserPtr);
+  Bounds3 b = sphere_bounds(v->spheres[args->primID]);
   args->bounds_o->lower_x = b.lo.x;
   args->bounds_o->lower_y = b.lo.y;
   args->bounds_o->lower_z = b.lo.z;
@@ -22,20 +22,20 @@ void sphere_bounds_fn(const RTCBoundsFunctionArguments* args) {
 
 void sphere_intersect_fn(const RTCIntersectFunctionNArguments* args) {
   if (!args->valid[0]) return;
-  const Sphere* spheres = static_cast<const Sphere*>(args->geometryUserPtr);
+  const SceneView* v = static_cast<const SceneView*>(args->geometryUserPtr);
   RTCRayHit* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);
   Ray r;
   r.o = Vec3f(rh->ray.org_x, rh->ray.org_y, rh->ray.org_z);
   r.d = Vec3f(rh->ray.dir_x, rh->ray.dir_y, rh->ray.dir_z);
   r.tmax = rh->ray.tfar;
   float t;
-  if (!intersect_sphere(r, spheres[args->primID], t)) return;
+  if (!intersect_sphere_kept(*v, args->primID, r, t)) return;
   rh->ray.tfar = t;
   rh->hit.geomID = args->geomID;
   rh->hit.primID = args->primID;
   rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rh->hit.u = rh->hit.v = 0.f;
-  Vec3f n = (r.o + r.d * t) - spheres[args->primID].center;
+  Vec3f n = (r.o + r.d * t) - v->spheres[args->primID].center;
   rh->hit.Ng_x = n.x;
   rh->hit.Ng_y = n.y;
   rh->hit.Ng_z = n.z;
@@ -43,14 +43,32 @@ void sphere_intersect_fn(const RTCIntersectFunctionNArguments* args) {
 
 void sphere_occluded_fn(const RTCOccludedFunctionNArguments* args) {
   if (!args->valid[0]) return;
-  const Sphere* spheres = static_cast<const Sphere*>(args->geometryUserPtr);
+  const SceneView* v = static_cast<const SceneView*>(args->geometryUserPtr);
   RTCRay* ray = reinterpret_cast<RTCRay*>(args->ray);
   Ray r;
   r.o = Vec3f(ray->org_x, ray->org_y, ray->org_z);
   r.d = Vec3f(ray->dir_x, ray->dir_y, ray->dir_z);
   r.tmax = ray->tfar;
   float t;
-  if (intersect_sphere(r, spheres[args->primID], t)) ray->tfar = -kInf;
+  if (intersect_sphere_kept(*v, args->primID, r, t)) ray->tfar = -kInf;
+}
+
+// A triangle's candidate hit (closest-hit and any-hit queries alike): skipped where its material's opacity
+// says so (scene/opacity.h, the portable BVH's test). Queries are single rays (N = 1).
+void triangle_opacity_filter_fn(const RTCFilterFunctionNArguments* args) {
+  const SceneView* v = static_cast<const SceneView*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    Ray r;
+    r.o = Vec3f(RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                RTCRayN_org_z(args->ray, args->N, i));
+    r.d = Vec3f(RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+                RTCRayN_dir_z(args->ray, args->N, i));
+    r.tmax = kInf;
+    if (!triangle_hit_kept(*v, RTCHitN_primID(args->hit, args->N, i), RTCHitN_u(args->hit, args->N, i),
+                           RTCHitN_v(args->hit, args->N, i), r))
+      args->valid[i] = 0;
+  }
 }
 
 // Embree reports errors through the device; checked after each setup step
@@ -78,14 +96,15 @@ inline void fill_ray(RTCRay& rr, const Ray& ray) {
 }  // namespace
 
 bool CpuAccel::small_suits(const SceneView& v) {
-  return SmallAccel::available() && v.num_triangles <= SmallAccel::kMaxTriangles && v.num_spheres <= kMaxSmallSpheres;
+  return SmallAccel::available() && v.num_triangles <= SmallAccel::kMaxTriangles &&
+         v.num_spheres <= kMaxSmallSpheres && !v.alpha_tested;
 }
 
-CpuAccel::CpuAccel(const SceneView& v, Kind kind) : num_triangles_(v.num_triangles), spheres_(v.spheres) {
+CpuAccel::CpuAccel(const SceneView& v, Kind kind) : num_triangles_(v.num_triangles), view_(v) {
   if (kind == Kind::kSmall && !small_suits(v))
     throw std::invalid_argument("the small-scene accelerator takes at most " +
                                 std::to_string(SmallAccel::kMaxTriangles) + " triangles and " +
-                                std::to_string(kMaxSmallSpheres) + " spheres, on a CPU with AVX2");
+                                std::to_string(kMaxSmallSpheres) + " spheres without cut-outs, on a CPU with AVX2");
   if (kind != Kind::kEmbree && small_suits(v)) {
     small_ = std::make_unique<SmallAccel>(v);
     return;
@@ -109,6 +128,11 @@ CpuAccel::CpuAccel(const SceneView& v, Kind kind) : num_triangles_(v.num_triangl
     uint32_t* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                                    3 * sizeof(uint32_t), v.num_triangles));
     std::memcpy(idx, v.indices, sizeof(uint32_t) * 3 * v.num_triangles);
+    if (v.alpha_tested) {
+      rtcSetGeometryUserData(g, &view_);
+      rtcSetGeometryIntersectFilterFunction(g, triangle_opacity_filter_fn);
+      rtcSetGeometryOccludedFilterFunction(g, triangle_opacity_filter_fn);
+    }
     rtcCommitGeometry(g);
     tri_geom_ = rtcAttachGeometry(scene_, g);
     rtcReleaseGeometry(g);
@@ -116,7 +140,7 @@ CpuAccel::CpuAccel(const SceneView& v, Kind kind) : num_triangles_(v.num_triangl
   if (v.num_spheres > 0) {
     RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
     rtcSetGeometryUserPrimitiveCount(g, v.num_spheres);
-    rtcSetGeometryUserData(g, const_cast<Sphere*>(v.spheres));
+    rtcSetGeometryUserData(g, &view_);
     rtcSetGeometryBoundsFunction(g, sphere_bounds_fn, nullptr);
     rtcSetGeometryIntersectFunction(g, sphere_intersect_fn);
     rtcSetGeometryOccludedFunction(g, sphere_occluded_fn);

@@ -3,7 +3,9 @@
 // tested, eight at a time: on such scenes Embree's fixed cost per query is most of its time; measured in
 // bench/RESULTS.md, 2026-12-02), any other scene by Embree 3: all triangles in one triangle geometry
 // (primID = triangle index) and all spheres in one user geometry that calls the same intersect_sphere()
-// as the GPU path. Kind::kEmbree always uses Embree.
+// as the GPU path. Kind::kEmbree always uses Embree. Cut-outs (materials with kAlphaTested, scene/opacity.h)
+// are tested in Embree's filter functions, with the same code as the portable BVH; SmallAccel does not
+// take scenes with them.
 #pragma once
 #include <embree3/rtcore.h>
 
@@ -49,7 +51,7 @@ class CpuAccel {
   RTCScene scene_ = nullptr;
   unsigned tri_geom_ = RTC_INVALID_GEOMETRY_ID, sphere_geom_ = RTC_INVALID_GEOMETRY_ID;
   uint32_t num_triangles_ = 0;
-  const Sphere* spheres_ = nullptr;
+  SceneView view_;  // the scene's arrays, for the spheres' and cut-outs' callbacks
 };
 
 // Traversal of the portable BVH (the GPU's), with the same interface.

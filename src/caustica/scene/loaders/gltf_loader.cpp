@@ -806,9 +806,11 @@ int Converter::material(size_t i) {
   const json& pb = pbr ? *pbr : empty;
   std::string pp = P(p, "pbrMetallicRoughness");
   RGB base(1.f);
+  float base_alpha = 1.f;
   if (const json* bc = member(pb, "baseColorFactor")) {
     base = nonneg_color(c_, *bc, P(pp, "baseColorFactor"), 4);
-    if ((*bc)[3].get<double>() < 1.0) warn_once("base colour alpha (opacity) is not supported and is ignored");
+    base_alpha = float((*bc)[3].get<double>());
+    if (base_alpha > 1.f) c_.fail(P(pp, "baseColorFactor/3"), "expected an alpha in [0, 1]");
   }
   float metallic = unit_interval(c_, pb, "metallicFactor", pp, 1.f);
   float roughness = unit_interval(c_, pb, "roughnessFactor", pp, 1.f);
@@ -894,8 +896,26 @@ int Converter::material(size_t i) {
     ex.two_sided = ds->get<bool>();
   }
   if (ex.two_sided) mat.flags |= kTwoSided;
+  // Opacity (glTF 2.0 Sec. 3.9.4): the base colour's alpha (factor x texture) cuts the surface out. MASK is
+  // an alpha test against alphaCutoff; BLEND, meant for compositing in a rasteriser, is stochastic
+  // transparency here (scene/opacity.h); OPAQUE ignores alpha.
   std::string mode = string_or(c_, m, "alphaMode", p, "OPAQUE");
-  if (mode != "OPAQUE") warn_once("alphaMode " + mode + " is not supported; materials are opaque");
+  if (mode == "MASK" || mode == "BLEND") {
+    mat.opacity = base_alpha;
+    mat.tex_opacity = mat.tex_color;  // its alpha channel (linear)
+    if (mode == "MASK") {
+      double cutoff = number_or(c_, m, "alphaCutoff", p, 0.5);
+      if (cutoff < 0.0) c_.fail(P(p, "alphaCutoff"), "expected a number >= 0");
+      if (cutoff > 1.0) {  // no alpha reaches it: the surface is absent
+        mat.opacity = 0.f;
+        mat.tex_opacity = -1;
+        cutoff = 1.0;
+      }
+      mat.opacity_cutoff = float(cutoff);
+    }
+  } else if (mode != "OPAQUE") {
+    c_.fail(P(p, "alphaMode"), "expected OPAQUE, MASK or BLEND, got '" + mode + "'");
+  }
   std::string name = string_or(c_, m, "name", p, "");
   int idx = d_.add_material(name.empty() ? "material" + std::to_string(i) : name, mat);
   material_of_[i] = idx;

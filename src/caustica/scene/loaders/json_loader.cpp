@@ -234,7 +234,8 @@ bool same_sampling(const TextureDesc& a, const TextureDesc& b) {
 
 // "file.png" or {"texture": "file.png", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation", "scale"};
 // "scale" is read by the caller.
-int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_default, bool normal_map = false) {
+// extra_key: one more key the caller reads (a normal map's "bitangent", an opacity's "channel").
+int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_default, const char* extra_key = nullptr) {
   std::string file;
   TextureDesc want;
   bool srgb = srgb_default;
@@ -242,8 +243,8 @@ int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_defa
   if (j.is_string()) {
     file = j.get<std::string>();
   } else {
-    if (normal_map)
-      check_keys(c, j, path, {"texture", "scale", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation", "bitangent"});
+    if (extra_key)
+      check_keys(c, j, path, {"texture", "scale", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation", extra_key});
     else
       check_keys(c, j, path, {"texture", "scale", "srgb", "wrap", "filter", "uv_scale", "uv_offset", "uv_rotation"});
     fpath = path + "/texture";
@@ -345,10 +346,10 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
   };
   Material m;
   if (type == "diffuse") {
-    check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map", "bump_map"});
+    check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     m = make_diffuse(get_ct("reflectance", RGB(0.5f)));
   } else if (type == "conductor") {
-    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "anisotropy_texture", "two_sided", "normal_map", "bump_map"});
+    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "anisotropy_texture", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     Vec2f a = roughness("roughness");
     if (j.contains("eta") != j.contains("k")) c.fail(path, "give both 'eta' and 'k' (or neither for a tinted mirror)");
     RGB spec = get_ct("specular", RGB(1.f));
@@ -364,7 +365,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     }
   } else if (type == "dielectric") {
     check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "anisotropy_texture", "specular", "transmission", "absorption",
-                            "normal_map", "bump_map"});
+                            "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     Vec2f a = roughness("roughness");
     m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
     if (a.x > 0.f || a.y > 0.f) {
@@ -375,25 +376,25 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     m.transmission = get_ct("transmission", RGB(1.f));
     m.absorption = get_c("absorption", RGB(0.f));
   } else if (type == "thindielectric") {
-    check_keys(c, j, path, {"type", "eta", "specular", "transmission", "normal_map", "bump_map"});
+    check_keys(c, j, path, {"type", "eta", "specular", "transmission", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     m = make_thin_dielectric(positive("eta", get_f("eta", 1.5f)));
     m.specular = get_c("specular", RGB(1.f));
     m.transmission = get_ct("transmission", RGB(1.f));
   } else if (type == "plastic") {
-    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map", "bump_map"});
+    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     RGB kd = get_ct("diffuse", RGB(0.5f));
     m = make_plastic(kd, positive("eta", get_f("eta", 1.49f)), get_c("specular", RGB(1.f)));
   } else if (type == "difftrans") {
-    check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map", "bump_map"});
+    check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     RGB r = get_ct("reflectance", RGB(0.f));
     m = make_diffuse_transmission(r, get_c("transmittance", RGB(0.5f)));
   } else if (type == "phong") {
-    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map", "bump_map"});
+    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     RGB kd = get_ct("diffuse", RGB(0.1f));
     m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
   } else if (type == "metallic_roughness") {
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "anisotropy_texture", "transmission",
-                            "eta", "absorption", "two_sided", "normal_map", "bump_map"});
+                            "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = 0.5f;
@@ -439,7 +440,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     const json& v = j["normal_map"];
     std::string p = path + "/normal_map";
     if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
-    m.tex_normal = parse_texture(c, v, p, false, true);
+    m.tex_normal = parse_texture(c, v, p, false, "bitangent");
     if (v.is_object() && v.contains("scale")) m.normal_scale = num(c, v["scale"], p + "/scale");
     if (v.is_object() && v.contains("bitangent")) {
       // "uv": the y axis along dp/dv (mirrored UVs mirror the map: MikkTSpace, glTF); "cross": n x dp/du
@@ -456,6 +457,32 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
     if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
     m.tex_bump = parse_texture(c, v, p, false);
     if (v.is_object() && v.contains("scale")) m.bump_scale = num(c, v["scale"], p + "/scale");
+  }
+  auto unit01 = [&](const json& v, const std::string& p) {
+    float x = num(c, v, p);
+    if (x < 0.f || x > 1.f) c.fail(p, "expected a number in [0, 1]");
+    return x;
+  };
+  if (j.contains("opacity")) {
+    // Cut-outs (scene/opacity.h): a number, or a texture whose alpha channel (or luminance) times `scale`.
+    const json& v = j["opacity"];
+    std::string p = path + "/opacity";
+    if (is_texture_ref(v)) {
+      m.tex_opacity = parse_texture(c, v, p, false, "channel");
+      std::string ch = v.is_object() && v.contains("channel") ? str(c, v["channel"], p + "/channel") : "auto";
+      if (ch != "auto" && ch != "alpha" && ch != "luminance")
+        c.fail(p + "/channel", "unknown channel '" + ch + "' (allowed: alpha, luminance, auto)");
+      if (ch == "luminance" || (ch == "auto" && !texture_has_alpha(c.d->textures[m.tex_opacity])))
+        m.flags |= kOpacityLuminance;
+      if (v.is_object() && v.contains("scale")) m.opacity = unit01(v["scale"], p + "/scale");
+    } else {
+      if (v.is_object()) c.fail(p, "expected a number in [0, 1] or a texture ({\"texture\": file})");
+      m.opacity = unit01(v, p);
+    }
+  }
+  if (j.contains("opacity_cutoff")) {
+    if (!j.contains("opacity")) c.fail(path + "/opacity_cutoff", "needs \"opacity\" (a number or a texture)");
+    m.opacity_cutoff = unit01(j["opacity_cutoff"], path + "/opacity_cutoff");
   }
   return m;
 }

@@ -798,6 +798,25 @@ class Loader {
         m.tex_bump = tex;
         m.bump_scale = scale;
       }
+    } else if (type == "mask") {
+      // Mitsuba 3's mask: the nested BSDF where a ray stops with probability `opacity` (0.5; a number or a
+      // texture, read as its luminance, which is what Mitsuba's eval_1 of a bitmap gives), and a null
+      // interaction (the ray goes on) elsewhere: caustica's stochastic opacity (Material::opacity).
+      p.declare({"opacity"});
+      ColorOrTexture o = p.get_color_tex("opacity", RGB(0.5f));
+      std::vector<xml_node> inner = p.take_objects("bsdf");
+      std::vector<xml_node> refs = p.take_objects("ref");
+      inner.insert(inner.end(), refs.begin(), refs.end());
+      if (inner.empty()) fail(n, "expected a nested <bsdf> or <ref>");
+      if (inner.size() > 1) fail(inner[1], "a mask wraps one BSDF");
+      m = d.materials[parse_bsdf(inner[0])];
+      if (m.opacity < 1.f || m.tex_opacity >= 0) fail(inner[0], "a mask inside another is not supported");
+      float v = 0.2126f * o.value.x + 0.7152f * o.value.y + 0.0722f * o.value.z;
+      if (!(v >= 0.f && v <= 1.f)) fail(p.get("opacity"), "expected an opacity in [0, 1]");
+      m.opacity = v;
+      m.tex_opacity = o.texture;
+      if (o.texture >= 0) m.flags |= kOpacityLuminance;
+      m.opacity_cutoff = -1.f;
     } else if (type == "twosided") {
       std::vector<xml_node> inner = p.take_objects("bsdf");
       std::vector<xml_node> refs = p.take_objects("ref");
@@ -817,7 +836,7 @@ class Loader {
       m.flags |= kTwoSided;
     } else {
       fail(n, "unsupported BSDF type (supported: diffuse, conductor, roughconductor, dielectric, roughdielectric, "
-              "thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap)");
+              "thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask)");
     }
     p.finish();
     return m;

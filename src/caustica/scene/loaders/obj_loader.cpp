@@ -97,7 +97,7 @@ struct MtlInfo {
   float ns = 10.f, ni = 1.5f, d = 1.f;
   int illum = -1;
   bool has_kd = false, has_ks = false, has_ke = false, has_tf = false, has_ni = false, has_d = false;
-  int map_kd_line = 0, map_ke_line = 0;  // lines of map_Kd / map_Ke (0: none)
+  int map_kd_line = 0, map_ke_line = 0, map_d_line = 0;  // lines of map_Kd / map_Ke / map_d (0: none)
 };
 
 struct MtlLib {
@@ -179,6 +179,7 @@ void scan_mtl(const std::string& path, const std::string& text, MtlLib& lib) {
       if (tk.t.size() < 2) fail("expected a file name after '" + kw + "'");
       if (kw == "map_Kd") cur->map_kd_line = ln;
       else if (kw == "map_Ke") cur->map_ke_line = ln;
+      else if (kw == "map_d") cur->map_d_line = ln;
       else if (std::find(lib.ignored.begin(), lib.ignored.end(), kw) == lib.ignored.end()) lib.ignored.push_back(kw);
       return;
     }
@@ -595,12 +596,12 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
     }
     const tinyobj::material_t& tm = tmats[size_t(id)];
     const fs::path mdir = fs::path(mi->file).parent_path();
-    auto texture = [&](const std::string& name, int line) {
+    auto texture = [&](const std::string& name, int line, bool srgb = true) {
       std::string p = (mdir / name).string();
       std::string where = mi->file + ": line " + std::to_string(line);
       std::error_code e2;
       if (!fs::is_regular_file(p, e2)) throw InputError(where + ": texture file '" + name + "' not found (" + p + ")");
-      return load_texture(desc, p, /*srgb=*/true, where);
+      return load_texture(desc, p, srgb, where);
     };
     Emit em;
     if (mi->has_ke) em.L = mi->ke;
@@ -652,6 +653,13 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
       m = make_diffuse(kd);
     }
     if (uses_kd && tex_kd >= 0) m.tex_color = tex_kd;
+    if (mi->map_d_line && !tm.alpha_texname.empty()) {
+      // map_d: a cut-out mask (scene/opacity.h), stochastic where the mask is between 0 and 1 (its filtered
+      // edges). Its alpha channel where it has one (the map_Kd image, often), else its luminance, linear.
+      m.tex_opacity = tex_kd >= 0 && tm.alpha_texname == tm.diffuse_texname ? tex_kd
+                                                                              : texture(tm.alpha_texname, mi->map_d_line, false);
+      if (!texture_has_alpha(desc.textures[m.tex_opacity])) m.flags |= kOpacityLuminance;
+    }
     int idx = desc.add_material(unique_name(stem + "/" + tm.name), m);
     return converted[id] = idx;
   };
