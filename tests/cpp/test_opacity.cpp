@@ -38,6 +38,17 @@ void add_square(SceneDesc& d, int material, float z, float scale = 1.f) {
   d.shapes.push_back(s);
 }
 
+// One diffuse square of the given opacity (stochastic) at z = 0 and a point light.
+SceneDesc square_scene(float opacity) {
+  SceneDesc d;
+  Material m = opaque_diffuse();
+  m.opacity = opacity;
+  d.materials = {m};
+  add_square(d, 0, 0.f);
+  d.lights.push_back(Light{});
+  return d;
+}
+
 // A 2 x 2 texture, nearest lookups; alpha (or grey, for luminance) per texel, row 0 at the top (v = 1).
 TextureDesc two_by_two(const float a[4], bool grey) {
   TextureDesc t;
@@ -65,13 +76,7 @@ std::vector<Ray> rays_down(int n, uint64_t seed) {
 }  // namespace
 
 TEST(Opacity, StochasticOpacityPassesTheExpectedFractionInEmbreeAndThePortableBVH) {
-  SceneDesc d;
-  Material m = opaque_diffuse();
-  m.opacity = 0.3f;
-  d.materials = {m};
-  add_square(d, 0, 0.f);
-  d.lights.push_back(Light{});
-  auto sc = Scene::build(d);
+  auto sc = Scene::build(square_scene(0.3f));
   ASSERT_TRUE(sc->view().alpha_tested);
   const CpuAccel& embree = sc->embree();
   ASSERT_EQ(embree.kind(), CpuAccel::Kind::kEmbree);
@@ -94,13 +99,8 @@ TEST(Opacity, StochasticOpacityPassesTheExpectedFractionInEmbreeAndThePortableBV
 TEST(Opacity, StackedSurfacesDecideIndependently) {
   // Two squares of opacity 0.5 one above the other: a ray crosses both with probability 0.25 (a hash of the
   // ray alone would make them pass or block together: 0.5).
-  SceneDesc d;
-  Material m = opaque_diffuse();
-  m.opacity = 0.5f;
-  d.materials = {m};
-  add_square(d, 0, 0.f);
+  SceneDesc d = square_scene(0.5f);
   add_square(d, 0, 0.5f);
-  d.lights.push_back(Light{});
   auto sc = Scene::build(d);
   const int n = 40000;
   int through = 0, top = 0;
@@ -222,12 +222,7 @@ TEST(Opacity, LightSamplesCarryTheCoverage) {
 }
 
 TEST(Opacity, SceneChecksAndTheSmallSceneTest) {
-  SceneDesc d;
-  Material m = opaque_diffuse();
-  m.opacity = 1.5f;
-  d.materials = {m};
-  add_square(d, 0, 0.f);
-  d.lights.push_back(Light{});
+  SceneDesc d = square_scene(1.5f);
   EXPECT_THROW(Scene::build(d), InputError);
   d.materials[0].opacity = 0.5f;
   auto sc = Scene::build(d);

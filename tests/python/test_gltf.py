@@ -19,15 +19,15 @@ from conftest import BIN
 # ----------------------------------------------------------------- helpers ---
 
 def png_bytes(rgb):
-    """An 8-bit RGB PNG from an (h, w, 3) uint8 array (filter 0 on every row)."""
+    """An 8-bit RGB (or RGBA) PNG from an (h, w, 3) (or (h, w, 4)) uint8 array (filter 0 on every row)."""
     rgb = np.asarray(rgb, np.uint8)
-    h, w, _ = rgb.shape
+    h, w, channels = rgb.shape
     raw = b"".join(b"\x00" + rgb[y].tobytes() for y in range(h))
 
     def chunk(tag, data):
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
 
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) +
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6 if channels == 4 else 2, 0, 0, 0)) +
             chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 

@@ -24,6 +24,8 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
     const Light& l = s.lights[i];
     if (l.type != LightType::kTriangle) return fail("a light other than a triangle area light");
     if (l.texture >= 0) return fail("a textured area light");
+    // Its light samples would need the coverage (area_coverage, scene/opacity.h) that the lanes leave out.
+    if (s.materials[s.prim_material[l.prim]].flags & kAlphaTested) return fail("an area light with opacity");
   }
   uint32_t prims = s.num_triangles + s.num_spheres;
   for (uint32_t p = 0; p < prims; ++p)
