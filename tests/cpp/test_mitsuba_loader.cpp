@@ -254,7 +254,7 @@ TEST(MitsubaInclude, IncludesRelativeToTheIncludingFile) {
   std::string bad = write_file("inc_bad_child.xml", "<scene version=\"3.0.0\">\n\n  <bsdf type=\"velvet\"/>\n</scene>\n");
   g = scene_file("inc_error.xml", "<include filename=\"inc_bad_child.xml\"/>\n");
   EXPECT_EQ(error_of(g), bad + ":3: <bsdf type=\"velvet\">: unsupported BSDF type (supported: diffuse, conductor, "
-                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask)");
+                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, blendbsdf)");
   g = scene_file("inc_self.xml", "<include filename=\"inc_self.xml\"/>\n");
   EXPECT_EQ(error_of(g), g + ":2: <include>: '" + g + "' includes itself (an include cycle)");
 }
@@ -464,6 +464,48 @@ TEST(MitsubaBsdf, Textures) {
   const Material& m2 = d.materials[d.shapes[2].material];
   EXPECT_EQ(m2.type, MaterialType::kRoughConductor);
   EXPECT_EQ(m2.opacity, 0.5f);
+  // A textured opacity shows the rectangle's parameterisation: Mitsuba's own, as for any texture.
+  EXPECT_EQ(d.shapes[0].type, ShapeType::kRectangle);
+  EXPECT_EQ(d.shapes[1].type, ShapeType::kMesh);
+  // blendbsdf: two nested BSDFs (or refs), the second at a share `weight` (0.5; a texture read by luminance).
+  f = scene_file("blended.xml", kCamera +
+      "<bsdf type=\"diffuse\" id=\"red\"><rgb name=\"reflectance\" value=\"0.8, 0.1, 0.1\"/></bsdf>\n"
+      "<shape type=\"rectangle\"><bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"0.3\"/>"
+      "<ref id=\"red\"/><bsdf type=\"roughconductor\"/></bsdf></shape>\n"
+      "<shape type=\"rectangle\"><bsdf type=\"mask\"><float name=\"opacity\" value=\"0.5\"/><bsdf type=\"blendbsdf\">"
+      "<texture type=\"bitmap\" name=\"weight\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>"
+      "<bsdf type=\"diffuse\"/><bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf></bsdf></bsdf></shape>\n");
+  d = load_mitsuba_scene(f);
+  ASSERT_EQ(d.shapes.size(), 2u);
+  const Material& b0 = d.materials[d.shapes[0].material];
+  ASSERT_GE(b0.mix_b, 0);
+  EXPECT_FLOAT_EQ(b0.mix_weight, 0.3f);
+  EXPECT_EQ(d.materials[b0.mix_a].diffuse.x, 0.8f);  // the first nested BSDF is mix_a
+  EXPECT_EQ(d.materials[b0.mix_b].type, MaterialType::kRoughConductor);
+  const Material& b1 = d.materials[d.shapes[1].material];
+  ASSERT_GE(b1.mix_b, 0);
+  EXPECT_GE(b1.tex_mix, 0);
+  EXPECT_EQ(b1.mix_weight, 1.f);
+  EXPECT_EQ(b1.opacity, 0.5f);  // the mask around it
+  EXPECT_EQ(d.shapes[0].type, ShapeType::kRectangle);
+  EXPECT_EQ(d.shapes[1].type, ShapeType::kMesh);  // a textured weight: Mitsuba's rectangle parameterisation
+  EXPECT_TRUE(d.materials[b1.mix_b].flags & kTwoSided);
+  EXPECT_NO_THROW(Scene::build(d));
+  g = scene_file("blend_one.xml", "<shape type=\"cube\"><bsdf type=\"blendbsdf\">\n<bsdf type=\"diffuse\"/></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"blendbsdf\">: expected two nested <bsdf> or <ref> elements (got 1)");
+  // twosided around a blend: the blend of two-sided copies; a transmissive BSDF inside is refused as alone.
+  f = scene_file("blend_twosided.xml", kCamera + "<shape type=\"cube\"><bsdf type=\"twosided\">\n<bsdf type=\"blendbsdf\">"
+                                       "<bsdf type=\"diffuse\"/><bsdf type=\"plastic\"/></bsdf></bsdf></shape>\n");
+  d = load_mitsuba_scene(f);
+  const Material& b2 = d.materials[d.shapes[0].material];
+  ASSERT_GE(b2.mix_b, 0);
+  EXPECT_TRUE(d.materials[b2.mix_a].flags & kTwoSided);
+  EXPECT_TRUE(d.materials[b2.mix_b].flags & kTwoSided);
+  EXPECT_EQ(d.materials[b2.mix_b].type, MaterialType::kPlastic);
+  g = scene_file("blend_twosided_glass.xml", "<shape type=\"cube\"><bsdf type=\"twosided\">\n<bsdf type=\"blendbsdf\">"
+                                             "<bsdf type=\"diffuse\"/><bsdf type=\"dielectric\"/></bsdf></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":3: <bsdf type=\"blendbsdf\">: twosided applies to reflecting BSDFs only (diffuse, "
+                             "conductor, roughconductor, plastic, roughplastic)");
   g = scene_file("mask_nobsdf.xml", "<shape type=\"cube\"><bsdf type=\"mask\">\n</bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"mask\">: expected a nested <bsdf> or <ref>");
   g = scene_file("mask_range.xml", "<shape type=\"cube\"><bsdf type=\"mask\">\n<float name=\"opacity\" value=\"2\"/>"
@@ -483,7 +525,7 @@ TEST(MitsubaBsdf, Errors) {
   std::vector<Case> cases = {
       {"<bsdf type=\"velvet\" id=\"v\"/>\n",
        ":2: <bsdf type=\"velvet\" id=\"v\">: unsupported BSDF type (supported: diffuse, conductor, roughconductor, "
-       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask)"},
+       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, blendbsdf)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectanse\" value=\"1\"/></bsdf>\n",
        ":3: <rgb name=\"reflectanse\">: unknown property of bsdf diffuse (supported: reflectance)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectance\" value=\"1, 2\"/></bsdf>\n",

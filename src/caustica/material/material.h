@@ -75,7 +75,16 @@ struct Material {
   float opacity = 1.f;
   int32_t tex_opacity = -1;
   float opacity_cutoff = -1.f;
+  // Blend (Mitsuba 3's blendbsdf, pbrt-v4's mix): when mix_b >= 0 this entry stands for materials mix_a and
+  // mix_b (indices into the scene's materials), mix_b at a share mix_weight of the surface (times tex_mix's
+  // luminance). surface_material (scene/shading.h) picks one per point. Of the entry's other fields only
+  // the opacity is used (cut-outs of the blend as a whole).
+  int32_t mix_a = -1, mix_b = -1, tex_mix = -1;
+  float mix_weight = 0.5f;
 };
+
+// How many blends inside blends surface_material resolves (the loaders refuse cycles).
+constexpr uint32_t kMaxMixDepth = 8;
 
 CHD bool material_is_transmissive(const Material& m) {
   return m.type == MaterialType::kDielectric || m.type == MaterialType::kRoughDielectric ||

@@ -267,9 +267,23 @@ struct Writer {
     return m.tex_roughness >= 0 ? texture(m.tex_roughness, false, &a) : a;
   }
 
-  JV material(const Material& m) const {
+  // keys: every material's key (a blend names two).
+  JV material(const Material& m, const std::vector<std::string>& keys) const {
     JV o = JV::object();
     bool two_sided_key = true;
+    if (m.mix_b >= 0) {
+      JV names = JV::array();
+      names.push(JV::str(keys.at(size_t(m.mix_a)))).push(JV::str(keys.at(size_t(m.mix_b))));
+      o.set("type", JV::str("blend")).set("materials", names);
+      if (m.tex_mix >= 0) {
+        JV s = JV::flt(m.mix_weight);
+        o.set("weight", texture(m.tex_mix, false, &s));
+      } else {
+        o.set("weight", JV::flt(m.mix_weight));
+      }
+      opacity(m, o);
+      return o;
+    }
     switch (m.type) {
       case MaterialType::kDiffuse:
         o.set("type", JV::str("diffuse")).set("reflectance", color_slot(m.diffuse, m.tex_color));
@@ -338,6 +352,11 @@ struct Writer {
       JV s = JV::flt(m.bump_scale);
       o.set("bump_map", texture(m.tex_bump, false, &s));
     }
+    opacity(m, o);
+    return o;
+  }
+
+  void opacity(const Material& m, JV& o) const {
     if (m.tex_opacity >= 0) {
       // The written images are RGB: an alpha channel goes out as a grey image read by its luminance.
       JV s = JV::flt(m.opacity);
@@ -349,7 +368,6 @@ struct Writer {
     }
     if (m.opacity_cutoff >= 0.f && (m.tex_opacity >= 0 || m.opacity < 1.f))
       o.set("opacity_cutoff", JV::flt(m.opacity_cutoff));
-    return o;
   }
 
   JV camera(const CameraDesc& c, bool with_name) const {
@@ -481,7 +499,7 @@ struct Writer {
                                                         : std::vector<std::string>(d.materials.size()),
                                                     "material");
     JV mats = JV::object();
-    for (size_t i = 0; i < d.materials.size(); ++i) mats.set(mat_keys[i], material(d.materials[i]));
+    for (size_t i = 0; i < d.materials.size(); ++i) mats.set(mat_keys[i], material(d.materials[i], mat_keys));
     root.set("materials", mats);
 
     std::vector<std::string> mesh_names;
@@ -567,6 +585,7 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
     mark(m.tex_normal);
     mark(m.tex_bump);
     mark(m.tex_aniso);
+    mark(m.tex_mix);
     if (m.tex_opacity >= 0 && size_t(m.tex_opacity) < used.size()) {
       if (m.flags & kOpacityLuminance) used[m.tex_opacity] = true;
       else used_alpha[m.tex_opacity] = true;

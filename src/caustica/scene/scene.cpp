@@ -1,6 +1,7 @@
 #include "scene.h"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <numeric>
 
@@ -472,13 +473,32 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     if (m.type == MaterialType::kPlastic || m.type == MaterialType::kMetallicRoughness) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
 
   for (Material& m : s.materials) {
-    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity})
+    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity, m.tex_mix})
       if (t >= int(desc.textures.size())) throw InputError("scene '" + desc.name + "': texture index out of range");
     if (!(m.opacity >= 0.f && m.opacity <= 1.f) || !(m.opacity_cutoff <= 1.f))
       throw InputError("scene '" + desc.name + "': a material's opacity must be in [0, 1] and its cutoff at most 1");
     // Cut-outs are tested in the ray queries (scene/opacity.h) only where a material has them.
+    if (m.mix_b >= 0 && (m.mix_a < 0 || size_t(m.mix_a) >= s.materials.size() || size_t(m.mix_b) >= s.materials.size() ||
+                         !(m.mix_weight >= 0.f && m.mix_weight <= 1.f)))
+      throw InputError("scene '" + desc.name + "': a blend's materials must exist and its weight be in [0, 1]");
     m.flags &= ~uint32_t(kAlphaTested);
     if (m.opacity < 1.f || m.tex_opacity >= 0) m.flags |= kAlphaTested;
+  }
+  {
+    // Blends inside blends: no cycles, and at most kMaxMixDepth deep (what surface_material resolves).
+    std::vector<int> depth(s.materials.size(), -1);  // -2: being visited
+    std::function<int(size_t)> visit = [&](size_t i) -> int {
+      const Material& m = s.materials[i];
+      if (m.mix_b < 0) return 0;
+      if (depth[i] == -2) throw InputError("scene '" + desc.name + "': a blend contains itself");
+      if (depth[i] >= 0) return depth[i];
+      depth[i] = -2;
+      depth[i] = 1 + std::max(visit(size_t(m.mix_a)), visit(size_t(m.mix_b)));
+      return depth[i];
+    };
+    for (size_t i = 0; i < s.materials.size(); ++i)
+      if (visit(i) > int(kMaxMixDepth))
+        throw InputError("scene '" + desc.name + "': blends nest more than " + std::to_string(kMaxMixDepth) + " deep");
   }
   struct PendingArea {
     uint32_t prim;  // triangle index or sphere index (offset later)

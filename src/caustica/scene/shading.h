@@ -10,7 +10,7 @@
 //                  normal N (v up, so green points towards +v);
 //   tex_bump:      a height map, when there is no normal map (apply_bump_map).
 #pragma once
-#include "interaction.h"
+#include "opacity.h"
 
 namespace caustica {
 
@@ -165,6 +165,19 @@ CHD void apply_bump_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
 
 CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
   Material m = s.materials[sh.material];
+  // A blend is one of its two materials at each point, mix_b with probability w: the choice is a hash of the
+  // point (point_hash), so a point shows the same material to every ray, light subpath and photon, and over
+  // any area the shares are the weights, as a texture of fine grain would have them. pbrt-v4's MixMaterial
+  // chooses the same way from a hash of the point and the direction; Mitsuba 3's blendbsdf evaluates both
+  // and samples one, which has the same expected value.
+  for (uint32_t depth = 0; m.mix_b >= 0 && depth < kMaxMixDepth; ++depth) {
+    float w = m.mix_weight;
+    if (m.tex_mix >= 0) {
+      RGBA c = texture_lookup(s.textures[m.tex_mix], sh.uv);
+      w *= 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b;
+    }
+    m = s.materials[point_hash(sh.p, sh.prim, depth) < w ? m.mix_b : m.mix_a];
+  }
   if (m.tex_color >= 0) {
     RGB c = texture_lookup(s.textures[m.tex_color], sh.uv).rgb();
     switch (m.type) {

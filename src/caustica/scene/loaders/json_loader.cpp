@@ -304,9 +304,10 @@ RGB color_or_texture(Ctx& c, const json& j, const std::string& path, int& tex, b
 
 // ---------------------------------------------------------------- materials
 
-const char* kMaterialTypes = "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness";
+const char* kMaterialTypes = "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness, blend";
 
-Material parse_material(Ctx& c, const json& j, const std::string& path) {
+// names: every material's index (a blend names two others).
+Material parse_material(Ctx& c, const json& j, const std::string& path, const std::map<std::string, int>& names) {
   if (!j.is_object()) c.fail(path, std::string("expected an object, got ") + type_name(j));
   if (!j.contains("type")) c.fail(path, std::string("missing 'type' (") + kMaterialTypes + ")");
   std::string type = str(c, j["type"], path + "/type");
@@ -418,6 +419,33 @@ Material parse_material(Ctx& c, const json& j, const std::string& path) {
       set_alpha(m, al.x, al.y);
     }
     m.absorption = get_c("absorption", RGB(0.f));
+  } else if (type == "blend") {
+    // Two materials by name, the second at a share `weight` of the surface (scene/shading.h).
+    check_keys(c, j, path, {"type", "materials", "weight", "opacity", "opacity_cutoff"});
+    std::string mp = path + "/materials";
+    if (!j.contains("materials") || !j["materials"].is_array() || j["materials"].size() != 2)
+      c.fail(mp, "expected two material names [first, second]");
+    int32_t idx[2];
+    for (int k = 0; k < 2; ++k) {
+      std::string n = str(c, j["materials"][k], mp + "/" + std::to_string(k));
+      auto f = names.find(n);
+      if (f == names.end()) c.fail(mp + "/" + std::to_string(k), "unknown material '" + n + "'");
+      idx[k] = f->second;
+    }
+    m.mix_a = idx[0];
+    m.mix_b = idx[1];
+    if (j.contains("weight")) {
+      const json& v = j["weight"];
+      std::string p = path + "/weight";
+      if (is_texture_ref(v)) {  // its luminance, times scale
+        m.tex_mix = parse_texture(c, v, p, false);
+        m.mix_weight = v.is_object() && v.contains("scale") ? num(c, v["scale"], p + "/scale") : 1.f;
+        if (!(m.mix_weight >= 0.f && m.mix_weight <= 1.f)) c.fail(p + "/scale", "expected a number in [0, 1]");
+      } else {
+        if (v.is_object()) c.fail(p, "expected a number in [0, 1] or a texture ({\"texture\": file})");
+        m.mix_weight = unit("weight", num(c, v, p));
+      }
+    }
   } else {
     c.fail(path + "/type", "unknown material type '" + type + "' (allowed: " + kMaterialTypes + ")");
   }
@@ -879,8 +907,29 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
   if (root.contains("materials")) {
     const json& mats = root["materials"];
     if (!mats.is_object()) c.fail("/materials", "expected an object mapping names to materials");
+    // Every name first (a blend may name materials further down), then each material.
+    for (auto it = mats.begin(); it != mats.end(); ++it) mat_index[it.key()] = d.add_material(it.key(), Material());
     for (auto it = mats.begin(); it != mats.end(); ++it)
-      mat_index[it.key()] = d.add_material(it.key(), parse_material(c, it.value(), "/materials/" + esc(it.key())));
+      d.materials[size_t(mat_index[it.key()])] = parse_material(c, it.value(), "/materials/" + esc(it.key()), mat_index);
+    // A blend may not contain itself, through any chain of blends.
+    for (auto it = mats.begin(); it != mats.end(); ++it) {
+      std::vector<int> stack{mat_index[it.key()]};
+      std::vector<int> seen;
+      while (!stack.empty()) {
+        int i = stack.back();
+        stack.pop_back();
+        const Material& m = d.materials[size_t(i)];
+        if (m.mix_b < 0) continue;
+        for (int k : {m.mix_a, m.mix_b}) {
+          if (k == mat_index[it.key()])
+            c.fail("/materials/" + esc(it.key()) + "/materials", "a blend may not contain itself");
+          if (std::find(seen.begin(), seen.end(), k) == seen.end()) {
+            seen.push_back(k);
+            stack.push_back(k);
+          }
+        }
+      }
+    }
   }
 
   // Named meshes, instanced by shapes with "mesh": name.

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -602,7 +603,9 @@ class Loader {
       bool fresh = td.wrap == TexWrap::kRepeat && !td.nearest && td.uv_scale.x == 1.f && td.uv_scale.y == 1.f &&
                    td.uv_offset.x == 0.f && td.uv_offset.y == 0.f && td.uv_rotation == 0.f;
       bool shared = false;
-      for (const Material& m : d.materials) shared |= m.tex_color == t || m.tex_roughness == t || m.tex_normal == t || m.tex_bump == t || m.tex_aniso == t;
+      for (const Material& m : d.materials)
+        for (int u : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity, m.tex_mix})
+          shared |= u == t;
       for (const ShapeDesc& s : d.shapes) shared |= s.emission_texture == t;
       for (const Light& l : d.lights) shared |= l.texture == t;
       for (const auto& kv : ids) shared |= kv.second.kind == "texture" && kv.second.index == t;
@@ -790,6 +793,7 @@ class Loader {
       m = d.materials[parse_bsdf(inner[0])];
       if (m.tex_normal >= 0 || m.tex_bump >= 0)
         fail(inner[0], "a normalmap or bumpmap inside another is not supported");
+      if (m.mix_b >= 0) fail(inner[0], "a " + type + " around a blendbsdf is not supported (put it inside, around each BSDF)");
       if (type == "normalmap") {
         m.tex_normal = tex;
         m.normal_scale = 1.f;
@@ -798,6 +802,25 @@ class Loader {
         m.tex_bump = tex;
         m.bump_scale = scale;
       }
+    } else if (type == "blendbsdf") {
+      // Mitsuba 3's blendbsdf: the second nested BSDF at a share `weight` (0.5; a number or a texture, read by
+      // its luminance) of the surface, the first elsewhere: caustica's blend (Material::mix_a/mix_b; scene/
+      // shading.h), which picks one per point where Mitsuba evaluates both: the same expected value.
+      p.declare({"weight"});
+      ColorOrTexture w = p.get_color_tex("weight", RGB(0.5f));
+      std::vector<xml_node> inner = p.take_objects("bsdf");
+      std::vector<xml_node> refs = p.take_objects("ref");
+      inner.insert(inner.end(), refs.begin(), refs.end());
+      if (inner.size() != 2) fail(n, "expected two nested <bsdf> or <ref> elements (got " + std::to_string(inner.size()) + ")");
+      // In the file's order: the first is the one at weight 0.
+      if (inner[1].offset_debug() < inner[0].offset_debug()) std::swap(inner[0], inner[1]);
+      float v = 0.2126f * w.value.x + 0.7152f * w.value.y + 0.0722f * w.value.z;
+      if (!(v >= 0.f && v <= 1.f)) fail(p.get("weight"), "expected a weight in [0, 1]");
+      m = Material();
+      m.mix_a = parse_bsdf(inner[0]);
+      m.mix_b = parse_bsdf(inner[1]);
+      m.mix_weight = v;
+      m.tex_mix = w.texture;
     } else if (type == "mask") {
       // Mitsuba 3's mask: the nested BSDF where a ray stops with probability `opacity` (0.5; a number or a
       // texture, read as its luminance, which is what Mitsuba's eval_1 of a bitmap gives), and a null
@@ -824,19 +847,29 @@ class Loader {
       if (inner.empty()) fail(n, "expected a nested <bsdf> or <ref>");
       if (inner.size() > 1) fail(inner[1], "a different BSDF on each side is not supported");
       int idx = parse_bsdf(inner[0]);
-      m = d.materials[idx];
-      switch (m.type) {
-        case MaterialType::kDiffuse:
-        case MaterialType::kConductor:
-        case MaterialType::kRoughConductor:
-        case MaterialType::kPlastic:
-        case MaterialType::kMetallicRoughness: break;
-        default: fail(inner[0], "twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, plastic, roughplastic)");
-      }
-      m.flags |= kTwoSided;
+      // Around a blendbsdf: the blend of two-sided copies of its BSDFs (each checked as below).
+      std::function<Material(int)> two_sided = [&](int i) {
+        Material x = d.materials[size_t(i)];
+        if (x.mix_b >= 0) {
+          x.mix_a = d.add_material(d.material_names[size_t(x.mix_a)] + "/twosided", two_sided(x.mix_a));
+          x.mix_b = d.add_material(d.material_names[size_t(x.mix_b)] + "/twosided", two_sided(x.mix_b));
+          return x;
+        }
+        switch (x.type) {
+          case MaterialType::kDiffuse:
+          case MaterialType::kConductor:
+          case MaterialType::kRoughConductor:
+          case MaterialType::kPlastic:
+          case MaterialType::kMetallicRoughness: break;
+          default: fail(inner[0], "twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, plastic, roughplastic)");
+        }
+        x.flags |= kTwoSided;
+        return x;
+      };
+      m = two_sided(idx);
     } else {
       fail(n, "unsupported BSDF type (supported: diffuse, conductor, roughconductor, dielectric, roughdielectric, "
-              "thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask)");
+              "thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, blendbsdf)");
     }
     p.finish();
     return m;
@@ -1541,11 +1574,19 @@ MeshDesc mitsuba_cube() {
 
 // Whether the shape's parameterisation shows: a texture, or anisotropic roughness (measured along dp/du,
 // which on Mitsuba's disk is radial and on its cube differs per face from caustica's own shapes).
+// A blend's materials count too.
+bool material_uses_parameterisation(const SceneDesc& d, int i, uint32_t depth = 0) {
+  if (i < 0 || size_t(i) >= d.materials.size()) return false;
+  const Material& m = d.materials[size_t(i)];
+  if (m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0 || m.tex_bump >= 0 || m.tex_aniso >= 0 ||
+      m.tex_opacity >= 0 || m.tex_mix >= 0 || (m.mix_b < 0 && m.alpha_x != m.alpha_y))
+    return true;
+  return m.mix_b >= 0 && depth < kMaxMixDepth &&
+         (material_uses_parameterisation(d, m.mix_a, depth + 1) || material_uses_parameterisation(d, m.mix_b, depth + 1));
+}
+
 bool uses_parameterisation(const SceneDesc& d, const ShapeDesc& s) {
-  if (s.emission_texture >= 0) return true;
-  if (s.material < 0 || size_t(s.material) >= d.materials.size()) return false;
-  const Material& m = d.materials[s.material];
-  return m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0 || m.tex_bump >= 0 || m.alpha_x != m.alpha_y;
+  return s.emission_texture >= 0 || material_uses_parameterisation(d, s.material);
 }
 
 void mitsuba_shape_uvs(SceneDesc& d) {
