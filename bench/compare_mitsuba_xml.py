@@ -18,7 +18,9 @@ thin dielectric pane, a copper mirror), and turned spheres (a texture and an ani
 the sphere's to_world, beside an unturned textured sphere), and bumps (Mitsuba's bumpmap on a floor, normalmap on a
 gold sphere and a diffuse rectangle), and cut-outs (Mitsuba's mask with a texture of holes over a screen whose shadow
 falls on the floor, and a sphere of opacity 0.5; rendered with Mitsuba's volpath, whose shadow rays pass masks), and
-blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one).
+blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one), and
+principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF against caustica's
+metallic-roughness mapping).
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -287,12 +289,34 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
 </scene>
 """)
+    # principled (Mitsuba's Disney BSDF) as caustica's metallic-roughness material: a rough red dielectric, a
+    # rough gold-coloured metal and a rough transmissive sphere on a principled floor.
+    with open(os.path.join(OUT, "principled.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="0.5, 0.5, 0.5"/><float name="roughness" value="0.8"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="0.7, 0.1, 0.05"/><float name="roughness" value="0.3"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="1.0, 0.78, 0.34"/><float name="metallic" value="1"/>
+      <float name="roughness" value="0.25"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1.0"/><float name="spec_trans" value="1"/>
+      <float name="roughness" value="0.2"/><float name="eta" value="1.5"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
             "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml"),
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
-            "blended": os.path.join(OUT, "blended.xml")}
+            "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml")}
 
 
 def render_caustica(path, res, spp, seed):

@@ -254,7 +254,7 @@ TEST(MitsubaInclude, IncludesRelativeToTheIncludingFile) {
   std::string bad = write_file("inc_bad_child.xml", "<scene version=\"3.0.0\">\n\n  <bsdf type=\"velvet\"/>\n</scene>\n");
   g = scene_file("inc_error.xml", "<include filename=\"inc_bad_child.xml\"/>\n");
   EXPECT_EQ(error_of(g), bad + ":3: <bsdf type=\"velvet\">: unsupported BSDF type (supported: diffuse, conductor, "
-                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, blendbsdf)");
+                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf)");
   g = scene_file("inc_self.xml", "<include filename=\"inc_self.xml\"/>\n");
   EXPECT_EQ(error_of(g), g + ":2: <include>: '" + g + "' includes itself (an include cycle)");
 }
@@ -491,6 +491,43 @@ TEST(MitsubaBsdf, Textures) {
   EXPECT_EQ(d.shapes[1].type, ShapeType::kMesh);  // a textured weight: Mitsuba's rectangle parameterisation
   EXPECT_TRUE(d.materials[b1.mix_b].flags & kTwoSided);
   EXPECT_NO_THROW(Scene::build(d));
+  // principled: caustica's metallic-roughness material; eta from specular (0.5: F0 0.04, eta 1.5) or given;
+  // anisotropy as Mitsuba's aspect; what is not modelled is reported.
+  f = scene_file("principled.xml", kCamera +
+      "<shape type=\"rectangle\"><bsdf type=\"principled\"><rgb name=\"base_color\" value=\"0.8, 0.2, 0.1\"/>"
+      "<float name=\"roughness\" value=\"0.4\"/><float name=\"metallic\" value=\"0.25\"/>"
+      "<float name=\"spec_trans\" value=\"0.5\"/><float name=\"anisotropic\" value=\"0.5\"/>"
+      "<float name=\"clearcoat\" value=\"0.3\"/></bsdf></shape>\n"
+      "<shape type=\"rectangle\"><bsdf type=\"principled\"><float name=\"eta\" value=\"1.33\"/>"
+      "<texture type=\"bitmap\" name=\"roughness\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>"
+      "</bsdf></shape>\n");
+  d = load_mitsuba_scene(f);
+  const Material& p0 = d.materials[d.shapes[0].material];
+  EXPECT_EQ(p0.type, MaterialType::kMetallicRoughness);
+  EXPECT_EQ(p0.diffuse.x, 0.8f);
+  EXPECT_EQ(p0.metallic, 0.25f);
+  EXPECT_EQ(p0.transmission_weight, 0.5f);
+  EXPECT_NEAR(p0.eta, 1.5f, 1e-5f);
+  const float aspect = std::sqrt(1.f - 0.45f);
+  EXPECT_NEAR(p0.alpha_x, 0.16f / aspect, 1e-6f);
+  EXPECT_NEAR(p0.alpha_y, 0.16f * aspect, 1e-6f);
+  const Material& p1 = d.materials[d.shapes[1].material];
+  EXPECT_NEAR(p1.eta, 1.33f, 1e-6f);
+  EXPECT_EQ(p1.diffuse.x, 0.5f);  // Mitsuba's default base colour
+  EXPECT_GE(p1.tex_roughness, 0);
+  EXPECT_EQ(p1.alpha_x, 1.f);  // the texture is the roughness
+  int clearcoat = 0, principled = 0;
+  for (const std::string& w : d.warnings) {
+    clearcoat += w.find("clearcoat is not modelled") != std::string::npos;
+    principled += w.find("Burley") != std::string::npos;
+  }
+  EXPECT_EQ(clearcoat, 1);
+  EXPECT_EQ(principled, 1);
+  g = scene_file("principled_metal_tex.xml", "<shape type=\"cube\"><bsdf type=\"principled\"><float name=\"metallic\" "
+                 "value=\"1\"/>\n<texture type=\"bitmap\" name=\"roughness\"><string name=\"filename\" "
+                 "value=\"tex/t.pfm\"/></texture></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"bitmap\" name=\"roughness\">: a roughness texture needs metallic 0 "
+                             "(caustica reads metallic from its blue channel)");
   g = scene_file("blend_one.xml", "<shape type=\"cube\"><bsdf type=\"blendbsdf\">\n<bsdf type=\"diffuse\"/></bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"blendbsdf\">: expected two nested <bsdf> or <ref> elements (got 1)");
   // twosided around a blend: the blend of two-sided copies; a transmissive BSDF inside is refused as alone.
@@ -525,7 +562,7 @@ TEST(MitsubaBsdf, Errors) {
   std::vector<Case> cases = {
       {"<bsdf type=\"velvet\" id=\"v\"/>\n",
        ":2: <bsdf type=\"velvet\" id=\"v\">: unsupported BSDF type (supported: diffuse, conductor, roughconductor, "
-       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, blendbsdf)"},
+       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectanse\" value=\"1\"/></bsdf>\n",
        ":3: <rgb name=\"reflectanse\">: unknown property of bsdf diffuse (supported: reflectance)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectance\" value=\"1, 2\"/></bsdf>\n",

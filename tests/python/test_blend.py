@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import caustica
-from test_opacity import mean_over_seeds
+from test_opacity import INTEGRATORS, INTEGRATOR_IDS, mean_over_seeds
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 RES = 16
@@ -34,17 +34,7 @@ def blended_floor(weight=0.25, nested=False):
     }
 
 
-@pytest.mark.parametrize("integrator,opts", [
-    ("path", dict(spp=16)),
-    ("path", dict(spp=16, wavefront=True)),
-    ("light", dict(spp=64)),
-    ("bdpt", dict(spp=8)),
-    ("vcm", dict(spp=8)),
-    ("upg", dict(spp=8)),
-    ("sppm", dict(spp=8, photons=20000)),
-    ("pm", dict(spp=8, photons=20000)),
-    ("restir", dict(spp=16)),
-], ids=["path", "path-wavefront", "light", "bdpt", "vcm", "upg", "sppm", "pm", "restir"])
+@pytest.mark.parametrize("integrator,opts", INTEGRATORS, ids=INTEGRATOR_IDS)
 @pytest.mark.parametrize("nested", [False, True], ids=["blend", "nested"])
 def test_a_blended_floor_has_the_mixed_albedo(integrator, opts, nested):
     # 0.75 x 0.2 + 0.25 x 0.8 = 0.35; nested: 0.75 x 0.2 + 0.25 x (0.5 x 0.8 + 0.5 x 0) = 0.25.

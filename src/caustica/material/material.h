@@ -30,6 +30,9 @@ enum MaterialFlags : uint32_t {
   kNormalMapCross = 4u,
   kOpacityLuminance = 8u,  // the opacity texture's luminance is the opacity, rather than its alpha channel
   kAlphaTested = 16u,      // set by Scene::build where opacity < 1 or an opacity texture makes cut-outs
+  // Metallic-roughness: the dielectric's diffuse base is plastic's (refraction into the coat, 1/eta^2, and
+  // internal reflections; Mitsuba's roughplastic) instead of glTF's (1 - F) base (material/metallic_roughness.h).
+  kPlasticBase = 32u,
 };
 
 // Radiance flows from lights to the camera; importance flows the other way.

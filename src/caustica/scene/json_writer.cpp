@@ -334,6 +334,7 @@ struct Writer {
         }
         if (!exact) o.set("alpha", alpha_value(m));
         o.set("transmission", JV::flt(m.transmission_weight)).set("eta", JV::flt(m.eta));
+        if (m.flags & kPlasticBase) o.set("diffuse_base", JV::str("plastic"));
         if (!is_black(m.absorption)) o.set("absorption", col(m.absorption));
         break;
       }

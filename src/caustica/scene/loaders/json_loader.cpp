@@ -395,7 +395,8 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
   } else if (type == "metallic_roughness") {
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "anisotropy_texture", "transmission",
-                            "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+                            "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
+                            "diffuse_base"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = 0.5f;
@@ -419,6 +420,11 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
       set_alpha(m, al.x, al.y);
     }
     m.absorption = get_c("absorption", RGB(0.f));
+    if (j.contains("diffuse_base")) {  // material/metallic_roughness.h
+      std::string b = str(c, j["diffuse_base"], path + "/diffuse_base");
+      if (b == "plastic") m.flags |= kPlasticBase;
+      else if (b != "gltf") c.fail(path + "/diffuse_base", "unknown diffuse base '" + b + "' (allowed: gltf, plastic)");
+    }
   } else if (type == "blend") {
     // Two materials by name, the second at a share `weight` of the surface (scene/shading.h).
     check_keys(c, j, path, {"type", "materials", "weight", "opacity", "opacity_cutoff"});

@@ -250,6 +250,14 @@ struct Props {
       }
     return xml_node();
   }
+  // The nested BSDFs of a wrapper plugin: <bsdf> elements and <ref>s to BSDFs, in the file's order (marked
+  // used).
+  std::vector<xml_node> take_bsdfs() {
+    std::vector<xml_node> r = take_objects("bsdf"), refs = take_objects("ref");
+    r.insert(r.end(), refs.begin(), refs.end());
+    std::stable_sort(r.begin(), r.end(), [](xml_node a, xml_node b) { return a.offset_debug() < b.offset_debug(); });
+    return r;
+  }
   // Nested plugin elements with the given tag (marked used).
   std::vector<xml_node> take_objects(const std::string& tag) {
     std::vector<xml_node> r;
@@ -682,6 +690,10 @@ class Loader {
     if (type == "plastic" || type == "roughplastic")
       p.declare({"diffuse_reflectance", "specular_reflectance", "int_ior", "ext_ior", "nonlinear"});
     if (type.rfind("rough", 0) == 0) p.declare({"distribution", "alpha", "alpha_u", "alpha_v", "sample_visible"});
+    if (type == "principled")
+      p.declare({"base_color", "roughness", "metallic", "specular", "eta", "spec_trans", "anisotropic", "spec_tint",
+                 "sheen", "sheen_tint", "clearcoat", "clearcoat_gloss", "flatness", "main_specular_sampling_rate",
+                 "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"});
     Material m;
     if (type == "diffuse") {
       ColorOrTexture r = p.get_color_tex("reflectance", RGB(0.5f));
@@ -762,6 +774,7 @@ class Loader {
         microfacet(p, n, m, false, false);
         float alpha = m.alpha_x;
         m = make_metallic_roughness(base, 0.f, std::sqrt(alpha), 0.f, eta);
+        m.flags |= kPlasticBase;  // Mitsuba's roughplastic: the coat's refraction and internal reflections
         warn(n, "roughplastic",
              "roughplastic is rendered as caustica's rough dielectric coat over a diffuse base (the metallic-roughness "
              "model, metallic 0): the same GGX coat, with the smooth-coat Fresnel transmittance for the diffuse part");
@@ -785,9 +798,7 @@ class Loader {
       xml_node tn = p.take_texture();
       if (!tn) fail(n, "expected a nested <texture> (the " + std::string(type == "normalmap" ? "normal" : "height") + " map)");
       int tex = std::string(tn.name()) == "ref" ? lookup(tn, "texture").index : parse_texture(tn, false);
-      std::vector<xml_node> inner = p.take_objects("bsdf");
-      std::vector<xml_node> refs = p.take_objects("ref");
-      inner.insert(inner.end(), refs.begin(), refs.end());
+      std::vector<xml_node> inner = p.take_bsdfs();
       if (inner.empty()) fail(n, "expected a nested <bsdf> or <ref>");
       if (inner.size() > 1) fail(inner[1], "a " + type + " wraps one BSDF");
       m = d.materials[parse_bsdf(inner[0])];
@@ -802,18 +813,74 @@ class Loader {
         m.tex_bump = tex;
         m.bump_scale = scale;
       }
+    } else if (type == "principled") {
+      // Mitsuba 3's principled (Burley 2015's Disney BSDF) as caustica's metallic-roughness material: the same
+      // base colour, metallic, GGX alpha = roughness^2 (anisotropic: alpha / aspect along dp/du, alpha x aspect
+      // across, aspect = sqrt(1 - 0.9 anisotropic)), spec_trans as the transmission weight and eta (given, or
+      // from specular: F0 = 0.08 specular = ((eta - 1) / (eta + 1))^2). Its diffuse lobe is Lambert rather than
+      // Burley's (retro-reflection at grazing angles) and spec_tint, sheen, clearcoat and flatness are not
+      // modelled (a warning each when used).
+      ColorOrTexture base = p.get_color_tex("base_color", RGB(0.5f));
+      auto scalar = [&](const char* k, float def, float hi) {
+        xml_node e = p.get(k);
+        float v = p.get_float(k, def);
+        if (!(v >= 0.f && v <= hi)) fail(e, std::string("expected ") + k + " in [0, " + (hi == 1.f ? "1" : "2") + "]");
+        return v;
+      };
+      for (const char* k : {"roughness", "metallic"}) {
+        xml_node e = p.get(k);
+        if (e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref") &&
+            !(std::string(k) == "roughness"))
+          fail(e, "a metallic texture is not supported (give a number)");
+      }
+      float metallic = scalar("metallic", 0.f, 1.f);
+      int tex_rough = -1;
+      float roughness = 0.5f;
+      xml_node re = p.get("roughness");
+      if (re && (std::string(re.name()) == "texture" || std::string(re.name()) == "ref")) {
+        // caustica's metallic-roughness texture reads roughness from G and scales metallic by B: a grey
+        // roughness texture is exact only while metallic is 0.
+        if (metallic != 0.f) fail(re, "a roughness texture needs metallic 0 (caustica reads metallic from its blue channel)");
+        tex_rough = p.get_color_tex("roughness", RGB(1.f)).texture;
+        roughness = 1.f;
+      } else {
+        roughness = scalar("roughness", 0.5f, 1.f);
+      }
+      float eta;
+      if (p.has("eta")) {
+        eta = p.get_float("eta", 1.5f);
+        if (!(eta > 0.f)) fail(p.get("eta"), "expected eta > 0");
+        p.get("specular");
+      } else {
+        float f0 = 0.08f * scalar("specular", 0.5f, 2.f);
+        eta = 2.f / (1.f - std::sqrt(std::min(f0, 0.99f))) - 1.f;
+      }
+      float trans = scalar("spec_trans", 0.f, 1.f), aniso = scalar("anisotropic", 0.f, 1.f);
+      m = make_metallic_roughness(base.value, metallic, roughness, trans, eta);
+      m.tex_color = base.texture;
+      m.tex_roughness = tex_rough;
+      if (aniso > 0.f) {
+        float aspect = std::sqrt(1.f - 0.9f * aniso), a = roughness * roughness;
+        set_alpha(m, std::max(1e-4f, a / aspect), std::max(1e-4f, a * aspect));
+      }
+      for (const char* k : {"spec_tint", "sheen", "sheen_tint", "clearcoat", "clearcoat_gloss", "flatness"}) {
+        xml_node e = p.get(k);
+        if (e && p.get_float(k, 0.f) != 0.f)
+          warn(e, std::string("principled-") + k, std::string("principled: ") + k + " is not modelled (ignored)");
+      }
+      for (const char* k : {"main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"})
+        p.get(k);  // sampling only
+      warn(n, "principled", "principled is rendered as caustica's metallic-roughness material (Lambert diffuse under a "
+                            "GGX dielectric coat, GGX metal, rough transmission): Burley's diffuse retro-reflection differs "
+                            "at grazing angles");
     } else if (type == "blendbsdf") {
       // Mitsuba 3's blendbsdf: the second nested BSDF at a share `weight` (0.5; a number or a texture, read by
       // its luminance) of the surface, the first elsewhere: caustica's blend (Material::mix_a/mix_b; scene/
       // shading.h), which picks one per point where Mitsuba evaluates both: the same expected value.
       p.declare({"weight"});
       ColorOrTexture w = p.get_color_tex("weight", RGB(0.5f));
-      std::vector<xml_node> inner = p.take_objects("bsdf");
-      std::vector<xml_node> refs = p.take_objects("ref");
-      inner.insert(inner.end(), refs.begin(), refs.end());
+      std::vector<xml_node> inner = p.take_bsdfs();
       if (inner.size() != 2) fail(n, "expected two nested <bsdf> or <ref> elements (got " + std::to_string(inner.size()) + ")");
-      // In the file's order: the first is the one at weight 0.
-      if (inner[1].offset_debug() < inner[0].offset_debug()) std::swap(inner[0], inner[1]);
       float v = 0.2126f * w.value.x + 0.7152f * w.value.y + 0.0722f * w.value.z;
       if (!(v >= 0.f && v <= 1.f)) fail(p.get("weight"), "expected a weight in [0, 1]");
       m = Material();
@@ -827,9 +894,7 @@ class Loader {
       // interaction (the ray goes on) elsewhere: caustica's stochastic opacity (Material::opacity).
       p.declare({"opacity"});
       ColorOrTexture o = p.get_color_tex("opacity", RGB(0.5f));
-      std::vector<xml_node> inner = p.take_objects("bsdf");
-      std::vector<xml_node> refs = p.take_objects("ref");
-      inner.insert(inner.end(), refs.begin(), refs.end());
+      std::vector<xml_node> inner = p.take_bsdfs();
       if (inner.empty()) fail(n, "expected a nested <bsdf> or <ref>");
       if (inner.size() > 1) fail(inner[1], "a mask wraps one BSDF");
       m = d.materials[parse_bsdf(inner[0])];
@@ -841,9 +906,7 @@ class Loader {
       if (o.texture >= 0) m.flags |= kOpacityLuminance;
       m.opacity_cutoff = -1.f;
     } else if (type == "twosided") {
-      std::vector<xml_node> inner = p.take_objects("bsdf");
-      std::vector<xml_node> refs = p.take_objects("ref");
-      inner.insert(inner.end(), refs.begin(), refs.end());
+      std::vector<xml_node> inner = p.take_bsdfs();
       if (inner.empty()) fail(n, "expected a nested <bsdf> or <ref>");
       if (inner.size() > 1) fail(inner[1], "a different BSDF on each side is not supported");
       int idx = parse_bsdf(inner[0]);
@@ -869,7 +932,7 @@ class Loader {
       m = two_sided(idx);
     } else {
       fail(n, "unsupported BSDF type (supported: diffuse, conductor, roughconductor, dielectric, roughdielectric, "
-              "thindielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, blendbsdf)");
+              "thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf)");
     }
     p.finish();
     return m;
