@@ -827,17 +827,15 @@ class Loader {
         if (!(v >= 0.f && v <= hi)) fail(e, std::string("expected ") + k + " in [0, " + (hi == 1.f ? "1" : "2") + "]");
         return v;
       };
-      for (const char* k : {"roughness", "metallic"}) {
-        xml_node e = p.get(k);
-        if (e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref") &&
-            !(std::string(k) == "roughness"))
-          fail(e, "a metallic texture is not supported (give a number)");
-      }
+      auto is_texture = [](xml_node e) {
+        return e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref");
+      };
+      if (is_texture(p.get("metallic"))) fail(p.get("metallic"), "a metallic texture is not supported (give a number)");
       float metallic = scalar("metallic", 0.f, 1.f);
       int tex_rough = -1;
       float roughness = 0.5f;
       xml_node re = p.get("roughness");
-      if (re && (std::string(re.name()) == "texture" || std::string(re.name()) == "ref")) {
+      if (is_texture(re)) {
         // caustica's metallic-roughness texture reads roughness from G and scales metallic by B: a grey
         // roughness texture is exact only while metallic is 0.
         if (metallic != 0.f) fail(re, "a roughness texture needs metallic 0 (caustica reads metallic from its blue channel)");
