@@ -20,7 +20,8 @@ gold sphere and a diffuse rectangle), and cut-outs (Mitsuba's mask with a textur
 falls on the floor, and a sphere of opacity 0.5; rendered with Mitsuba's volpath, whose shadow rays pass masks), and
 blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one), and
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF against caustica's
-metallic-roughness mapping).
+metallic-roughness mapping), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
+cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog).
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -311,12 +312,42 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
 </scene>
 """)
+    # Media (Mitsuba's volpath): the camera inside fog (a null cube bounds it; the sky lights it through the
+    # boundary), a glass sphere of milk (interior) in the fog (exterior), a null box of forward-scattering smoke,
+    # a diffuse floor and an area light, both in the fog.
+    fog_sensor = sensor.replace("<film", '<ref id="fog"/>\n    <film', 1)
+    with open(os.path.join(OUT, "foggy.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="volpath"><integer name="max_depth" value="16"/></integrator>
+  <medium type="homogeneous" id="fog"><rgb name="sigma_t" value="0.06, 0.08, 0.1"/>
+    <float name="albedo" value="0.9"/><phase type="hg"><float name="g" value="0.5"/></phase></medium>
+  <medium type="homogeneous" id="milk"><rgb name="sigma_t" value="2, 3, 4"/>
+    <rgb name="albedo" value="0.98, 0.95, 0.9"/><phase type="hg"><float name="g" value="0.3"/></phase></medium>
+  <medium type="homogeneous" id="smoke"><rgb name="sigma_t" value="1.5, 1.5, 1.5"/>
+    <float name="albedo" value="0.8"/><phase type="hg"><float name="g" value="0.7"/></phase></medium>
+  {fog_sensor}
+  <shape type="cube"><transform name="to_world"><scale value="8"/></transform><bsdf type="null"/>
+    <ref name="interior" id="fog"/></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf><ref name="exterior" id="fog"/></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.6"/><translate x="-0.8" y="0.6" z="0"/></transform>
+    <bsdf type="dielectric"><float name="int_ior" value="1.33"/></bsdf>
+    <ref name="interior" id="milk"/><ref name="exterior" id="fog"/></shape>
+  <shape type="cube"><transform name="to_world"><scale x="0.4" y="0.6" z="0.4"/><translate x="0.9" y="0.6" z="0"/></transform>
+    <bsdf type="null"/><ref name="interior" id="smoke"/><ref name="exterior" id="fog"/></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter><ref name="exterior" id="fog"/></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
             "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml"),
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
-            "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml")}
+            "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
+            "foggy": os.path.join(OUT, "foggy.xml")}
 
 
 def render_caustica(path, res, spp, seed):

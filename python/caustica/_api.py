@@ -200,7 +200,7 @@ def load_scene_desc(scene: Union[str, os.PathLike, dict], camera: Optional[str] 
 
 
 def describe(scene, camera: Optional[str] = None, params: Optional[dict] = None) -> dict:
-    """Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures) and
+    """Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures, media) and
     world-space bounds ((lo, hi)) of a scene (a name, a path, a dict or a loaded scene)."""
     if isinstance(scene, _native.Scene):
         return scene.describe()

@@ -420,7 +420,7 @@ def cmd_info(a) -> int:
         print(f"cameras:     {', '.join(scene.cameras)}")
     print(f"projection:  {d['projection']}" + ("" if d["shutter"] is None else
           f", moving camera (motion blur, shutter {d['shutter'][0]:g} to {d['shutter'][1]:g})"))
-    for key in ("shapes", "meshes", "triangles", "spheres", "materials", "lights", "area_lights", "textures"):
+    for key in ("shapes", "meshes", "triangles", "spheres", "materials", "lights", "area_lights", "textures", "media"):
         print(f"{key + ':':12s} {d[key]}")
     print(f"bounds:      {fmt(lo)} .. {fmt(hi)}")
     defaults = dict(scene.integrator_defaults)

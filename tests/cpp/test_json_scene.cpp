@@ -549,7 +549,7 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /shapes/0/file: unsupported mesh file 'bunny.stl' (allowed: .obj, .ply)"},
       {scene_with("", R"({"type": "cube", "radius": 2})"),
        "s.json: /shapes/0/radius: unknown key (allowed: name, type, material, emission, emission_two_sided, "
-       "flip_normals, transform)"},
+       "flip_normals, transform, interior, exterior)"},
       {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2], "uvs": [[0,0]]})"),
        "s.json: /shapes/0/uvs: expected one [u,v] per position"},
       {scene_with(R"("materials": {"m": {"type": "diffuse", "normal_map": "a.png", "bump_map": "b.png"}})"),
@@ -597,7 +597,7 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /materials/m/roughness: expected a number or an array of 2 numbers"},
       {scene_with(R"("materials": {"m": {"type": "velvet"}})"),
        "s.json: /materials/m/type: unknown material type 'velvet' (allowed: diffuse, conductor, dielectric, "
-       "thindielectric, plastic, difftrans, phong, metallic_roughness, blend)"},
+       "thindielectric, plastic, difftrans, phong, metallic_roughness, blend, null)"},
       {scene_with(R"("lights": [{"type": "environment", "file": "sky.hdr", "radiance": 1}])"),
        "s.json: /lights/0/radiance: give 'radiance' (constant) or 'file' and 'scale', not both"},
       {scene_with(R"("lights": [{"type": "environment", "file": "sky.hdr"}])"),

@@ -254,7 +254,7 @@ TEST(MitsubaInclude, IncludesRelativeToTheIncludingFile) {
   std::string bad = write_file("inc_bad_child.xml", "<scene version=\"3.0.0\">\n\n  <bsdf type=\"velvet\"/>\n</scene>\n");
   g = scene_file("inc_error.xml", "<include filename=\"inc_bad_child.xml\"/>\n");
   EXPECT_EQ(error_of(g), bad + ":3: <bsdf type=\"velvet\">: unsupported BSDF type (supported: diffuse, conductor, "
-                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf)");
+                               "roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf, null)");
   g = scene_file("inc_self.xml", "<include filename=\"inc_self.xml\"/>\n");
   EXPECT_EQ(error_of(g), g + ":2: <include>: '" + g + "' includes itself (an include cycle)");
 }
@@ -562,7 +562,7 @@ TEST(MitsubaBsdf, Errors) {
   std::vector<Case> cases = {
       {"<bsdf type=\"velvet\" id=\"v\"/>\n",
        ":2: <bsdf type=\"velvet\" id=\"v\">: unsupported BSDF type (supported: diffuse, conductor, roughconductor, "
-       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf)"},
+       "dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf, null)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectanse\" value=\"1\"/></bsdf>\n",
        ":3: <rgb name=\"reflectanse\">: unknown property of bsdf diffuse (supported: reflectance)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<rgb name=\"reflectance\" value=\"1, 2\"/></bsdf>\n",
@@ -688,11 +688,11 @@ TEST(MitsubaShape, Errors) {
   EXPECT_EQ(error_of(f), f + ":3: <float name=\"radius\">: expected a positive radius");
   f = scene_file("shape_err6.xml", "<shape type=\"cube\">\n<emitter type=\"point\"/></shape>\n");
   EXPECT_EQ(error_of(f), f + ":3: <emitter type=\"point\">: only an area emitter can be attached to a shape");
-  f = scene_file("shape_err7.xml", "<shape type=\"cube\">\n<medium type=\"homogeneous\" name=\"interior\"/></shape>\n");
-  EXPECT_EQ(error_of(f), f + ":3: <medium type=\"homogeneous\" name=\"interior\">: participating media are not supported");
+  f = scene_file("shape_err7.xml", "<shape type=\"cube\">\n<medium type=\"heterogeneous\" name=\"interior\"/></shape>\n");
+  EXPECT_EQ(error_of(f), f + ":3: <medium type=\"heterogeneous\" name=\"interior\">: unsupported medium type (supported: homogeneous)");
   f = scene_file("shape_err8.xml", "<shape type=\"cube\">\n<float name=\"radius\" value=\"1\"/></shape>\n");
   EXPECT_EQ(error_of(f), f + ":3: <float name=\"radius\">: unknown property of shape cube (supported: to_world, "
-                             "flip_normals)");
+                             "flip_normals, interior, exterior)");
   f = scene_file("shape_err9.xml", "<shape type=\"cube\">\n<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></shape>\n");
   EXPECT_EQ(error_of(f), f + ":3: <bsdf type=\"diffuse\">: a shape takes one BSDF");
   f = scene_file("shape_err10.xml", "<shape type=\"cube\">\n<sensor type=\"perspective\"/></shape>\n");
@@ -877,7 +877,7 @@ TEST(MitsubaSensor, Errors) {
        "scale here either)"},
       {"<sensor type=\"thinlens\">\n</sensor>\n", ":2: <sensor type=\"thinlens\">: missing <float name=\"aperture_radius\">"},
       {"<integrator type=\"bdpt\"/>\n",
-       ":2: <integrator type=\"bdpt\">: unsupported integrator (supported: path, volpath and volpathmis without media)"},
+       ":2: <integrator type=\"bdpt\">: unsupported integrator (supported: path, volpath, volpathmis)"},
       {"<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"0\"/></integrator>\n",
        ":3: <integer name=\"max_depth\">: expected a positive max_depth or -1 (unlimited)"},
       {"<integrator type=\"path\">\n<boolean name=\"hide_emitters\" value=\"true\"/></integrator>\n",
@@ -904,9 +904,9 @@ TEST(MitsubaFile, Errors) {
                              "(convert it with Mitsuba 3 first)");
   f = write_file("file_err4.xml", "<scene version=\"3.0.0\">\n<camera type=\"perspective\"/>\n</scene>\n");
   EXPECT_EQ(error_of(f), f + ":2: <camera type=\"perspective\">: unexpected element in <scene> (expected default, "
-                             "include, path, bsdf, texture, shape, emitter, sensor, integrator)");
-  f = write_file("file_err5.xml", "<scene version=\"3.0.0\">\n<medium type=\"homogeneous\" id=\"fog\"/>\n</scene>\n");
-  EXPECT_EQ(error_of(f), f + ":2: <medium type=\"homogeneous\" id=\"fog\">: participating media are not supported");
+                             "include, path, bsdf, texture, medium, shape, emitter, sensor, integrator)");
+  f = write_file("file_err5.xml", "<scene version=\"3.0.0\">\n<medium type=\"homogeneous\"/>\n</scene>\n");
+  EXPECT_EQ(error_of(f), f + ":2: <medium type=\"homogeneous\">: a top-level medium needs an id");
   f = write_file("file_err6.xml", "<scene version=\"3.0.0\" foo=\"1\">\n</scene>\n");
   EXPECT_EQ(error_of(f), f + ":1: <scene>: unknown attribute 'foo' (allowed: version)");
   f = write_file("file_err7.xml", "");

@@ -35,7 +35,10 @@ def main():
     # caustica JSON
     scene = {
         "name": "fuzz",
-        "camera": {"position": [0, 1, 5], "target": [0, 1, 0], "up": [0, 1, 0], "fov": 40, "width": 16, "height": 12},
+        "camera": {"position": [0, 1, 5], "target": [0, 1, 0], "up": [0, 1, 0], "fov": 40, "width": 16, "height": 12,
+                   "medium": "fog"},
+        "media": {"fog": {"sigma_a": 0.01, "sigma_s": 0.05, "g": 0.3},
+                  "milk": {"sigma_t": [1, 2, 3], "albedo": 0.9, "scale": 2}},
         "filter": "tent",
         "max_depth": 6,
         "materials": {
@@ -43,10 +46,12 @@ def main():
             "gold": {"type": "conductor", "eta": [0.143, 0.374, 1.442], "k": [3.983, 2.385, 1.603], "roughness": 0.2},
             "glass": {"type": "dielectric", "eta": 1.5},
             "plastic": {"type": "plastic", "diffuse": [0.2, 0.4, 0.6]},
+            "bound": {"type": "null"},
         },
         "shapes": [
             {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
-            {"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "glass"},
+            {"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "glass", "interior": "milk", "exterior": "fog"},
+            {"type": "cube", "material": "bound", "interior": "fog", "exterior": None, "transform": {"scale": 20}},
             {"type": "cube", "material": "gold", "transform": {"scale": 0.3, "translate": [1.5, 0.3, 0]}},
             {"type": "mesh", "material": "plastic", "positions": [[-2, 0, 0], [-1, 0, 0], [-1, 1, 0]], "indices": [0, 1, 2]},
             {"type": "disk", "material": "white", "emission": [10, 10, 10],
@@ -158,8 +163,11 @@ def main():
     (OUT / "scene.xml").write_text("""<scene version="3.0.0">
   <default name="spp" value="16"/>
   <default name="res" value="16"/>
-  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  <integrator type="volpath"><integer name="max_depth" value="6"/></integrator>
+  <medium type="homogeneous" id="fog"><rgb name="sigma_t" value="0.1, 0.2, 0.3"/><float name="albedo" value="0.8"/>
+    <phase type="hg"><float name="g" value="0.5"/></phase></medium>
   <sensor type="perspective">
+    <ref id="fog"/>
     <float name="fov" value="40"/>
     <transform name="to_world"><lookat origin="0, 1, 5" target="0, 1, 0" up="0, 1, 0"/></transform>
     <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
@@ -172,7 +180,11 @@ def main():
   <bsdf type="plastic" id="plastic"><rgb name="diffuse_reflectance" value="0.2, 0.4, 0.6"/></bsdf>
   <bsdf type="diffuse" id="tex"><texture type="bitmap" name="reflectance"><string name="filename" value="checker.png"/></texture></bsdf>
   <shape type="rectangle"><transform name="to_world"><scale value="10"/><rotate x="1" angle="-90"/></transform><ref id="white"/></shape>
-  <shape type="sphere"><point name="center" x="0" y="1" z="0"/><float name="radius" value="1"/><ref id="glass"/></shape>
+  <shape type="sphere"><point name="center" x="0" y="1" z="0"/><float name="radius" value="1"/><ref id="glass"/>
+    <medium type="homogeneous" name="interior"><rgb name="sigma_t" value="1, 2, 3"/></medium>
+    <ref name="exterior" id="fog"/></shape>
+  <shape type="cube"><transform name="to_world"><scale value="20"/></transform><bsdf type="null"/>
+    <ref name="interior" id="fog"/></shape>
   <shape type="cube"><transform name="to_world"><scale value="0.3"/><translate x="1.5" y="0.3" z="0"/></transform><ref id="gold"/></shape>
   <shape type="obj"><string name="filename" value="mesh.obj"/><ref id="plastic"/></shape>
   <shape type="ply"><string name="filename" value="mesh_binary.ply"/>

@@ -77,7 +77,7 @@ def test_bad_file_raises_input_error(tmp_path):
         load(str(f))
     assert str(e.value) == (f'{f}:2: <bsdf type="velvet" id="v">: unsupported BSDF type (supported: diffuse, '
                             'conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, '
-                            'roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf)')
+                            'roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf, null)')
     g = tmp_path / "mesh.xml"
     g.write_text('<scene version="3.0.0">\n  <shape type="obj">\n    <string name="filename" value="gone.obj"/>\n'
                  '  </shape>\n</scene>\n')

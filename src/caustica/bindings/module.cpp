@@ -93,6 +93,7 @@ nb::dict describe(const SceneDesc& d) {
   r["lights"] = st.lights;
   r["area_lights"] = st.area_lights;
   r["textures"] = st.textures;
+  r["media"] = d.media.size();
   nb::list lo, hi;
   for (int i = 0; i < 3; ++i) {
     lo.append(st.lo[i]);
@@ -238,7 +239,7 @@ NB_MODULE(_native, m) {
       .def_prop_ro("camera", [](const Scene& s) { return s.desc().camera.name; })
       .def_prop_ro("integrator_defaults", [](const Scene& s) { return integrator_defaults(s.desc()); })
       .def("describe", [](const Scene& s) { return describe(s.desc()); },
-           "Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures) and world bounds.")
+           "Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures, media) and world bounds.")
       .def("to_json", [](const Scene& s, const std::string& texture_stem) {
              return scene_call([&] { return scene_desc_to_json(current_desc(s), texture_stem); });
            },

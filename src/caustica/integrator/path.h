@@ -16,6 +16,14 @@
 //   path_shadow -> adds the NEE contribution if unoccluded
 // Depth counts segments as Mitsuba does: the camera segment is depth 1, so
 // max_depth = 1 shows only emitters and 2 adds direct lighting.
+//
+// Participating media (volumetric path tracing; the radiative transfer equation in pbrt-v4 Eq. 14.3, the
+// estimator of pbrt-v3 Sec. 15.2 with pbrt-v4's spectral MIS over the path, medium/medium.h): a path knows
+// the medium its ray travels in. Before a surface, path_shade samples a free-flight distance; a scattering event in the medium is a vertex like a
+// surface's, with the phase function in the place of the BSDF (NEE with MIS, phase sampling, Russian
+// roulette). Crossing a transmissive surface with a medium interface changes the medium; null surfaces
+// (MaterialType::kNull) are crossed without counting a segment. Shadow rays carry the transmittance of
+// the media they pass, through null surfaces (path_shadow_transmittance).
 #pragma once
 #include "../base/sampler.h"
 #include "../light/light_sample.h"
@@ -52,6 +60,10 @@ struct PathState {
   uint32_t depth = 0;  // segments traced before `ray`
   float eta_scale = 1.f;
   Vec3f prev_p;      // origin of `ray` (for the light's density at hits)
+  int32_t medium = -1;  // the participating medium `ray` travels in (-1: vacuum)
+  int32_t hero = -1;    // the colour channel that samples distances in media (-1: none chosen yet)
+  RGB r_medium{1.f};    // the path's distance densities per channel over the hero's, scaled to average 1
+  uint32_t null_crossings = 0;  // null surfaces crossed since the last vertex (a guard against loops)
   uint32_t pixel = 0;
   Sampler sampler;
 };
@@ -60,7 +72,47 @@ struct ShadowRay {
   Ray ray;
   RGB contrib{0.f};
   bool active = false;
+  int32_t medium = -1;  // the medium the ray starts in (path_shadow_transmittance)
 };
+
+// The most null surfaces one ray crosses between two vertices, or one shadow ray on its way.
+constexpr uint32_t kMaxNullCrossings = 64;
+
+// The medium interface of primitive `prim` (none when the scene has none).
+CHD MediumInterface prim_medium_interface(const SceneView& s, uint32_t prim) {
+  return s.prim_medium ? s.prim_medium[prim] : MediumInterface{};
+}
+
+// The fraction of a shadow ray's contribution that arrives: 0 or 1 from one occlusion query in scenes
+// without media; otherwise the product of the media's transmittances along it, through null surfaces
+// (any other surface occludes). `tracer` is any type with intersect(Ray, Hit&) and occluded(Ray).
+template <typename Tracer>
+CHD RGB path_shadow_transmittance(const SceneView& s, const Tracer& tracer, const ShadowRay& sr) {
+  if (!scene_has_media(s)) return tracer.occluded(sr.ray) ? RGB(0.f) : RGB(1.f);
+  Ray r = sr.ray;
+  int32_t medium = sr.medium;
+  const float dlen = length(r.d);
+  RGB Tr(1.f);
+  for (uint32_t k = 0; k <= kMaxNullCrossings; ++k) {
+    Hit h;
+    tracer.intersect(r, h);
+    const float t = h.valid() ? h.t : r.tmax;
+    if (medium >= 0) {
+      Tr *= medium_transmittance(medium_sigma_t(s.media[medium]), t * dlen);
+      if (is_black(Tr)) return Tr;
+    }
+    if (!h.valid()) return Tr;
+    if (s.materials[s.prim_material[h.prim]].type != MaterialType::kNull) return RGB(0.f);
+    SurfaceHit sh = make_surface_hit(s, r, h);
+    medium = medium_after_crossing(prim_medium_interface(s, h.prim), r.d, sh.ng, medium);
+    Vec3f o = offset_ray_origin(sh.p, sh.ng, r.d);
+    // The rest of the segment, from just past the surface (d keeps its length, so t stays comparable).
+    r.tmax = r.tmax - t - dot(o - sh.p, r.d) / (dlen * dlen);
+    r.o = o;
+    if (!(r.tmax > 0.f)) return Tr;
+  }
+  return RGB(0.f);
+}
 
 CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint32_t py, uint32_t sample_index,
                     PathState& st) {
@@ -77,6 +129,7 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
                            : s.camera.generate_ray(film, lens);
   st.prev_p = st.ray.o;
   st.weight = fs.weight;
+  st.medium = s.camera_medium;
 }
 
 // Emission of the area light at sh reached by the ray that ends there (the BSDF sample of the previous
@@ -96,9 +149,80 @@ CHD void path_add_emission(const SceneView& s, const PathParams& pp, const Surfa
   L += beta * Le * w;
 }
 
+// The NEE contribution's light sample and MIS weight for a vertex at p with density `scatter_pdf` of the
+// sampled direction under the vertex's own sampling (BSDF or phase function); fills sr's ray towards the
+// light from origin o. Returns false when no light sample was made.
+CHD bool path_light_sample(const SceneView& s, const PathParams& pp, Vec3f p, Vec2f u, LightSample& ls, float& pmf) {
+  pmf = 0.f;
+  int32_t li = choose_light(s, pp.light_bvh, p, u, pmf);
+  return li >= 0 && sample_light(s, s.lights[li], p, u, ls);
+}
+CHD void path_shadow_ray_to(ShadowRay& sr, Vec3f o, const LightSample& ls) {
+  if (std::isfinite(ls.dist)) {
+    sr.ray = spawn_ray_to(o, ls.p_l, ls.n_l);
+  } else {
+    sr.ray.o = o;
+    sr.ray.d = ls.wi;
+    sr.ray.tmax = kInf;
+  }
+}
+
+// A scattering event in medium `md` at distance t along st.ray (st.beta already holds the distance
+// sample's factor): NEE with the phase function, MIS against phase sampling, the next direction, roulette.
+CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathState& st, const Medium& md, float t,
+                                ShadowRay& sr) {
+  const Vec3f p = st.ray.o + st.ray.d * t;
+  const Vec3f wo = -normalize(st.ray.d);
+  Vec2f u_light2 = st.sampler.next_2d();
+  if (s.num_lights > 0) {
+    float pmf;
+    LightSample ls;
+    if (path_light_sample(s, pp, p, u_light2, ls, pmf)) {
+      float ph = hg_phase(dot(wo, ls.wi), md.g);
+      float w = ls.delta ? 1.f : power_heuristic(pmf * ls.pdf, ph);
+      sr.contrib = st.beta * ls.Li * (ph * w / (pmf * ls.pdf));
+      path_shadow_ray_to(sr, p, ls);
+      sr.medium = st.medium;
+      sr.active = !is_black(sr.contrib) && isfinite3(sr.contrib);
+    }
+  }
+  Vec2f u_lobe_rr = st.sampler.next_2d();
+  Vec2f u_phase = st.sampler.next_2d();
+  float pdf;
+  Vec3f wi = hg_sample(wo, md.g, u_phase, &pdf);
+  st.prev_pdf = pdf;  // the phase function's weight p / pdf is 1
+  st.prev_delta = false;
+  st.ray.o = p;
+  st.ray.d = wi;
+  st.ray.tmax = kInf;
+  st.prev_p = p;
+  st.null_crossings = 0;
+  if (is_black(st.beta)) { st.active = false; return; }
+  if (st.depth >= pp.rr_depth) {
+    float q = minf(max_component(st.beta) * st.eta_scale, 0.95f);
+    if (!(u_lobe_rr.y < q)) { st.active = false; return; }
+    st.beta /= q;
+  }
+}
+
 CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, const Hit& hit, ShadowRay& sr) {
   sr.active = false;
   st.depth += 1;  // the segment just traced
+  if (st.medium >= 0) {
+    // Free-flight sampling up to the surface (medium/medium.h).
+    const Medium& md = s.media[st.medium];
+    const float dlen = length(st.ray.d);
+    Vec2f u_m = st.sampler.next_2d();
+    // The hero channel is drawn at the path's first medium event (u_m.x) and kept (medium/medium.h).
+    if (st.hero < 0) st.hero = u_m.x < 1.f / 3.f ? 0 : (u_m.x < 2.f / 3.f ? 1 : 2);
+    MediumSample ms = sample_medium_distance(md, hit.valid() ? hit.t * dlen : kInf, st.hero, u_m.y);
+    if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }
+    if (ms.scattered) {
+      if (st.depth >= pp.max_depth) { st.active = false; return; }
+      path_scatter_in_medium(s, pp, st, md, ms.t / dlen, sr);
+      return;
+    }
+  }
   if (!hit.valid()) {
     if (s.environment_light >= 0 && !st.nee_only) {
       const Light& env = s.lights[s.environment_light];
@@ -119,6 +243,17 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
 
   if (!st.nee_only) path_add_emission(s, pp, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
   st.nee_only = false;
+  if (s.has_null && s.materials[sh.material].type == MaterialType::kNull) {
+    // A null surface: the ray goes on unchanged, into the medium behind it, and no segment is counted
+    // (prev_p, prev_pdf and prev_delta stay those of the vertex that sampled the direction).
+    st.depth -= 1;
+    if (++st.null_crossings > kMaxNullCrossings) { st.active = false; return; }
+    st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), st.ray.d, sh.ng, st.medium);
+    st.ray.o = offset_ray_origin(sh.p, sh.ng, st.ray.d);
+    st.ray.tmax = kInf;
+    return;
+  }
+  st.null_crossings = 0;
   if (st.depth >= pp.max_depth) { st.active = false; return; }
 
   const Material m = surface_material(s, sh);
@@ -135,25 +270,21 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   // One 2D sample chooses the light (u.x, then remapped) and the point on it.
   Vec2f u_light2 = st.sampler.next_2d();
   if (s.num_lights > 0 && !material_is_delta(m)) {
-    float pmf = 0.f;
-    int32_t li = choose_light(s, pp.light_bvh, p_front, u_light2, pmf);
+    float pmf;
     LightSample ls;
-    if (li >= 0 && sample_light(s, s.lights[li], p_front, u_light2, ls)) {
+    if (path_light_sample(s, pp, p_front, u_light2, ls, pmf)) {
       Vec3f wi = frame.to_local(ls.wi);
       RGB f = bsdf_eval(m, wo, wi);
       if (!is_black(f)) {
         float w = 1.f;
         if (!ls.delta) w = power_heuristic(pmf * ls.pdf, bsdf_pdf(m, wo, wi));
         sr.contrib = st.beta * f * ls.Li * (abs_cos_theta(wi) * w / (pmf * ls.pdf));
-        // Light behind the surface (transmission): start on the other side.
-        Vec3f o = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);
-        if (std::isfinite(ls.dist)) {
-          sr.ray = spawn_ray_to(o, ls.p_l, ls.n_l);
-        } else {
-          sr.ray.o = o;
-          sr.ray.d = ls.wi;
-          sr.ray.tmax = kInf;
-        }
+        // Light behind the surface (transmission): start on the other side, in the medium there.
+        const bool same_side = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f;
+        Vec3f o = same_side ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);
+        path_shadow_ray_to(sr, o, ls);
+        sr.medium = same_side ? st.medium
+                              : medium_after_crossing(prim_medium_interface(s, sh.prim), ls.wi, sh.ng, st.medium);
         sr.active = !is_black(sr.contrib) && isfinite3(sr.contrib);
       }
     }
@@ -174,7 +305,9 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   st.eta_scale *= bs.eta * bs.eta;
   st.prev_pdf = bs.pdf;
   st.prev_delta = bs.delta;
-  st.ray.o = dot(wi_world, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, wi_world);
+  const bool reflected = dot(wi_world, sh.ng) * dot(wo_world, sh.ng) > 0.f;
+  if (!reflected) st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), wi_world, sh.ng, st.medium);
+  st.ray.o = reflected ? p_front : offset_ray_origin(sh.p, sh.ng, wi_world);
   st.ray.d = wi_world;
   st.ray.tmax = kInf;
   st.prev_p = st.ray.o;
@@ -189,9 +322,14 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
 CHD void path_shadow(PathState& st, const ShadowRay& sr, bool occluded) {
   if (sr.active && !occluded) st.L += sr.contrib;
 }
+// The same with the shadow ray's transmittance (path_shadow_transmittance).
+CHD void path_shadow(PathState& st, const ShadowRay& sr, RGB transmittance) {
+  if (sr.active) st.L += sr.contrib * transmittance;
+}
 
 // One vertex of a path whose ray has been traced to `hit`: path_shade, then its shadow ray through
-// `accel` (any type with occluded(Ray)). Counts the shadow ray in `shadow_rays`. CPU drivers only.
+// `accel` (any type with intersect(Ray, Hit&) and occluded(Ray)). Counts the shadow ray in `shadow_rays`.
+// CPU drivers only.
 template <typename Accel>
 inline void path_vertex(const SceneView& s, const PathParams& pp, const Accel& accel, PathState& st, const Hit& hit,
                         uint64_t& shadow_rays) {
@@ -199,7 +337,7 @@ inline void path_vertex(const SceneView& s, const PathParams& pp, const Accel& a
   path_shade(s, pp, st, hit, sr);
   if (sr.active) {
     ++shadow_rays;
-    path_shadow(st, sr, accel.occluded(sr.ray));
+    path_shadow(st, sr, path_shadow_transmittance(s, accel, sr));
   }
 }
 

@@ -20,6 +20,7 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
     if (why) *why = w;
     return false;
   };
+  if (scene_has_media(s)) return fail("participating media or null surfaces");
   for (uint32_t i = 0; i < s.num_lights; ++i) {
     const Light& l = s.lights[i];
     if (l.type != LightType::kTriangle) return fail("a light other than a triangle area light");

@@ -194,6 +194,12 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
+  if (scene_has_media(scene_->view()) && opt_.integrator != "path") {
+    const SceneView& v = scene_->view();
+    throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces (" +
+                     std::to_string(v.num_media) + " media in scene '" + scene_->desc().name +
+                     "'); use --integrator path");
+  }
   // --accel small on a scene it does not take fails here, not in the render thread.
   if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;

@@ -10,7 +10,8 @@
 //              threads run the same BSDF code (Laine et al. 2013 Sec. 4.2 keep one queue per material;
 //              sorting by key does the same with one queue)
 //   shade      path_shade: emission with MIS, NEE (a shadow ray), BSDF sampling, Russian roulette
-//   shadow     any-hit query of each shadow ray; path_shadow adds the NEE contribution
+//   shadow     any-hit query of each shadow ray (in scenes with media, closest hits through null surfaces
+//              and the media's transmittance: path_shadow_transmittance); path_shadow adds the NEE contribution
 //   compact    optional stream compaction: the paths still active, in queue order, by a prefix sum of
 //              their flags and a scatter (Harris, Sengupta & Owens 2007, "Parallel Prefix Sum (Scan) with
 //              CUDA", GPU Gems 3 Ch. 39.3.1); without it every stage runs over all slots and idles on the
@@ -118,7 +119,7 @@ class WavefrontPath {
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
         uint32_t i = queue[k];
         flags[k] = shadow[i].active ? 1u : 0u;
-        if (shadow[i].active) path_shadow(states[i], shadow[i], tracer.occluded(shadow[i].ray));
+        if (shadow[i].active) path_shadow(states[i], shadow[i], path_shadow_transmittance(s, tracer, shadow[i]));
       });
       stats.shadow_rays += b_.exclusive_scan(flags, scan, len);
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });

@@ -19,6 +19,9 @@ enum class MaterialType : uint32_t {
   kDiffuseTransmission,  // Lambertian reflection r/pi and transmission t/pi
   kPhong,                // SmallVCM's Lambert + modified Phong lobe
   kMetallicRoughness,    // glTF 2.0 PBR: GGX conductor / dielectric-over-diffuse / rough glass blend
+  // No surface: a boundary between participating media that rays cross unchanged (Mitsuba 3's `null` BSDF,
+  // pbrt-v4's "interface" material). Its BSDF is zero; the path tracer continues straight through it.
+  kNull,
   kCount
 };
 

@@ -208,7 +208,7 @@ bool same_camera(const CameraDesc& a, const CameraDesc& b) {
          a.focus_distance == b.focus_distance && a.width == b.width && a.height == b.height && a.flip_x == b.flip_x &&
          a.moving == b.moving && (!a.moving || (eq(a.position1, b.position1) && eq(a.target1, b.target1) &&
                                                 eq(a.up1, b.up1))) &&
-         a.shutter_open == b.shutter_open && a.shutter_close == b.shutter_close;
+         a.shutter_open == b.shutter_open && a.shutter_close == b.shutter_close && a.medium == b.medium;
 }
 
 struct Writer {
@@ -338,6 +338,9 @@ struct Writer {
         if (!is_black(m.absorption)) o.set("absorption", col(m.absorption));
         break;
       }
+      case MaterialType::kNull:
+        o.set("type", JV::str("null"));
+        return o;
       default:
         throw InputError("export: material type " + std::to_string(int(m.type)) + " has no JSON form");
     }
@@ -391,7 +394,16 @@ struct Writer {
     }
     if (c.shutter_open != 0.f) o.set("shutter_open", JV::flt(c.shutter_open));
     if (c.shutter_close != 1.f) o.set("shutter_close", JV::flt(c.shutter_close));
+    if (c.medium >= 0) o.set("medium", JV::str(medium_key(c.medium)));
     return o;
+  }
+
+  // The JSON key of medium i (its name, made unique).
+  std::string medium_key(int i) const {
+    if (i < 0 || size_t(i) >= d.media.size()) throw InputError("export: medium index out of range");
+    std::vector<std::string> names = d.medium_names;
+    names.resize(d.media.size());
+    return unique_keys(names, "medium")[size_t(i)];
   }
 
   JV light(const Light& l) const {
@@ -482,6 +494,18 @@ struct Writer {
     if (in.restir_history >= 0.f) integ.set("restir_history", JV::flt(in.restir_history));
     if (!integ.obj.empty()) root.set("integrator", integ);
 
+    if (!d.media.empty()) {
+      JV media = JV::object();
+      for (size_t i = 0; i < d.media.size(); ++i) {
+        const Medium& m = d.media[i];
+        JV o = JV::object();
+        o.set("type", JV::str("homogeneous")).set("sigma_a", col(m.sigma_a)).set("sigma_s", col(m.sigma_s));
+        if (m.g != 0.f) o.set("g", JV::flt(m.g));
+        media.set(medium_key(int(i)), o);
+      }
+      root.set("media", media);
+    }
+
     std::vector<std::string> cam_names;
     for (const CameraDesc& c : d.cameras) cam_names.push_back(c.name);
     std::vector<std::string> cam_keys = unique_keys(cam_names, "camera");
@@ -536,6 +560,11 @@ struct Writer {
       if (!is_black(s.emission) || s.emission_texture >= 0) o.set("emission", color_slot(s.emission, s.emission_texture));
       if (s.emission_two_sided) o.set("emission_two_sided", JV::boolean(true));
       if (s.flip_normals) o.set("flip_normals", JV::boolean(true));
+      if (s.medium_interface) {
+        // Both sides; null is vacuum.
+        o.set("interior", s.interior >= 0 ? JV::str(medium_key(s.interior)) : JV());
+        o.set("exterior", s.exterior >= 0 ? JV::str(medium_key(s.exterior)) : JV());
+      }
       shapes.push(o);
     }
     root.set("shapes", shapes);

@@ -509,7 +509,27 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   };
   std::vector<PendingArea> area;
   std::vector<uint32_t> sphere_material;
+  std::vector<MediumInterface> sphere_medium;  // per sphere, appended to prim_medium after the triangles
   std::vector<int> sphere_shape;
+  // Participating media (medium/medium.h).
+  s.media = desc.media;
+  for (size_t i = 0; i < s.media.size(); ++i) {
+    const Medium& md = s.media[i];
+    const std::string name = i < desc.medium_names.size() ? desc.medium_names[i] : std::to_string(i);
+    auto ok = [](RGB c) { return isfinite3(c) && c.x >= 0.f && c.y >= 0.f && c.z >= 0.f; };
+    if (!ok(md.sigma_a) || !ok(md.sigma_s))
+      throw InputError("medium '" + name + "': sigma_a and sigma_s must be finite and >= 0");
+    if (!(md.g > -1.f && md.g < 1.f)) throw InputError("medium '" + name + "': g must be in (-1, 1)");
+  }
+  auto medium_ok = [&](int m) { return m >= -1 && m < int(desc.media.size()); };
+  if (!medium_ok(desc.camera.medium)) throw InputError("the camera's medium index is out of range");
+  bool any_interface = false;
+  for (const ShapeDesc& sh : desc.shapes) {
+    if (!sh.medium_interface) continue;
+    if (!medium_ok(sh.interior) || !medium_ok(sh.exterior))
+      throw InputError("shape '" + sh.name + "': medium index out of range");
+    any_interface = true;
+  }
   const MeshDesc rect = rectangle_mesh(), cube = cube_mesh(), disk = disk_mesh();
   size_t skipped_index = 0, skipped_nonfinite = 0, skipped_degenerate = 0, skipped_spheres = 0;
 
@@ -535,6 +555,11 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
         area.push_back({uint32_t(s.spheres.size()), true, sh.emission, sh.emission_two_sided, sh.emission_texture});
       s.spheres.push_back(sp);
       sphere_material.push_back(uint32_t(sh.material));
+      // A flipped sphere's normal points inwards (Mitsuba's flip_normals): its interior is then outside.
+      if (any_interface)
+        sphere_medium.push_back(sh.flip_normals
+                                    ? MediumInterface{sh.exterior, sh.interior, sh.medium_interface ? 1u : 0u}
+                                    : MediumInterface{sh.interior, sh.exterior, sh.medium_interface ? 1u : 0u});
       // The sphere's axes (its transform's rotation or reflection, the scale divided out), kept only when
       // some sphere is turned: its UVs, textures and anisotropy turn with it.
       Frame axes;
@@ -618,6 +643,8 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       s.indices.push_back(base + i1);
       s.indices.push_back(base + i2);
       s.prim_material.push_back(uint32_t(sh.material));
+      if (any_interface)
+        s.prim_medium.push_back(MediumInterface{sh.interior, sh.exterior, sh.medium_interface ? 1u : 0u});
       if (emissive) area.push_back({tri, false, sh.emission, sh.emission_two_sided, sh.emission_texture});
     }
   }
@@ -633,6 +660,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   if (!s.tangents.empty()) s.tangents.resize(s.positions.size(), Tangent{});
   uint32_t num_tri = uint32_t(s.indices.size() / 3);
   for (uint32_t m : sphere_material) s.prim_material.push_back(m);
+  for (const MediumInterface& mi : sphere_medium) s.prim_medium.push_back(mi);
   s.prim_light.assign(s.prim_material.size(), -1);
 
   for (const PendingArea& a : area) {
@@ -865,6 +893,12 @@ void Scene::update_view() {
   v.materials = materials.data();
   v.alpha_tested = 0;
   for (const Material& m : materials) v.alpha_tested |= m.flags & kAlphaTested ? 1u : 0u;
+  v.media = media.empty() ? nullptr : media.data();
+  v.num_media = uint32_t(media.size());
+  v.prim_medium = prim_medium.empty() ? nullptr : prim_medium.data();
+  v.camera_medium = desc_.camera.medium;
+  v.has_null = 0;
+  for (const Material& m : materials) v.has_null |= m.type == MaterialType::kNull ? 1u : 0u;
   v.lights = lights.data();
   v.num_lights = uint32_t(lights.size());
   v.light_sampler = {alias_prob.data(), alias_index.data(), light_pmf.data(), uint32_t(light_pmf.size())};

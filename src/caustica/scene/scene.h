@@ -42,6 +42,8 @@ class Scene {
   std::vector<uint32_t> prim_material;
   std::vector<int32_t> prim_light;
   std::vector<Material> materials;
+  std::vector<Medium> media;
+  std::vector<MediumInterface> prim_medium;  // empty, or one per primitive (where some shape has an interface)
   std::vector<Light> lights;
   std::vector<float> alias_prob, light_pmf;
   std::vector<uint32_t> alias_index;

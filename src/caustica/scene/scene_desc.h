@@ -9,6 +9,7 @@
 #include "../geometry/shapes.h"
 #include "../light/light.h"
 #include "../material/material.h"
+#include "../medium/medium.h"
 #include "../texture/texture.h"
 
 namespace caustica {
@@ -60,6 +61,11 @@ struct ShapeDesc {
   int emission_texture = -1; // multiplies `emission` (index into SceneDesc::textures)
   bool emission_two_sided = false;
   bool flip_normals = false;
+  // Participating media on either side (indices into SceneDesc::media, -1: vacuum), when
+  // `medium_interface` is set (Mitsuba's interior/exterior: one given, the other is vacuum). Without an
+  // interface the shape keeps the medium of the rays that cross it (medium/medium.h).
+  bool medium_interface = false;
+  int interior = -1, exterior = -1;
 };
 
 struct CameraDesc {
@@ -78,6 +84,7 @@ struct CameraDesc {
   bool moving = false;
   Vec3f position1{0, 0, 0}, target1{0, 0, -1}, up1{0, 1, 0};
   float shutter_open = 0.f, shutter_close = 1.f;
+  int medium = -1;  // the participating medium the camera is in (index into SceneDesc::media, -1: vacuum)
 };
 
 struct SceneDesc {
@@ -89,6 +96,8 @@ struct SceneDesc {
   std::vector<Material> materials;
   std::vector<MeshDesc> meshes;
   std::vector<ShapeDesc> shapes;
+  std::vector<std::string> medium_names;
+  std::vector<Medium> media;  // homogeneous participating media (medium/medium.h)
   std::vector<Light> lights;  // point, spot, directional, environment (area lights come from shapes)
   // An environment light with Light::texture >= 0 is an equirectangular map
   // (Mitsuba's envmap convention in its local frame, y up); this rotation

@@ -12,6 +12,7 @@
 #include "../light/light_bvh.h"
 #include "../texture/texture.h"
 #include "../material/material.h"
+#include "../medium/medium.h"
 
 namespace caustica {
 
@@ -72,6 +73,13 @@ struct SceneView {
   const int32_t* prim_light = nullptr;  // light index of an emissive primitive, else -1
   // Non-zero when some material has kAlphaTested: then the intersection queries test opacity (scene/opacity.h).
   uint32_t alpha_tested = 0;
+  // Participating media (medium/medium.h): the media, each primitive's interface (null when no shape has
+  // one), the medium the camera is in (-1: vacuum), and whether any material is kNull.
+  const Medium* media = nullptr;
+  uint32_t num_media = 0;
+  const MediumInterface* prim_medium = nullptr;
+  int32_t camera_medium = -1;
+  uint32_t has_null = 0;
   // Shading
   const Material* materials = nullptr;
   const Light* lights = nullptr;
@@ -89,6 +97,11 @@ struct SceneView {
   float bsphere_radius = 1.f;
   BVHView bvh;  // the portable BVH (always built; CPU default traversal is Embree)
 };
+
+// Whether paths in this scene can meet media or null surfaces (only the path tracer renders those).
+CHD bool scene_has_media(const SceneView& s) {
+  return s.prim_medium != nullptr || s.camera_medium >= 0 || s.has_null != 0;
+}
 
 // The light that next-event estimation from reference point p chooses: by power (the alias table), or with bvh
 // by the light BVH's importance from p (light/light_bvh.h). u.x chooses and is then remapped to a fresh uniform

@@ -53,6 +53,8 @@ class DeviceScene {
     v.prim_material = upload(sc.prim_material);
     v.prim_light = upload(sc.prim_light);
     v.materials = upload(sc.materials);
+    v.media = upload(sc.media);
+    v.prim_medium = upload(sc.prim_medium);
     v.lights = upload(sc.lights);
     v.light_sampler.prob = upload(sc.alias_prob);
     v.light_sampler.alias = upload(sc.alias_index);

@@ -304,7 +304,7 @@ RGB color_or_texture(Ctx& c, const json& j, const std::string& path, int& tex, b
 
 // ---------------------------------------------------------------- materials
 
-const char* kMaterialTypes = "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness, blend";
+const char* kMaterialTypes = "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness, blend, null";
 
 // names: every material's index (a blend names two others).
 Material parse_material(Ctx& c, const json& j, const std::string& path, const std::map<std::string, int>& names) {
@@ -453,6 +453,12 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
       }
     }
   } else {
+    if (type == "null") {
+      // A boundary between media that rays cross unchanged (medium/medium.h).
+      check_keys(c, j, path, {"type"});
+      m.type = MaterialType::kNull;
+      return m;
+    }
     c.fail(path + "/type", "unknown material type '" + type + "' (allowed: " + kMaterialTypes + ")");
   }
   if (j.contains("two_sided") && boolean(c, j["two_sided"], path + "/two_sided")) m.flags |= kTwoSided;
@@ -624,11 +630,61 @@ std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::str
   return parts;
 }
 
+// ---------------------------------------------------------------- media
+
+// A homogeneous medium: sigma_a and sigma_s, or sigma_t and albedo (Mitsuba's parameters), times scale;
+// g the Henyey-Greenstein asymmetry.
+Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
+  if (!j.is_object()) c.fail(p, std::string("expected an object, got ") + type_name(j));
+  check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g"});
+  if (j.contains("type")) {
+    std::string t = str(c, j["type"], p + "/type");
+    if (t != "homogeneous") c.fail(p + "/type", "unknown medium type '" + t + "' (allowed: homogeneous)");
+  }
+  Medium m;
+  const bool as = j.contains("sigma_a") || j.contains("sigma_s");
+  const bool ta = j.contains("sigma_t") || j.contains("albedo");
+  if (as && ta) c.fail(p, "give sigma_a and sigma_s, or sigma_t and albedo, not both pairs");
+  if (!as && !ta) c.fail(p, "expected sigma_a and sigma_s, or sigma_t and albedo");
+  if (as) {
+    m.sigma_a = j.contains("sigma_a") ? color(c, j["sigma_a"], p + "/sigma_a") : RGB(0.f);
+    m.sigma_s = j.contains("sigma_s") ? color(c, j["sigma_s"], p + "/sigma_s") : RGB(0.f);
+  } else {
+    RGB st = j.contains("sigma_t") ? color(c, j["sigma_t"], p + "/sigma_t") : RGB(1.f);
+    RGB al = j.contains("albedo") ? color(c, j["albedo"], p + "/albedo") : RGB(0.75f);
+    if (al.x > 1.f || al.y > 1.f || al.z > 1.f) c.fail(p + "/albedo", "expected values in [0, 1]");
+    m.sigma_s = st * al;
+    m.sigma_a = st - m.sigma_s;
+  }
+  if (j.contains("scale")) {
+    float sc = num(c, j["scale"], p + "/scale");
+    if (!(sc >= 0.f)) c.fail(p + "/scale", "expected a number >= 0");
+    m.sigma_a *= sc;
+    m.sigma_s *= sc;
+  }
+  if (j.contains("g")) m.g = num(c, j["g"], p + "/g");
+  if (!(m.g > -1.f && m.g < 1.f)) c.fail(p + "/g", "expected a number in (-1, 1)");
+  return m;
+}
+
+// The index of the medium a "medium", "interior" or "exterior" key names (null: vacuum, -1).
+int medium_ref(const Ctx& c, const json& j, const std::string& p) {
+  if (j.is_null()) return -1;  // vacuum
+  std::string n = str(c, j, p);
+  for (size_t i = 0; i < c.d->medium_names.size(); ++i)
+    if (c.d->medium_names[i] == n) return int(i);
+  std::string list;
+  for (const std::string& m : c.d->medium_names) list += (list.empty() ? "" : ", ") + m;
+  c.fail(p, "no medium named '" + n + "' in /media (media: " + (list.empty() ? std::string("none") : list) + ")");
+}
+
 // ---------------------------------------------------------------- cameras
 
 void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDesc& cam) {
   check_keys(c, j, path, {"name", "type", "position", "target", "up", "fov", "view_size", "fov_axis", "width", "height",
-                          "aperture_radius", "focus_distance", "flip_x", "motion", "shutter_open", "shutter_close"});
+                          "aperture_radius", "focus_distance", "flip_x", "motion", "shutter_open", "shutter_close",
+                          "medium"});
+  if (j.contains("medium")) cam.medium = medium_ref(c, j["medium"], path + "/medium");
   if (j.contains("name")) cam.name = str(c, j["name"], path + "/name");
   if (j.contains("type")) {
     std::string t = str(c, j["type"], path + "/type");
@@ -847,8 +903,16 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
   json root;
   root = parse_json_text<json>(text, source);
   check_keys(c, root, "", {"$schema", "name", "film", "camera", "cameras", "filter", "max_depth", "integrator", "materials",
-                           "meshes", "shapes", "lights"});
+                           "meshes", "shapes", "lights", "media"});
   d.name = root.contains("name") ? str(c, root["name"], "/name") : source;
+  if (root.contains("media")) {
+    const json& media = root["media"];
+    if (!media.is_object()) c.fail("/media", "expected an object mapping names to media");
+    for (auto it = media.begin(); it != media.end(); ++it) {
+      d.medium_names.push_back(it.key());
+      d.media.push_back(parse_medium(c, it.value(), "/media/" + esc(it.key())));
+    }
+  }
 
   // Film (or, as in older files, the top-level filter and the camera's width/height).
   CameraDesc film_cam;
@@ -975,12 +1039,13 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     std::string type = str(c, j["type"], p + "/type");
     if (type == "sphere")
       check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
-                           "center", "radius"});
+                           "center", "radius", "interior", "exterior"});
     else if (type == "mesh")
       check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
-                           "positions", "indices", "normals", "uvs", "tangents", "file", "mesh"});
+                           "positions", "indices", "normals", "uvs", "tangents", "file", "mesh", "interior", "exterior"});
     else if (type == "rectangle" || type == "cube" || type == "disk")
-      check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform"});
+      check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
+                           "interior", "exterior"});
     else
       c.fail(p + "/type", "unknown shape type '" + type + "' (allowed: sphere, rectangle, cube, disk, mesh)");
     ShapeDesc s;
@@ -997,6 +1062,10 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     if (has_emission) s.emission = color_or_texture(c, j["emission"], p + "/emission", s.emission_texture);
     if (j.contains("emission_two_sided")) s.emission_two_sided = boolean(c, j["emission_two_sided"], p + "/emission_two_sided");
     if (j.contains("flip_normals")) s.flip_normals = boolean(c, j["flip_normals"], p + "/flip_normals");
+    // Media on either side: one given makes the shape a medium boundary, the other side vacuum.
+    if (j.contains("interior")) s.interior = medium_ref(c, j["interior"], p + "/interior");
+    if (j.contains("exterior")) s.exterior = medium_ref(c, j["exterior"], p + "/exterior");
+    s.medium_interface = j.contains("interior") || j.contains("exterior");
 
     std::vector<MeshPart> parts;  // mesh shapes: what this shape instances
     if (type == "sphere") {
@@ -1045,6 +1114,9 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
             }
             if (j.contains("emission_two_sided")) o.emission_two_sided = s.emission_two_sided;
             o.flip_normals = s.flip_normals;
+            o.medium_interface = s.medium_interface;
+            o.interior = s.interior;
+            o.exterior = s.exterior;
             if (j.contains("name")) o.name = added.size() == 1 ? s.name : s.name + "/" + o.name;
           }
           continue;

@@ -527,12 +527,13 @@ class Loader {
       } else if (tag == "integrator") {
         parse_integrator(c);
       } else if (tag == "medium") {
-        fail(c, "participating media are not supported");
+        if (!has_attr(c, "id")) fail(c, "a top-level medium needs an id");
+        parse_medium(c);
       } else if (is_property_tag(tag)) {
         fail(c, "unexpected property of the scene (caustica reads no scene-level properties)");
       } else {
-        fail(c, "unexpected element in <scene> (expected default, include, path, bsdf, texture, shape, emitter, "
-                "sensor, integrator)");
+        fail(c, "unexpected element in <scene> (expected default, include, path, bsdf, texture, medium, shape, "
+                "emitter, sensor, integrator)");
       }
     }
   }
@@ -928,12 +929,63 @@ class Loader {
         return x;
       };
       m = two_sided(idx);
+    } else if (type == "null") {
+      m.type = MaterialType::kNull;  // a boundary of media that rays cross unchanged
     } else {
       fail(n, "unsupported BSDF type (supported: diffuse, conductor, roughconductor, dielectric, roughdielectric, "
-              "thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf)");
+              "thindielectric, plastic, roughplastic, principled, twosided, normalmap, bumpmap, mask, blendbsdf, null)");
     }
     p.finish();
     return m;
+  }
+
+  // ---- media ----
+  // <medium type="homogeneous">: sigma_t and albedo (Mitsuba's defaults 1 and 0.75) times scale, and a
+  // <phase> (isotropic or hg); registered under its id. Returns its index in d.media.
+  int parse_medium(xml_node n) {
+    if (std::string(n.name()) == "ref") return lookup(n, "medium").index;
+    check_attrs(n, {"type", "id", "name"});
+    std::string type = attr(n, "type");
+    if (type != "homogeneous") fail(n, "unsupported medium type (supported: homogeneous)");
+    Props p(*this, n);
+    p.declare({"sigma_t", "albedo", "scale", "sample_emitters"});
+    RGB sigma_t = p.get_color("sigma_t", RGB(1.f));
+    RGB albedo = p.get_color("albedo", RGB(0.75f));
+    float scale = p.get_float("scale", 1.f);
+    if (!(sigma_t.x >= 0.f && sigma_t.y >= 0.f && sigma_t.z >= 0.f)) fail(p.get("sigma_t"), "expected sigma_t >= 0");
+    if (!(albedo.x >= 0.f && albedo.y >= 0.f && albedo.z >= 0.f && albedo.x <= 1.f && albedo.y <= 1.f &&
+          albedo.z <= 1.f))
+      fail(p.get("albedo"), "expected an albedo in [0, 1]");
+    if (!(scale >= 0.f)) fail(p.get("scale"), "expected a scale >= 0");
+    if (!p.get_bool("sample_emitters", true))
+      warn(p.get("sample_emitters"), "sample_emitters", "sample_emitters=false ignored (caustica always samples emitters in media)");
+    Medium m;
+    m.sigma_s = sigma_t * albedo * scale;
+    m.sigma_a = sigma_t * scale - m.sigma_s;
+    m.sigma_a = RGB(maxf(m.sigma_a.x, 0.f), maxf(m.sigma_a.y, 0.f), maxf(m.sigma_a.z, 0.f));
+    std::vector<xml_node> phases = p.take_objects("phase");
+    if (phases.size() > 1) fail(phases[1], "a medium takes one phase function");
+    if (!phases.empty()) {
+      xml_node ph = phases[0];
+      check_attrs(ph, {"type", "id", "name"});
+      std::string pt = attr(ph, "type");
+      Props pp(*this, ph);
+      if (pt == "hg") {
+        pp.declare({"g"});
+        m.g = pp.get_float("g", 0.8f);
+        if (!(m.g > -1.f && m.g < 1.f)) fail(pp.get("g"), "expected g in (-1, 1)");
+      } else if (pt != "isotropic") {
+        fail(ph, "unsupported phase function (supported: isotropic, hg)");
+      }
+      pp.finish();
+    }
+    p.finish();
+    std::string name = has_attr(n, "id") ? attr(n, "id") : "medium@" + where(n);
+    d.medium_names.push_back(name);
+    d.media.push_back(m);
+    int idx = int(d.media.size()) - 1;
+    register_id(n, "medium", idx);
+    return idx;
   }
 
   // ---- shapes ----
@@ -977,13 +1029,34 @@ class Loader {
       emission = r.value;
       emission_tex = r.texture;
     }
-    for (xml_node m : p.take_objects("medium")) fail(m, "participating media are not supported");
+    // Media: <ref name="interior|exterior" id="..."/> or a nested <medium name="interior|exterior">. One
+    // given makes the other side vacuum, as in Mitsuba.
+    int interior = -1, exterior = -1;
+    bool interface = false;
+    for (const char* side : {"interior", "exterior"}) {
+      xml_node r = p.get(side);
+      if (!r) continue;
+      if (std::string(r.name()) != "ref") fail(r, std::string("expected a medium (<ref name=\"") + side + "\" id=\"...\"/>)");
+      (std::string(side) == "interior" ? interior : exterior) = parse_medium(r);
+      interface = true;
+    }
+    for (xml_node m : p.take_objects("medium")) {
+      std::string side = attr(m, "name");
+      if (side != "interior" && side != "exterior")
+        fail(m, "a shape's medium needs name=\"interior\" or name=\"exterior\"");
+      if ((side == "interior" ? interior : exterior) >= 0) fail(m, "the shape's " + side + " medium is given twice");
+      (side == "interior" ? interior : exterior) = parse_medium(m);
+      interface = true;
+    }
     std::string shape_name = has_attr(n, "id") ? attr(n, "id") : type + "@" + where(n);
     auto finish_shape = [&](ShapeDesc& s) {
       s.material = material;
       s.emission = emission;
       s.emission_texture = emission_tex;
       s.flip_normals = flip;
+      s.medium_interface = interface;
+      s.interior = interior;
+      s.exterior = exterior;
     };
     if (type == "obj" || type == "ply") {
       xml_node fnode = p.get("filename");
@@ -1123,7 +1196,9 @@ class Loader {
     } else {
       fail(n, "unsupported emitter type (supported: area (in a shape), point, spot, directional, constant, envmap)");
     }
-    for (xml_node m : p.take_objects("medium")) fail(m, "participating media are not supported");
+    // An emitter's medium matters to Mitsuba's light tracing only; volpath's shadow rays take the media from
+    // the point they start at, as caustica's do. Checked, then not needed.
+    for (xml_node m : p.take_objects("medium")) (void)parse_medium(m);
     p.finish({"sampling_weight"});
     d.lights.push_back(l);
   }
@@ -1238,7 +1313,11 @@ class Loader {
         d.integrator.sampler = attr(s, "type") == "independent" ? "independent" : "sobol";
       }
     }
-    for (xml_node m : p.take_objects("medium")) fail(m, "participating media are not supported");
+    // The medium the sensor is in: a nested <medium> or an unnamed <ref id="..."/> to one.
+    std::vector<xml_node> media = p.take_objects("medium");
+    for (xml_node r : p.take_objects("ref")) media.push_back(r);
+    if (media.size() > 1) fail(media[1], "a sensor takes one medium");
+    if (!media.empty()) cam.medium = parse_medium(media[0]);
     if (p.has("principal_point_offset_x") || p.has("principal_point_offset_y")) {
       if (p.get_float("principal_point_offset_x", 0.f) != 0.f || p.get_float("principal_point_offset_y", 0.f) != 0.f)
         fail(n, "a principal point offset is not supported");
@@ -1298,7 +1377,7 @@ class Loader {
     have_integrator = true;
     std::string type = attr(n, "type");
     if (type != "path" && type != "volpath" && type != "volpathmis")
-      fail(n, "unsupported integrator (supported: path, volpath and volpathmis without media)");
+      fail(n, "unsupported integrator (supported: path, volpath, volpathmis)");
     Props p(*this, n);
     p.declare({"max_depth", "rr_depth", "hide_emitters"});
     int md = p.get_int("max_depth", -1);
@@ -1374,7 +1453,7 @@ void Props::finish(std::initializer_list<const char*> ignorable) {
   for (size_t i = 0; i < objects.size(); ++i) {
     if (obj_used[i]) continue;
     std::string tag = objects[i].name();
-    if (tag == "medium") L.fail(objects[i], "participating media are not supported");
+    if (tag == "medium") L.fail(objects[i], "a medium belongs to a shape (interior/exterior) or a sensor, not to " + what);
     L.fail(objects[i], "unexpected element in " + Loader::describe(node));
   }
 }
