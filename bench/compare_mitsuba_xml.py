@@ -313,17 +313,18 @@ def write_scenes(res):
 </scene>
 """)
     # Media (Mitsuba's volpath): the camera inside fog (a null cube bounds it; the sky lights it through the
-    # boundary), a glass sphere of milk (interior) in the fog (exterior), a null box of forward-scattering smoke,
-    # a diffuse floor and an area light, both in the fog.
+    # boundary), a glass sphere of milk (interior) in the fog (exterior), a null box of forward-scattering
+    # smoke (lifted off the floor: a face coplanar with the floor is resolved differently by the two
+    # renderers), a diffuse floor and an area light, both in the fog.
     fog_sensor = sensor.replace("<film", '<ref id="fog"/>\n    <film', 1)
     with open(os.path.join(OUT, "foggy.xml"), "w") as f:
         f.write(f"""<scene version="3.0.0">
   <integrator type="volpath"><integer name="max_depth" value="16"/></integrator>
   <medium type="homogeneous" id="fog"><rgb name="sigma_t" value="0.06, 0.08, 0.1"/>
     <float name="albedo" value="0.9"/><phase type="hg"><float name="g" value="0.5"/></phase></medium>
-  <medium type="homogeneous" id="milk"><rgb name="sigma_t" value="2, 3, 4"/>
+  <medium type="homogeneous" id="milk"><rgb name="sigma_t" value="0.5, 0.75, 1"/><float name="scale" value="4"/>
     <rgb name="albedo" value="0.98, 0.95, 0.9"/><phase type="hg"><float name="g" value="0.3"/></phase></medium>
-  <medium type="homogeneous" id="smoke"><rgb name="sigma_t" value="1.5, 1.5, 1.5"/>
+  <medium type="homogeneous" id="smoke"><float name="sigma_t" value="1.5"/>
     <float name="albedo" value="0.8"/><phase type="hg"><float name="g" value="0.7"/></phase></medium>
   {fog_sensor}
   <shape type="cube"><transform name="to_world"><scale value="8"/></transform><bsdf type="null"/>
@@ -333,7 +334,7 @@ def write_scenes(res):
   <shape type="sphere"><transform name="to_world"><scale value="0.6"/><translate x="-0.8" y="0.6" z="0"/></transform>
     <bsdf type="dielectric"><float name="int_ior" value="1.33"/></bsdf>
     <ref name="interior" id="milk"/><ref name="exterior" id="fog"/></shape>
-  <shape type="cube"><transform name="to_world"><scale x="0.4" y="0.6" z="0.4"/><translate x="0.9" y="0.6" z="0"/></transform>
+  <shape type="cube"><transform name="to_world"><scale x="0.4" y="0.6" z="0.4"/><translate x="0.9" y="0.65" z="0"/></transform>
     <bsdf type="null"/><ref name="interior" id="smoke"/><ref name="exterior" id="fog"/></shape>
   <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
       <translate x="-3" y="1" z="1"/></transform>

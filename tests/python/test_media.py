@@ -8,15 +8,18 @@ boundary with the media's transmittance, and its MIS with phase sampling. A cros
 implementations: glass with the material's Beer-Lambert `absorption` against the same glass filled with
 an absorbing medium. Pixels are independent estimates, so their spread gives the standard error."""
 import json
+import os
 import subprocess
 import sys
 
+import jsonschema
 import numpy as np
 import pytest
 
 import caustica
 from conftest import mean_and_se
 
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 R = 2.0
 LE = [1.0, 0.5, 2.0]
 
@@ -138,6 +141,26 @@ def test_medium_inside_glass_matches_beer_lambert_absorption():
     assert clear[12:20, 12:20, 2].mean() > 1.5 * b[12:20, 12:20, 2].mean()
 
 
+def test_reflection_at_a_boundary_enters_the_side_it_leaves_on():
+    # A mirror whose front (exterior) side is declared to hold an absorbing medium, seen by a camera in vacuum:
+    # the reflected ray leaves on the exterior side, so it travels in the absorber and never reaches the sky
+    # (pbrt-v4's GetMedium, Mitsuba's target_medium); around the mirror the sky is seen through vacuum.
+    d = {
+        "camera": {"position": [0, 0, 5], "target": [0, 0, 0], "fov": 40, "width": 16, "height": 16},
+        "media": {"ink": {"sigma_a": 5.0, "sigma_s": 0.0}},
+        "materials": {"mirror": {"type": "conductor"}},
+        "shapes": [{"type": "rectangle", "material": "mirror", "exterior": "ink",
+                    "transform": {"rotate": {"axis": [0, 1, 0], "angle": 20}}}],
+        "lights": [{"type": "environment", "radiance": LE}],
+    }
+    img = caustica.render(d, spp=4, seed=1, max_depth=-1)
+    assert float(img[8, 8].max()) == 0.0  # the mirror's centre
+    assert np.allclose(img[0, 0], LE)     # the corner: the sky
+    # Without the declared medium the mirror shows the sky.
+    del d["shapes"][0]["exterior"]
+    assert np.allclose(caustica.render(d, spp=4, seed=1, max_depth=-1)[8, 8], LE, rtol=1e-4)
+
+
 def test_wavefront_and_threads_give_the_same_image():
     medium = {"sigma_a": 0.1, "sigma_s": [0.5, 1.0, 1.5], "g": 0.5}
     scene = medium_sphere(medium, width=16)
@@ -202,6 +225,14 @@ def test_sigma_t_albedo_scale_and_export_round_trip(tmp_path):
     assert j["camera"]["medium"] == "m"
     assert j["materials"]["boundary"] == {"type": "null"}
     assert np.array_equal(ia, caustica.render(str(out), spp=4, seed=7, max_depth=-1))
+    # The exported file and the scene-format example follow the JSON Schema; a misspelt medium key does not.
+    schema = json.load(open(os.path.join(ROOT, "docs", "scene.schema.json")))
+    jsonschema.Draft202012Validator(schema).validate(j)
+    jsonschema.Draft202012Validator(schema).validate(a)
+    bad = json.loads(json.dumps(a))
+    bad["media"]["m"]["sigma"] = 1.0
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.Draft202012Validator(schema).validate(bad)
 
 
 MITSUBA_FOG = """<scene version="3.0.0">

@@ -21,7 +21,7 @@
 // estimator of pbrt-v3 Sec. 15.2 with pbrt-v4's spectral MIS over the path, medium/medium.h): a path knows
 // the medium its ray travels in. Before a surface, path_shade samples a free-flight distance; a scattering event in the medium is a vertex like a
 // surface's, with the phase function in the place of the BSDF (NEE with MIS, phase sampling, Russian
-// roulette). Crossing a transmissive surface with a medium interface changes the medium; null surfaces
+// roulette). Leaving a surface with a medium interface puts the ray in the medium of the side it leaves on; null surfaces
 // (MaterialType::kNull) are crossed without counting a segment. Shadow rays carry the transmittance of
 // the media they pass, through null surfaces (path_shadow_transmittance).
 #pragma once
@@ -279,12 +279,12 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
         float w = 1.f;
         if (!ls.delta) w = power_heuristic(pmf * ls.pdf, bsdf_pdf(m, wo, wi));
         sr.contrib = st.beta * f * ls.Li * (abs_cos_theta(wi) * w / (pmf * ls.pdf));
-        // Light behind the surface (transmission): start on the other side, in the medium there.
+        // Light behind the surface (transmission): start on the other side. The shadow ray is in the medium
+        // of the side it leaves on (a medium boundary's, else the path's).
         const bool same_side = dot(ls.wi, sh.ng) * dot(wo_world, sh.ng) > 0.f;
         Vec3f o = same_side ? p_front : offset_ray_origin(sh.p, sh.ng, ls.wi);
         path_shadow_ray_to(sr, o, ls);
-        sr.medium = same_side ? st.medium
-                              : medium_after_crossing(prim_medium_interface(s, sh.prim), ls.wi, sh.ng, st.medium);
+        sr.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), ls.wi, sh.ng, st.medium);
         sr.active = !is_black(sr.contrib) && isfinite3(sr.contrib);
       }
     }
@@ -305,9 +305,10 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   st.eta_scale *= bs.eta * bs.eta;
   st.prev_pdf = bs.pdf;
   st.prev_delta = bs.delta;
-  const bool reflected = dot(wi_world, sh.ng) * dot(wo_world, sh.ng) > 0.f;
-  if (!reflected) st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), wi_world, sh.ng, st.medium);
-  st.ray.o = reflected ? p_front : offset_ray_origin(sh.p, sh.ng, wi_world);
+  // The next ray is in the medium on the side it leaves (for a medium boundary: by that side, after a
+  // reflection too, as pbrt-v4's GetMedium and Mitsuba 3's target_medium decide).
+  st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), wi_world, sh.ng, st.medium);
+  st.ray.o = dot(wi_world, sh.ng) * dot(wo_world, sh.ng) > 0.f ? p_front : offset_ray_origin(sh.p, sh.ng, wi_world);
   st.ray.d = wi_world;
   st.ray.tmax = kInf;
   st.prev_p = st.ray.o;

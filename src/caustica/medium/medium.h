@@ -49,8 +49,8 @@ struct MediumInterface {
 
 CHD RGB medium_sigma_t(const Medium& m) { return m.sigma_a + m.sigma_s; }
 
-// The medium a ray with direction d is in after crossing a surface with interface mi and normal ng, coming
-// from `current`.
+// The medium a ray with direction d is in as it leaves (crosses or is reflected by) a surface with
+// interface mi and normal ng, coming from `current`: the side's medium at a medium boundary, else `current`.
 CHD int32_t medium_after_crossing(const MediumInterface& mi, Vec3f d, Vec3f ng, int32_t current) {
   if (!mi.transition) return current;
   return dot(d, ng) < 0.f ? mi.interior : mi.exterior;
