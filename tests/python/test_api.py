@@ -22,7 +22,7 @@ def test_load_scene_overrides_and_info():
     assert {"cornell", "smallvcm-sun", "smallvcm-mirror-ball", "smallvcm-point", "smallvcm-env"} <= set(names)
 
 
-@pytest.mark.parametrize("name", ["smallvcm-sun", "smallvcm-mirror-ball", "smallvcm-point", "smallvcm-env"])
+@pytest.mark.parametrize("name", ["smallvcm-sun", "smallvcm-mirror-ball", "smallvcm-point", "smallvcm-env", "smallvcm-fog"])
 def test_every_builtin_renders(name):
     img = caustica.render(caustica.load_scene(name, width=32, height=32), spp=2)
     assert np.isfinite(img).all() and img.mean() > 0

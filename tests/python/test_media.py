@@ -291,3 +291,17 @@ def test_mitsuba_medium_errors(tmp_path, xml, message):
     with pytest.raises(caustica.InputError) as e:
         caustica.load_scene(str(f))
     assert str(e.value).startswith(f"{f}:") and str(e.value).endswith(message), str(e.value)
+
+
+def test_builtin_fog_scene():
+    # smallvcm-fog: smallvcm-spheres with haze inside the box. The haze scatters light into the view of the
+    # dark opening's border and dims the walls; the same seed without the haze is another image. Only path
+    # renders it.
+    assert caustica.describe("smallvcm-fog")["media"] == 1
+    fog = caustica.render(caustica.load_scene("smallvcm-fog", width=32, height=32), spp=16, seed=1)
+    clear = caustica.render(caustica.load_scene("smallvcm-spheres", width=32, height=32), spp=16, seed=1)
+    assert np.isfinite(fog).all() and fog.mean() > 0
+    assert np.abs(fog - clear).mean() > 0.05 * clear.mean()
+    with pytest.raises(caustica.InputError):
+        caustica.render("smallvcm-fog", integrator="sppm", spp=1)
+

@@ -13,6 +13,7 @@ const std::vector<std::pair<std::string, std::string>>& builtin_scenes() {
       {"smallvcm-point", "SmallVCM scene 2: glossy floor, mirror and glass spheres, point light"},
       {"smallvcm-env", "SmallVCM scene 3: glossy floor, mirror and glass spheres, constant environment"},
       {"point-in-glass", "SDS: SmallVCM's box lit only by a point light inside a glass sphere (path tracing renders it black)"},
+      {"smallvcm-fog", "SmallVCM's spheres and area light in a box filled with haze (participating media; integrator path)"},
   };
   return s;
 }
@@ -33,6 +34,7 @@ SceneDesc builtin_scene(const std::string& name) {
   else if (name == "smallvcm-mirror-ball") d = make_smallvcm_cornell(true, false, SmallVCMLight::kArea);
   else if (name == "smallvcm-point") d = make_smallvcm_cornell(false, true, SmallVCMLight::kPoint);
   else if (name == "point-in-glass") d = make_point_in_glass();
+  else if (name == "smallvcm-fog") d = make_smallvcm_fog();
   else if (name == "smallvcm-env") d = make_smallvcm_cornell(false, true, SmallVCMLight::kBackground);
   else {
     std::string list;

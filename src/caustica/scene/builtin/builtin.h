@@ -20,5 +20,7 @@ SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, Sm
 // SmallVCM's box with a point light inside a glass sphere: all light reaches the room
 // through glass (L S+ D ... E), which path tracing cannot sample.
 SceneDesc make_point_in_glass();
+// SmallVCM's box (area light, mirror and glass spheres) filled with a homogeneous haze.
+SceneDesc make_smallvcm_fog();
 
 }  // namespace caustica

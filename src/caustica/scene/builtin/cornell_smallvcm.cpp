@@ -131,4 +131,41 @@ SceneDesc make_point_in_glass() {
   return d;
 }
 
+// SmallVCM's box with the area light and both spheres, filled with a homogeneous haze (participating
+// media, medium/medium.h): a null box just inside the walls holds it (the front, open side included), so
+// camera rays enter the haze at the box's opening; the glass sphere is clear inside (its exterior is the
+// haze). Rendered by the volumetric path tracer (`path`).
+SceneDesc make_smallvcm_fog() {
+  SceneDesc d = make_smallvcm_cornell(false, true, SmallVCMLight::kArea);
+  Medium haze;
+  haze.sigma_a = RGB(0.01f);
+  haze.sigma_s = RGB(0.22f, 0.25f, 0.3f);
+  haze.g = 0.4f;
+  d.medium_names.push_back("haze");
+  d.media.push_back(haze);
+  int null_material = d.add_material("haze-boundary", Material());
+  d.materials[size_t(null_material)].type = MaterialType::kNull;
+  // The box's inside, 0.005 in from the walls (a face in a wall's plane would be ambiguous to the ray queries).
+  const Vec3f lo(-1.27029f, -1.25549f, -1.28002f), hi(1.28975f, 1.30455f, 1.28002f);
+  const Vec3f half = (hi - lo) * 0.5f - Vec3f(0.005f), centre = (hi + lo) * 0.5f;
+  ShapeDesc box;
+  box.name = "haze";
+  box.type = ShapeType::kCube;
+  for (int k = 0; k < 3; ++k) {
+    box.to_world.m[k][k] = half[k];
+    box.to_world.m[k][3] = centre[k];
+  }
+  box.material = null_material;
+  box.medium_interface = true;
+  box.interior = 0;
+  d.shapes.push_back(box);
+  for (ShapeDesc& s : d.shapes)
+    if (s.name == "glass-sphere") {
+      s.medium_interface = true;
+      s.exterior = 0;
+    }
+  d.max_depth = 16;
+  return d;
+}
+
 }  // namespace caustica
