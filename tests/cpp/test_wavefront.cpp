@@ -141,7 +141,7 @@ TEST(CpuBackend, SortPairsIsAStableSortByTheLowKeyBits) {
 // Bit-identity with the CPU path tracer, for every combination of the wavefront's switches, on scenes with
 // diffuse, glossy, mirror and glass materials, area, point and environment lights.
 TEST(Wavefront, CpuBackendReproducesThePathTracerBitForBit) {
-  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-point", "smallvcm-env", "smallvcm-sun"}) {
+  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-point", "smallvcm-env", "smallvcm-sun", "smallvcm-fog"}) {
     auto sc = small_scene(name, 40, 30);
     RenderOptions o = path_options(3, 11);
     RenderStats ref_stats;
@@ -239,7 +239,7 @@ TEST(Cuda, WithoutAGpuTheDeviceIsAnInputError) {
 TEST(Cuda, PathTracerMatchesTheCpuPerRegion) {
   std::string why;
   if (cuda_devices(&why).empty()) GTEST_SKIP() << "no CUDA device: " << why;
-  for (const char* name : {"cornell", "smallvcm-spheres"}) {
+  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-fog"}) {
     auto sc = small_scene(name, 32, 32);
     RenderOptions o = path_options(16, 0);
     o.sampler = SamplerType::kIndependent;
