@@ -421,7 +421,7 @@ TEST(ObjLoader, GroupsMaterialsAndTheMtlMapping) {
         "newmtl glass\nKd 0 0 0\nNi 1.33\nTf 0.9 1 0.9\nillum 7\n"
         "newmtl pane\nd 0.5\nillum 2\n"
         "newmtl lamp\nKe 10 9 8\n"
-        "newmtl wood\nKd 0.6 0.6 0.6\nmap_Kd -s 1 1 1 tex/wood.pfm\nmap_Bump bump.png\n"
+        "newmtl wood\nKd 0.6 0.6 0.6\nmap_Kd -s 1 1 1 tex/wood.pfm\nrefl refl.png\n"
         "newmtl leaf\nKd 0.2 0.6 0.1\nmap_d tex/wood.pfm\n");
   std::string obj = "mtllib mats.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\n";
   const char* names[] = {"red", "grey1", "shiny", "hot", "mirror", "varnish", "glass", "pane", "lamp", "wood", "leaf"};
@@ -474,7 +474,7 @@ TEST(ObjLoader, GroupsMaterialsAndTheMtlMapping) {
   EXPECT_EQ(d.textures[0].width, 2);
   EXPECT_FLOAT_EQ(d.textures[0].rgba[0], 0.25f);
   ASSERT_EQ(d.warnings.size(), 2u);
-  EXPECT_EQ(d.warnings[0], (test_dir() / "mats.mtl").string() + ": ignored MTL statements without a mapping (map_Bump)");
+  EXPECT_EQ(d.warnings[0], (test_dir() / "mats.mtl").string() + ": ignored MTL statements without a mapping (refl)");
   EXPECT_EQ(d.warnings[1], p + ": 1 material has Kd + Ks above 1; both scaled down to conserve energy");
   // The uv column: vt given on no face -> no uvs.
   EXPECT_TRUE(d.meshes[0].uvs.empty());
@@ -484,6 +484,62 @@ TEST(ObjLoader, GroupsMaterialsAndTheMtlMapping) {
   // It builds and has one area light (two triangles).
   auto sc = Scene::build(d);
   EXPECT_GT(sc->view().num_lights, 0u);
+}
+
+// norm is a normal map; bump / map_Bump a height map unless its texels are a tangent-space normal map's
+// (exporters write normal maps there); -bm scales either; norm wins over a bump map, with a warning.
+TEST(ObjLoader, BumpAndNormalMaps) {
+  auto pfm = [](float r, float g, float b) {
+    std::string t = "PF\n2 2\n-1.0\n";
+    for (int i = 0; i < 4; ++i) {
+      put<float>(t, r, false);
+      put<float>(t, g, false);
+      put<float>(t, b, false);
+    }
+    return t;
+  };
+  write("tex/height.pfm", pfm(0.3f, 0.3f, 0.3f));
+  write("tex/normal.pfm", pfm(0.6f, 0.45f, 0.95f));
+  write("tex/bright.pfm", pfm(0.8f, 0.8f, 0.8f));  // a light grey height map: still heights
+  write("bumps.mtl",
+        "newmtl height\nKd 0.5\nbump -bm 0.02 tex/height.pfm\n"
+        "newmtl blender\nKd 0.5\nmap_Bump -bm 0.7 tex/normal.pfm\n"
+        "newmtl both\nKd 0.5\nnorm tex/normal.pfm\nmap_bump tex/height.pfm\n"
+        "newmtl bright\nKd 0.5\nmap_Bump tex/bright.pfm\n");
+  std::string obj = "mtllib bumps.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                    "vn 0 0 1\n";
+  for (const char* n : {"height", "blender", "both", "bright"})
+    obj += std::string("g ") + n + "\nusemtl " + n + "\nf 1/1/1 2/2/1 3/3/1 4/4/1\n";
+  std::string p = write("bumps.obj", obj);
+  SceneDesc d = load_obj(p);
+  auto mat = [&](const std::string& n) -> const Material& {
+    int i = d.material_index("bumps/" + n);
+    EXPECT_GE(i, 0) << n;
+    return d.materials[size_t(std::max(i, 0))];
+  };
+  EXPECT_GE(mat("height").tex_bump, 0);
+  EXPECT_EQ(mat("height").tex_normal, -1);
+  EXPECT_FLOAT_EQ(mat("height").bump_scale, 0.02f);
+  EXPECT_GE(mat("blender").tex_normal, 0);
+  EXPECT_EQ(mat("blender").tex_bump, -1);
+  EXPECT_FLOAT_EQ(mat("blender").normal_scale, 0.7f);
+  EXPECT_GE(mat("both").tex_normal, 0);
+  EXPECT_EQ(mat("both").tex_bump, -1);
+  EXPECT_FLOAT_EQ(mat("both").normal_scale, 1.f);
+  EXPECT_GE(mat("bright").tex_bump, 0);
+  EXPECT_EQ(mat("bright").tex_normal, -1);
+  EXPECT_FLOAT_EQ(mat("bright").bump_scale, 1.f);
+  for (const TextureDesc* t : {&d.textures[size_t(mat("height").tex_bump)], &d.textures[size_t(mat("both").tex_normal)]})
+    EXPECT_FALSE(t->srgb);  // data, read linearly
+  const std::string mtl = (test_dir() / "bumps.mtl").string();
+  ASSERT_EQ(d.warnings.size(), 2u);
+  EXPECT_EQ(d.warnings[0], mtl + ": line 6: bump map 'tex/normal.pfm' read as a tangent-space normal map (its texels are one's)");
+  EXPECT_EQ(d.warnings[1], mtl + ": line 10: bump map 'tex/height.pfm' not used: the material has a normal map (norm)");
+  // The normal-mapped parts get smooth tangents; the height-mapped one needs none.
+  for (const ShapeDesc& s : d.shapes)
+    EXPECT_EQ(d.meshes[size_t(s.mesh)].tangents.empty(), d.materials[size_t(s.material)].tex_normal < 0) << s.name;
+  auto sc = Scene::build(d);
+  EXPECT_EQ(sc->view().num_triangles, 8u);
 }
 
 TEST(ObjLoader, MaterialOverrideIgnoresTheMtl) {

@@ -98,6 +98,7 @@ struct MtlInfo {
   int illum = -1;
   bool has_kd = false, has_ks = false, has_ke = false, has_tf = false, has_ni = false, has_d = false;
   int map_kd_line = 0, map_ke_line = 0, map_d_line = 0;  // lines of map_Kd / map_Ke / map_d (0: none)
+  int bump_line = 0, norm_line = 0;  // lines of bump / map_Bump / map_bump and of norm (0: none)
 };
 
 struct MtlLib {
@@ -105,6 +106,23 @@ struct MtlLib {
   std::map<std::string, std::string> text_by_token;  // tinyobjloader's mtllib token -> MTL text
   std::vector<std::string> ignored;                  // MTL statements that have no meaning here
 };
+
+// Whether a texture holds a tangent-space normal map rather than heights: its red and green average within
+// 0.25 of 0.5 (x and y of 2 rgb - 1 near 0), its blue above 0.7 (z near 1), and in nine texels of ten blue
+// exceeds both other channels by 0.1. A grey height map (r = g = b) fails the last test, whatever its level.
+bool looks_like_normal_map(const TextureDesc& t) {
+  const size_t n = size_t(t.width) * size_t(t.height);
+  if (n == 0) return false;
+  double r = 0, g = 0, b = 0;
+  size_t blue = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const float* px = &t.rgba[4 * i];
+    r += px[0], g += px[1], b += px[2];
+    blue += px[2] >= std::max(px[0], px[1]) + 0.1f;
+  }
+  r /= double(n), g /= double(n), b /= double(n);
+  return b > 0.7 && std::fabs(r - 0.5) < 0.25 && std::fabs(g - 0.5) < 0.25 && blue * 10 >= n * 9;
+}
 
 // Checks one MTL file and records its materials.
 void scan_mtl(const std::string& path, const std::string& text, MtlLib& lib) {
@@ -180,6 +198,8 @@ void scan_mtl(const std::string& path, const std::string& text, MtlLib& lib) {
       if (kw == "map_Kd") cur->map_kd_line = ln;
       else if (kw == "map_Ke") cur->map_ke_line = ln;
       else if (kw == "map_d") cur->map_d_line = ln;
+      else if (kw == "bump" || kw == "map_Bump" || kw == "map_bump") cur->bump_line = ln;
+      else if (kw == "norm") cur->norm_line = ln;
       else if (std::find(lib.ignored.begin(), lib.ignored.end(), kw) == lib.ignored.end()) lib.ignored.push_back(kw);
       return;
     }
@@ -660,6 +680,27 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
                                                                               : texture(tm.alpha_texname, mi->map_d_line, false);
       if (!texture_has_alpha(desc.textures[m.tex_opacity])) m.flags |= kOpacityLuminance;
     }
+    // norm: a tangent-space normal map. bump / map_Bump: a height map in the MTL spec, but exporters
+    // (Blender's among them) write normal maps there too; a map whose texels are those of a tangent-space
+    // normal map (looks_like_normal_map) is read as one, anything else as heights.
+    if (mi->norm_line && !tm.normal_texname.empty()) {
+      m.tex_normal = texture(tm.normal_texname, mi->norm_line, false);
+      if (mi->bump_line && !tm.bump_texname.empty())
+        desc.warnings.push_back(mi->file + ": line " + std::to_string(mi->bump_line) + ": bump map '" +
+                                tm.bump_texname + "' not used: the material has a normal map (norm)");
+    } else if (mi->bump_line && !tm.bump_texname.empty()) {
+      int t = texture(tm.bump_texname, mi->bump_line, false);
+      const float bm = float(tm.bump_texopt.bump_multiplier);
+      if (looks_like_normal_map(desc.textures[size_t(t)])) {
+        m.tex_normal = t;
+        m.normal_scale = bm;
+        desc.warnings.push_back(mi->file + ": line " + std::to_string(mi->bump_line) + ": bump map '" +
+                                tm.bump_texname + "' read as a tangent-space normal map (its texels are one's)");
+      } else {
+        m.tex_bump = t;
+        m.bump_scale = bm;
+      }
+    }
     int idx = desc.add_material(unique_name(stem + "/" + tm.name), m);
     return converted[id] = idx;
   };
@@ -828,6 +869,14 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
     W.push_back(path + ": " + plural(scaled_phong, "material has", "materials have") +
                 " Kd + Ks above 1; both scaled down to conserve energy");
   if (added.empty()) throw InputError(path + ": no valid triangles (all faces are degenerate or have non-finite coordinates)");
+  // Normal maps turn with smooth tangent frames where the mesh has normals and UVs (as glTF asks for a
+  // normal map without TANGENT; scene_desc.h).
+  for (int k : added) {
+    const ShapeDesc& sh = desc.shapes[size_t(k)];
+    if (sh.mesh < 0 || sh.material < 0 || desc.materials[size_t(sh.material)].tex_normal < 0) continue;
+    MeshDesc& mesh = desc.meshes[size_t(sh.mesh)];
+    if (mesh.tangents.empty()) generate_tangents(mesh);
+  }
   return added;
 }
 
