@@ -73,6 +73,12 @@ struct ShadowRay {
   RGB contrib{0.f};
   bool active = false;
   int32_t medium = -1;  // the medium the ray starts in (path_shadow_transmittance)
+  // A second shadow ray of the same stage: equiangular single scattering from a point or spot light along the
+  // segment just traced in a medium (path_equiangular).
+  Ray ray2;
+  RGB contrib2{0.f};
+  bool active2 = false;
+  int32_t medium2 = -1;
 };
 
 // The most null surfaces one ray crosses between two vertices, or one shadow ray on its way.
@@ -87,10 +93,8 @@ CHD MediumInterface prim_medium_interface(const SceneView& s, uint32_t prim) {
 // without media; otherwise the product of the media's transmittances along it, through null surfaces
 // (any other surface occludes). `tracer` is any type with intersect(Ray, Hit&) and occluded(Ray).
 template <typename Tracer>
-CHD RGB path_shadow_transmittance(const SceneView& s, const Tracer& tracer, const ShadowRay& sr) {
-  if (!scene_has_media(s)) return tracer.occluded(sr.ray) ? RGB(0.f) : RGB(1.f);
-  Ray r = sr.ray;
-  int32_t medium = sr.medium;
+CHD RGB shadow_transmittance(const SceneView& s, const Tracer& tracer, Ray r, int32_t medium) {
+  if (!scene_has_media(s)) return tracer.occluded(r) ? RGB(0.f) : RGB(1.f);
   const float dlen = length(r.d);
   RGB Tr(1.f);
   for (uint32_t k = 0; k <= kMaxNullCrossings; ++k) {
@@ -112,6 +116,10 @@ CHD RGB path_shadow_transmittance(const SceneView& s, const Tracer& tracer, cons
     if (!(r.tmax > 0.f)) return Tr;
   }
   return RGB(0.f);
+}
+template <typename Tracer>
+CHD RGB path_shadow_transmittance(const SceneView& s, const Tracer& tracer, const ShadowRay& sr) {
+  return shadow_transmittance(s, tracer, sr.ray, sr.medium);
 }
 
 CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint32_t py, uint32_t sample_index,
@@ -149,12 +157,13 @@ CHD void path_add_emission(const SceneView& s, const PathParams& pp, const Surfa
   L += beta * Le * w;
 }
 
-// The NEE contribution's light sample and MIS weight for a vertex at p with density `scatter_pdf` of the
-// sampled direction under the vertex's own sampling (BSDF or phase function); fills sr's ray towards the
-// light from origin o. Returns false when no light sample was made.
-CHD bool path_light_sample(const SceneView& s, const PathParams& pp, Vec3f p, Vec2f u, LightSample& ls, float& pmf) {
+// NEE's light sample from p: a light chosen by choose_light from u.x (its index to *light, its probability to
+// pmf), then a point or direction on it from the remapped u. Returns false when no light sample was made.
+CHD bool path_light_sample(const SceneView& s, const PathParams& pp, Vec3f p, Vec2f u, LightSample& ls, float& pmf,
+                           int32_t* light = nullptr) {
   pmf = 0.f;
   int32_t li = choose_light(s, pp.light_bvh, p, u, pmf);
+  if (light) *light = li;
   return li >= 0 && sample_light(s, s.lights[li], p, u, ls);
 }
 CHD void path_shadow_ray_to(ShadowRay& sr, Vec3f o, const LightSample& ls) {
@@ -167,19 +176,71 @@ CHD void path_shadow_ray_to(ShadowRay& sr, Vec3f o, const LightSample& ls) {
   }
 }
 
+// The density with which equiangular sampling (path_equiangular) on the segment o + t d, t < t_max, picks
+// light li and then distance t: the light's probability from o times the equiangular density.
+CHD float path_equiangular_density(const SceneView& s, const PathParams& pp, Vec3f o, Vec3f d, float t_max,
+                                   int32_t li, float t) {
+  const Light& l = s.lights[li];
+  if (l.type != LightType::kPoint && l.type != LightType::kSpot) return 0.f;
+  return path_light_pmf(s, pp, o, uint32_t(li)) * equiangular_pdf(equiangular_segment(o, d, t_max, l.p), t);
+}
+
+// Equiangular sampling (Kulla & Fajardo 2012, Sec. 4.1) of the single scattering from a point or spot light
+// along the segment o + t d (unit d, t < t_max) that the path just traced through medium `md`: a light chosen
+// from o, a distance t by medium/medium.h's equiangular_sample, and the phase function and transmittance to
+// the light there, as sr's second shadow ray. Combined by the power heuristic with the same light's NEE at a
+// free-flight scattering event at t (path_scatter_in_medium), whose density is q(t) = the channels' average
+// of r sigma_t T(t) (the path's free-flight density, medium/medium.h) times the light's probability from
+// x(t). Kulla and Fajardo combine the two strategies the same way (their Sec. 4.1 and 5).
+CHD void path_equiangular(const SceneView& s, const PathParams& pp, const PathState& st, const Medium& md, Vec3f o,
+                          Vec3f d, float t_max, Vec2f u, ShadowRay& sr) {
+  float pmf = 0.f;
+  const int32_t li = choose_light(s, pp.light_bvh, o, u, pmf);
+  if (li < 0) return;
+  const Light& l = s.lights[li];
+  if (l.type != LightType::kPoint && l.type != LightType::kSpot) return;
+  EquiangularSegment e = equiangular_segment(o, d, t_max, l.p);
+  if (!e.valid) return;
+  const float t = equiangular_sample(e, u.y);
+  if (!(t >= 0.f && t < t_max)) return;
+  const float pe = equiangular_pdf(e, t);
+  const Vec3f x = o + d * t;
+  LightSample ls;
+  if (!(pe > 0.f) || !sample_light(s, l, x, Vec2f(0.5f, 0.5f), ls)) return;
+  const RGB st_ = medium_sigma_t(md), T = medium_transmittance(st_, t);
+  const RGB p_ff = st_ * T, rp = st.r_medium * p_ff;
+  const float q = (rp.x + rp.y + rp.z) * (1.f / 3.f) * path_light_pmf(s, pp, x, uint32_t(li));
+  const float a = pmf * pe, w = a * a / (a * a + q * q);
+  sr.contrib2 = st.beta * md.sigma_s * T * ls.Li * (hg_phase(dot(-d, ls.wi), md.g) * w / a);
+  sr.ray2 = spawn_ray_to(x, ls.p_l, ls.n_l);
+  sr.medium2 = st.medium;
+  sr.active2 = !is_black(sr.contrib2) && isfinite3(sr.contrib2);
+}
+
 // A scattering event in medium `md` at distance t along st.ray (st.beta already holds the distance
-// sample's factor): NEE with the phase function, MIS against phase sampling, the next direction, roulette.
+// sample's factor; q is the free-flight density of t, the channels' average of r sigma_t T(t) before the
+// event, and (o, d, t_max) the segment, unit d, for the MIS weight against path_equiangular): NEE with the
+// phase function, MIS against phase sampling (and equiangular sampling for point and spot lights), the next
+// direction, roulette.
 CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathState& st, const Medium& md, float t,
-                                ShadowRay& sr) {
+                                float q, Vec3f o, Vec3f d, float t_max, ShadowRay& sr) {
   const Vec3f p = st.ray.o + st.ray.d * t;
   const Vec3f wo = -normalize(st.ray.d);
   Vec2f u_light2 = st.sampler.next_2d();
   if (s.num_lights > 0) {
     float pmf;
     LightSample ls;
-    if (path_light_sample(s, pp, p, u_light2, ls, pmf)) {
+    int32_t li = -1;
+    if (path_light_sample(s, pp, p, u_light2, ls, pmf, &li)) {
       float ph = hg_phase(dot(wo, ls.wi), md.g);
-      float w = ls.delta ? 1.f : power_heuristic(pmf * ls.pdf, ph);
+      float w = 1.f;
+      if (!ls.delta) {
+        w = power_heuristic(pmf * ls.pdf, ph);
+      } else if (s.num_point_lights > 0) {
+        const float a = path_equiangular_density(s, pp, o, d, t_max, li, t * length(st.ray.d));
+        const float b = pmf * q;
+        w = b * b / (a * a + b * b);
+      }
       sr.contrib = st.beta * ls.Li * (ph * w / (pmf * ls.pdf));
       path_shadow_ray_to(sr, p, ls);
       sr.medium = st.medium;
@@ -207,19 +268,29 @@ CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathSt
 
 CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, const Hit& hit, ShadowRay& sr) {
   sr.active = false;
+  sr.active2 = false;
   st.depth += 1;  // the segment just traced
   if (st.medium >= 0) {
-    // Free-flight sampling up to the surface (medium/medium.h).
     const Medium& md = s.media[st.medium];
     const float dlen = length(st.ray.d);
+    const Vec3f o = st.ray.o, d = st.ray.d / dlen;
+    const float t_max = hit.valid() ? hit.t * dlen : kInf;
+    // Equiangular single scattering from point and spot lights along the segment (its own shadow ray).
+    if (s.num_point_lights > 0 && st.depth < pp.max_depth) {
+      Vec2f u_eq = st.sampler.next_2d();
+      path_equiangular(s, pp, st, md, o, d, t_max, u_eq, sr);
+    }
+    // Free-flight sampling up to the surface (medium/medium.h).
     Vec2f u_m = st.sampler.next_2d();
     // The hero channel is drawn at the path's first medium event (u_m.x) and kept (medium/medium.h).
     if (st.hero < 0) st.hero = u_m.x < 1.f / 3.f ? 0 : (u_m.x < 2.f / 3.f ? 1 : 2);
-    MediumSample ms = sample_medium_distance(md, hit.valid() ? hit.t * dlen : kInf, st.hero, u_m.y);
+    MediumSample ms = sample_medium_distance(md, t_max, st.hero, u_m.y);
+    const RGB rp = st.r_medium * ms.p;
+    const float q = (rp.x + rp.y + rp.z) * (1.f / 3.f);
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }
     if (ms.scattered) {
       if (st.depth >= pp.max_depth) { st.active = false; return; }
-      path_scatter_in_medium(s, pp, st, md, ms.t / dlen, sr);
+      path_scatter_in_medium(s, pp, st, md, ms.t / dlen, q, o, d, t_max, sr);
       return;
     }
   }
@@ -339,6 +410,10 @@ inline void path_vertex(const SceneView& s, const PathParams& pp, const Accel& a
   if (sr.active) {
     ++shadow_rays;
     path_shadow(st, sr, path_shadow_transmittance(s, accel, sr));
+  }
+  if (sr.active2) {
+    ++shadow_rays;
+    st.L += sr.contrib2 * shadow_transmittance(s, accel, sr.ray2, sr.medium2);
   }
 }
 

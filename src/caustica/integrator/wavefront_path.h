@@ -114,12 +114,14 @@ class WavefrontPath {
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
         uint32_t i = queue[k];
         if (states[i].active) path_shade(s, pp, states[i], hits[i], shadow[i]);
-        else shadow[i].active = false;
+        else shadow[i].active = shadow[i].active2 = false;
       });
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
         uint32_t i = queue[k];
-        flags[k] = shadow[i].active ? 1u : 0u;
+        flags[k] = (shadow[i].active ? 1u : 0u) + (shadow[i].active2 ? 1u : 0u);
         if (shadow[i].active) path_shadow(states[i], shadow[i], path_shadow_transmittance(s, tracer, shadow[i]));
+        if (shadow[i].active2)
+          states[i].L += shadow[i].contrib2 * shadow_transmittance(s, tracer, shadow[i].ray2, shadow[i].medium2);
       });
       stats.shadow_rays += b_.exclusive_scan(flags, scan, len);
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });

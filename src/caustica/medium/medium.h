@@ -103,6 +103,35 @@ CHD bool medium_update_throughput(const MediumSample& ms, RGB& beta, RGB& r) {
   return true;
 }
 
+// Equiangular sampling of a distance along a ray (Kulla & Fajardo 2012, "Importance Sampling Techniques
+// for Path Tracing in Participating Media", Sec. 4.1): for a point c off the unit-direction ray o + t d,
+// t in [0, t_max), the density proportional to 1 / |x(t) - c|^2, which cancels the inverse-square falloff
+// of a point light at c. With delta = dot(c - o, d) and D the distance from c to the ray's line, t = delta +
+// D tan(theta) for theta uniform between theta_a = atan(-delta / D) and theta_b = atan((t_max - delta) / D),
+// pdf(t) = D / ((theta_b - theta_a) (D^2 + (t - delta)^2)).
+struct EquiangularSegment {
+  float delta = 0.f, D = 0.f, theta_a = 0.f, theta_b = 0.f;
+  bool valid = false;
+};
+CHD EquiangularSegment equiangular_segment(Vec3f o, Vec3f d, float t_max, Vec3f c) {
+  EquiangularSegment e;
+  e.delta = dot(c - o, d);
+  e.D = length(c - (o + d * e.delta));
+  if (!(e.D > 1e-6f)) return e;  // the light on the ray's line: no density to speak of
+  e.theta_a = std::atan2(-e.delta, e.D);
+  e.theta_b = std::isfinite(t_max) ? std::atan2(t_max - e.delta, e.D) : 0.5f * kPi;
+  e.valid = e.theta_b > e.theta_a;
+  return e;
+}
+CHD float equiangular_sample(const EquiangularSegment& e, float u) {
+  return e.delta + e.D * std::tan(lerpf(u, e.theta_a, e.theta_b));
+}
+CHD float equiangular_pdf(const EquiangularSegment& e, float t) {
+  if (!e.valid) return 0.f;
+  float x = t - e.delta;
+  return e.D / ((e.theta_b - e.theta_a) * (e.D * e.D + x * x));
+}
+
 // Henyey-Greenstein, with cos_theta = dot(wo, wi) and wo pointing back along the incoming ray.
 CHD float hg_phase(float cos_theta, float g) {
   float denom = 1.f + g * g + 2.f * g * cos_theta;

@@ -901,6 +901,8 @@ void Scene::update_view() {
   for (const Material& m : materials) v.has_null |= m.type == MaterialType::kNull ? 1u : 0u;
   v.lights = lights.data();
   v.num_lights = uint32_t(lights.size());
+  v.num_point_lights = 0;
+  for (const Light& l : lights) v.num_point_lights += l.type == LightType::kPoint || l.type == LightType::kSpot;
   v.light_sampler = {alias_prob.data(), alias_index.data(), light_pmf.data(), uint32_t(light_pmf.size())};
   v.light_bvh.nodes = light_bvh_nodes.data();
   v.light_bvh.num_nodes = uint32_t(light_bvh_nodes.size());

@@ -84,6 +84,7 @@ struct SceneView {
   const Material* materials = nullptr;
   const Light* lights = nullptr;
   uint32_t num_lights = 0;
+  uint32_t num_point_lights = 0;  // point and spot lights (equiangular sampling in media, integrator/path.h)
   LightSamplerView light_sampler;
   LightBvhView light_bvh;  // the spatial light selection (--light-sampler bvh; light/light_bvh.h)
   int32_t environment_light = -1;  // index into lights, or -1
