@@ -73,13 +73,10 @@ struct ShadowRay {
   RGB contrib{0.f};
   bool active = false;
   int32_t medium = -1;  // the medium the ray starts in (path_shadow_transmittance)
-  // A second shadow ray of the same stage: equiangular single scattering from a point or spot light along the
-  // segment just traced in a medium (path_equiangular).
-  Ray ray2;
-  RGB contrib2{0.f};
-  bool active2 = false;
-  int32_t medium2 = -1;
 };
+
+// Whether the path tracer's drivers give path_shade a second shadow ray for equiangular sampling.
+CHD bool scene_wants_equiangular(const SceneView& s) { return s.num_media > 0 && s.num_point_lights > 0; }
 
 // The most null surfaces one ray crosses between two vertices, or one shadow ray on its way.
 constexpr uint32_t kMaxNullCrossings = 64;
@@ -193,7 +190,7 @@ CHD float path_equiangular_density(const SceneView& s, const PathParams& pp, Vec
 // of r sigma_t T(t) (the path's free-flight density, medium/medium.h) times the light's probability from
 // x(t). Kulla and Fajardo combine the two strategies the same way (their Sec. 4.1 and 5).
 CHD void path_equiangular(const SceneView& s, const PathParams& pp, const PathState& st, const Medium& md, Vec3f o,
-                          Vec3f d, float t_max, Vec2f u, ShadowRay& sr) {
+                          Vec3f d, float t_max, Vec2f u, ShadowRay& eq) {
   float pmf = 0.f;
   const int32_t li = choose_light(s, pp.light_bvh, o, u, pmf);
   if (li < 0) return;
@@ -211,19 +208,19 @@ CHD void path_equiangular(const SceneView& s, const PathParams& pp, const PathSt
   const RGB p_ff = st_ * T, rp = st.r_medium * p_ff;
   const float q = (rp.x + rp.y + rp.z) * (1.f / 3.f) * path_light_pmf(s, pp, x, uint32_t(li));
   const float a = pmf * pe, w = a * a / (a * a + q * q);
-  sr.contrib2 = st.beta * md.sigma_s * T * ls.Li * (hg_phase(dot(-d, ls.wi), md.g) * w / a);
-  sr.ray2 = spawn_ray_to(x, ls.p_l, ls.n_l);
-  sr.medium2 = st.medium;
-  sr.active2 = !is_black(sr.contrib2) && isfinite3(sr.contrib2);
+  eq.contrib = st.beta * md.sigma_s * T * ls.Li * (hg_phase(dot(-d, ls.wi), md.g) * w / a);
+  eq.ray = spawn_ray_to(x, ls.p_l, ls.n_l);
+  eq.medium = st.medium;
+  eq.active = !is_black(eq.contrib) && isfinite3(eq.contrib);
 }
 
 // A scattering event in medium `md` at distance t along st.ray (st.beta already holds the distance
 // sample's factor; q is the free-flight density of t, the channels' average of r sigma_t T(t) before the
-// event, and (o, d, t_max) the segment, unit d, for the MIS weight against path_equiangular): NEE with the
-// phase function, MIS against phase sampling (and equiangular sampling for point and spot lights), the next
-// direction, roulette.
+// event, and (o, d, t_max) the segment, unit d, for the MIS weight against path_equiangular, which ran on
+// this segment when `equiangular`): NEE with the phase function, MIS against phase sampling (and equiangular
+// sampling for point and spot lights), the next direction, roulette.
 CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathState& st, const Medium& md, float t,
-                                float q, Vec3f o, Vec3f d, float t_max, ShadowRay& sr) {
+                                float q, Vec3f o, Vec3f d, float t_max, bool equiangular, ShadowRay& sr) {
   const Vec3f p = st.ray.o + st.ray.d * t;
   const Vec3f wo = -normalize(st.ray.d);
   Vec2f u_light2 = st.sampler.next_2d();
@@ -236,7 +233,7 @@ CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathSt
       float w = 1.f;
       if (!ls.delta) {
         w = power_heuristic(pmf * ls.pdf, ph);
-      } else if (s.num_point_lights > 0) {
+      } else if (equiangular) {
         const float a = path_equiangular_density(s, pp, o, d, t_max, li, t * length(st.ray.d));
         const float b = pmf * q;
         w = b * b / (a * a + b * b);
@@ -266,9 +263,12 @@ CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathSt
   }
 }
 
-CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, const Hit& hit, ShadowRay& sr) {
+// `eq` receives the equiangular shadow ray of a segment in a medium (path_equiangular); drivers pass it
+// where the scene has media and point or spot lights (scene_wants_equiangular), else null.
+CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, const Hit& hit, ShadowRay& sr,
+                    ShadowRay* eq = nullptr) {
   sr.active = false;
-  sr.active2 = false;
+  if (eq) eq->active = false;
   st.depth += 1;  // the segment just traced
   if (st.medium >= 0) {
     const Medium& md = s.media[st.medium];
@@ -276,9 +276,10 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     const Vec3f o = st.ray.o, d = st.ray.d / dlen;
     const float t_max = hit.valid() ? hit.t * dlen : kInf;
     // Equiangular single scattering from point and spot lights along the segment (its own shadow ray).
-    if (s.num_point_lights > 0 && st.depth < pp.max_depth) {
+    const bool equiangular = eq && s.num_point_lights > 0 && st.depth < pp.max_depth;
+    if (equiangular) {
       Vec2f u_eq = st.sampler.next_2d();
-      path_equiangular(s, pp, st, md, o, d, t_max, u_eq, sr);
+      path_equiangular(s, pp, st, md, o, d, t_max, u_eq, *eq);
     }
     // Free-flight sampling up to the surface (medium/medium.h).
     Vec2f u_m = st.sampler.next_2d();
@@ -290,7 +291,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }
     if (ms.scattered) {
       if (st.depth >= pp.max_depth) { st.active = false; return; }
-      path_scatter_in_medium(s, pp, st, md, ms.t / dlen, q, o, d, t_max, sr);
+      path_scatter_in_medium(s, pp, st, md, ms.t / dlen, q, o, d, t_max, equiangular, sr);
       return;
     }
   }
@@ -405,15 +406,15 @@ CHD void path_shadow(PathState& st, const ShadowRay& sr, RGB transmittance) {
 template <typename Accel>
 inline void path_vertex(const SceneView& s, const PathParams& pp, const Accel& accel, PathState& st, const Hit& hit,
                         uint64_t& shadow_rays) {
-  ShadowRay sr;
-  path_shade(s, pp, st, hit, sr);
+  ShadowRay sr, eq;
+  path_shade(s, pp, st, hit, sr, scene_wants_equiangular(s) ? &eq : nullptr);
   if (sr.active) {
     ++shadow_rays;
     path_shadow(st, sr, path_shadow_transmittance(s, accel, sr));
   }
-  if (sr.active2) {
+  if (eq.active) {
     ++shadow_rays;
-    st.L += sr.contrib2 * shadow_transmittance(s, accel, sr.ray2, sr.medium2);
+    path_shadow(st, eq, path_shadow_transmittance(s, accel, eq));
   }
 }
 

@@ -46,6 +46,7 @@ class WavefrontPath {
     states_.resize(n_);
     hits_.resize(n_);
     shadow_.resize(n_);
+    if (scene_wants_equiangular(backend.scene())) equiangular_.resize(n_);
     queue_.resize(n_);
     queue2_.resize(n_);
     flags_.resize(n_);
@@ -66,6 +67,7 @@ class WavefrontPath {
     PathState* states = states_.data();
     Hit* hits = hits_.data();
     ShadowRay* shadow = shadow_.data();
+    ShadowRay* eq = equiangular_.size() ? equiangular_.data() : nullptr;  // scenes with media and point lights
     uint32_t* flags = flags_.data();
     uint32_t* scan = scan_.data();
     stats = WavefrontPassStats();
@@ -113,15 +115,18 @@ class WavefrontPath {
       }
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
         uint32_t i = queue[k];
-        if (states[i].active) path_shade(s, pp, states[i], hits[i], shadow[i]);
-        else shadow[i].active = shadow[i].active2 = false;
+        if (states[i].active) {
+          path_shade(s, pp, states[i], hits[i], shadow[i], eq ? eq + i : nullptr);
+        } else {
+          shadow[i].active = false;
+          if (eq) eq[i].active = false;
+        }
       });
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) {
         uint32_t i = queue[k];
-        flags[k] = (shadow[i].active ? 1u : 0u) + (shadow[i].active2 ? 1u : 0u);
+        flags[k] = (shadow[i].active ? 1u : 0u) + (eq && eq[i].active ? 1u : 0u);
         if (shadow[i].active) path_shadow(states[i], shadow[i], path_shadow_transmittance(s, tracer, shadow[i]));
-        if (shadow[i].active2)
-          states[i].L += shadow[i].contrib2 * shadow_transmittance(s, tracer, shadow[i].ray2, shadow[i].medium2);
+        if (eq && eq[i].active) path_shadow(states[i], eq[i], path_shadow_transmittance(s, tracer, eq[i]));
       });
       stats.shadow_rays += b_.exclusive_scan(flags, scan, len);
       b_.parallel_for(len, CAUSTICA_KERNEL(uint32_t k) { flags[k] = states[queue[k]].active ? 1u : 0u; });
@@ -164,7 +169,7 @@ class WavefrontPath {
   uint32_t n_ = 0;
   Buffer<PathState> states_;
   Buffer<Hit> hits_, cache_;
-  Buffer<ShadowRay> shadow_;
+  Buffer<ShadowRay> shadow_, equiangular_;
   Buffer<uint32_t> queue_, queue2_, flags_, scan_, keys_, sort_k_, sort_v_;
   WavefrontFilm<B> film_;
   bool cache_valid_ = false;
