@@ -19,11 +19,12 @@
 //
 // Participating media (volumetric path tracing; the radiative transfer equation in pbrt-v4 Eq. 14.3, the
 // estimator of pbrt-v3 Sec. 15.2 with pbrt-v4's spectral MIS over the path, medium/medium.h): a path knows
-// the medium its ray travels in. Before a surface, path_shade samples a free-flight distance; a scattering event in the medium is a vertex like a
-// surface's, with the phase function in the place of the BSDF (NEE with MIS, phase sampling, Russian
-// roulette). Leaving a surface with a medium interface puts the ray in the medium of the side it leaves on; null surfaces
-// (MaterialType::kNull) are crossed without counting a segment. Shadow rays carry the transmittance of
-// the media they pass, through null surfaces (path_shadow_transmittance).
+// the medium its ray travels in. Before a surface, path_shade samples a free-flight distance; a scattering
+// event in the medium is a vertex like a surface's, with the phase function in the place of the BSDF (NEE
+// with MIS, phase sampling, Russian roulette). Leaving a surface with a medium interface puts the ray in the
+// medium of the side it leaves on; null surfaces (MaterialType::kNull) are crossed without counting a
+// segment. Shadow rays carry the transmittance of the media they pass, through null surfaces
+// (path_shadow_transmittance).
 #pragma once
 #include "../base/sampler.h"
 #include "../light/light_sample.h"
@@ -163,6 +164,17 @@ CHD bool path_light_sample(const SceneView& s, const PathParams& pp, Vec3f p, Ve
   if (light) *light = li;
   return li >= 0 && sample_light(s, s.lights[li], p, u, ls);
 }
+// Russian roulette after a vertex's sampling (the rule in the header comment), with u_rr its uniform number;
+// ends the path where the throughput is black or the roulette says so.
+CHD void path_roulette(const PathParams& pp, PathState& st, float u_rr) {
+  if (is_black(st.beta)) { st.active = false; return; }
+  if (st.depth >= pp.rr_depth) {
+    float q = minf(max_component(st.beta) * st.eta_scale, 0.95f);
+    if (!(u_rr < q)) { st.active = false; return; }
+    st.beta /= q;
+  }
+}
+
 CHD void path_shadow_ray_to(ShadowRay& sr, Vec3f o, const LightSample& ls) {
   if (std::isfinite(ls.dist)) {
     sr.ray = spawn_ray_to(o, ls.p_l, ls.n_l);
@@ -185,7 +197,7 @@ CHD float path_equiangular_density(const SceneView& s, const PathParams& pp, Vec
 // Equiangular sampling (Kulla & Fajardo 2012, Sec. 4.1) of the single scattering from a point or spot light
 // along the segment o + t d (unit d, t < t_max) that the path just traced through medium `md`: a light chosen
 // from o, a distance t by medium/medium.h's equiangular_sample, and the phase function and transmittance to
-// the light there, as sr's second shadow ray. Combined by the power heuristic with the same light's NEE at a
+// the light there, as the shadow ray `eq`. Combined by the power heuristic with the same light's NEE at a
 // free-flight scattering event at t (path_scatter_in_medium), whose density is q(t) = the channels' average
 // of r sigma_t T(t) (the path's free-flight density, medium/medium.h) times the light's probability from
 // x(t). Kulla and Fajardo combine the two strategies the same way (their Sec. 4.1 and 5).
@@ -255,12 +267,7 @@ CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathSt
   st.ray.tmax = kInf;
   st.prev_p = p;
   st.null_crossings = 0;
-  if (is_black(st.beta)) { st.active = false; return; }
-  if (st.depth >= pp.rr_depth) {
-    float q = minf(max_component(st.beta) * st.eta_scale, 0.95f);
-    if (!(u_lobe_rr.y < q)) { st.active = false; return; }
-    st.beta /= q;
-  }
+  path_roulette(pp, st, u_lobe_rr.y);
 }
 
 // `eq` receives the equiangular shadow ray of a segment in a medium (path_equiangular); drivers pass it
@@ -384,12 +391,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   st.ray.d = wi_world;
   st.ray.tmax = kInf;
   st.prev_p = st.ray.o;
-  if (is_black(st.beta)) { st.active = false; return; }
-  if (st.depth >= pp.rr_depth) {
-    float q = minf(max_component(st.beta) * st.eta_scale, 0.95f);
-    if (!(u_rr < q)) { st.active = false; return; }
-    st.beta /= q;
-  }
+  path_roulette(pp, st, u_rr);
 }
 
 CHD void path_shadow(PathState& st, const ShadowRay& sr, bool occluded) {
