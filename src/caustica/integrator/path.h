@@ -29,6 +29,7 @@
 #include "../base/sampler.h"
 #include "../light/light_sample.h"
 #include "../material/bsdf.h"
+#include "../medium/medium_scene.h"
 #include "../scene/shading.h"
 
 namespace caustica {
@@ -79,42 +80,6 @@ struct ShadowRay {
 // Whether the path tracer's drivers give path_shade a second shadow ray for equiangular sampling.
 CHD bool scene_wants_equiangular(const SceneView& s) { return s.num_media > 0 && s.num_point_lights > 0; }
 
-// The most null surfaces one ray crosses between two vertices, or one shadow ray on its way.
-constexpr uint32_t kMaxNullCrossings = 64;
-
-// The medium interface of primitive `prim` (none when the scene has none).
-CHD MediumInterface prim_medium_interface(const SceneView& s, uint32_t prim) {
-  return s.prim_medium ? s.prim_medium[prim] : MediumInterface{};
-}
-
-// The fraction of a shadow ray's contribution that arrives: 0 or 1 from one occlusion query in scenes
-// without media; otherwise the product of the media's transmittances along it, through null surfaces
-// (any other surface occludes). `tracer` is any type with intersect(Ray, Hit&) and occluded(Ray).
-template <typename Tracer>
-CHD RGB shadow_transmittance(const SceneView& s, const Tracer& tracer, Ray r, int32_t medium) {
-  if (!scene_has_media(s)) return tracer.occluded(r) ? RGB(0.f) : RGB(1.f);
-  const float dlen = length(r.d);
-  RGB Tr(1.f);
-  for (uint32_t k = 0; k <= kMaxNullCrossings; ++k) {
-    Hit h;
-    tracer.intersect(r, h);
-    const float t = h.valid() ? h.t : r.tmax;
-    if (medium >= 0) {
-      Tr *= medium_transmittance(medium_sigma_t(s.media[medium]), t * dlen);
-      if (is_black(Tr)) return Tr;
-    }
-    if (!h.valid()) return Tr;
-    if (s.materials[s.prim_material[h.prim]].type != MaterialType::kNull) return RGB(0.f);
-    SurfaceHit sh = make_surface_hit(s, r, h);
-    medium = medium_after_crossing(prim_medium_interface(s, h.prim), r.d, sh.ng, medium);
-    Vec3f o = offset_ray_origin(sh.p, sh.ng, r.d);
-    // The rest of the segment, from just past the surface (d keeps its length, so t stays comparable).
-    r.tmax = r.tmax - t - dot(o - sh.p, r.d) / (dlen * dlen);
-    r.o = o;
-    if (!(r.tmax > 0.f)) return Tr;
-  }
-  return RGB(0.f);
-}
 template <typename Tracer>
 CHD RGB path_shadow_transmittance(const SceneView& s, const Tracer& tracer, const ShadowRay& sr) {
   return shadow_transmittance(s, tracer, sr.ray, sr.medium);
@@ -322,7 +287,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
 
   if (!st.nee_only) path_add_emission(s, pp, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
   st.nee_only = false;
-  if (s.has_null && s.materials[sh.material].type == MaterialType::kNull) {
+  if (is_null_surface(s, sh)) {
     // A null surface: the ray goes on unchanged, into the medium behind it, and no segment is counted
     // (prev_p, prev_pdf and prev_delta stay those of the vertex that sampled the direction).
     st.depth -= 1;

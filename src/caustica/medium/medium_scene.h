@@ -1,0 +1,73 @@
+// Media in a scene, for every integrator that renders them (the path tracer, integrator/path.h; volumetric
+// photon mapping in pppm, integrator/sppm.h and photon/trace.h): which medium a ray is in after a surface,
+// null surfaces, the transmittance of a shadow ray, and where a ray that starts at a light is (locate_medium).
+#pragma once
+#include "../scene/shading.h"
+#include "medium.h"
+
+namespace caustica {
+
+// The most null surfaces one ray crosses between two vertices, or one shadow ray on its way.
+constexpr uint32_t kMaxNullCrossings = 64;
+
+// The medium interface of primitive `prim` (none when the scene has none).
+CHD MediumInterface prim_medium_interface(const SceneView& s, uint32_t prim) {
+  return s.prim_medium ? s.prim_medium[prim] : MediumInterface{};
+}
+
+// Whether the surface of `sh` is a null surface (MaterialType::kNull): a medium boundary rays cross unchanged.
+CHD bool is_null_surface(const SceneView& s, const SurfaceHit& sh) {
+  return s.has_null && s.materials[sh.material].type == MaterialType::kNull;
+}
+
+// The fraction of a shadow ray's contribution that arrives: 0 or 1 from one occlusion query in scenes
+// without media; otherwise the product of the media's transmittances along it, through null surfaces
+// (any other surface occludes). `tracer` is any type with intersect(Ray, Hit&) and occluded(Ray).
+template <typename Tracer>
+CHD RGB shadow_transmittance(const SceneView& s, const Tracer& tracer, Ray r, int32_t medium) {
+  if (!scene_has_media(s)) return tracer.occluded(r) ? RGB(0.f) : RGB(1.f);
+  const float dlen = length(r.d);
+  RGB Tr(1.f);
+  for (uint32_t k = 0; k <= kMaxNullCrossings; ++k) {
+    Hit h;
+    tracer.intersect(r, h);
+    const float t = h.valid() ? h.t : r.tmax;
+    if (medium >= 0) {
+      Tr *= medium_transmittance(medium_sigma_t(s.media[medium]), t * dlen);
+      if (is_black(Tr)) return Tr;
+    }
+    if (!h.valid()) return Tr;
+    if (s.materials[s.prim_material[h.prim]].type != MaterialType::kNull) return RGB(0.f);
+    SurfaceHit sh = make_surface_hit(s, r, h);
+    medium = medium_after_crossing(prim_medium_interface(s, h.prim), r.d, sh.ng, medium);
+    Vec3f o = offset_ray_origin(sh.p, sh.ng, r.d);
+    // The rest of the segment, from just past the surface (d keeps its length, so t stays comparable).
+    r.tmax = r.tmax - t - dot(o - sh.p, r.d) / (dlen * dlen);
+    r.o = o;
+    if (!(r.tmax > 0.f)) return Tr;
+  }
+  return RGB(0.f);
+}
+
+// The medium that ray r starts in, found by following it (through every surface) to the first medium
+// boundary it meets: that boundary's exterior when r arrives on its front, its interior when from behind;
+// vacuum (-1) when r meets no boundary. Photon paths start with it (the camera's medium is the scene's
+// camera_medium instead), so a light is in the medium whose boundary encloses it, as in pbrt-v4 and
+// Mitsuba 3 where media are closed shapes. `intersect(ray, hit)` is the accelerator's closest hit.
+template <typename Intersect>
+CHD int32_t locate_medium(const SceneView& s, Intersect&& intersect, Ray r) {
+  if (!s.prim_medium) return -1;
+  for (uint32_t k = 0; k <= kMaxNullCrossings; ++k) {
+    Hit h;
+    intersect(r, h);
+    if (!h.valid()) return -1;
+    const MediumInterface mi = prim_medium_interface(s, h.prim);
+    const SurfaceHit sh = make_surface_hit(s, r, h);
+    if (mi.transition) return dot(r.d, sh.ng) < 0.f ? mi.exterior : mi.interior;
+    r.o = offset_ray_origin(sh.p, sh.ng, r.d);
+    r.tmax = kInf;
+  }
+  return -1;
+}
+
+}  // namespace caustica
