@@ -340,7 +340,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                lanes: bool = True, photon_sampling: Optional[str] = None,
                restir_candidates: Optional[int] = None, restir_neighbors: Optional[int] = None,
                restir_radius: Optional[float] = None, restir_history: Optional[float] = None,
-               light_sampler: Optional[str] = None) -> RenderResult:
+               light_sampler: Optional[str] = None, volume_radius: Optional[float] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -348,6 +348,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
+    pppm renders participating media (volumetric photon mapping, on the CPU driver): `volume_radius` is the
+    volume photons' initial radius (default automatic, reported in stats["volume_radius"]).
     `photon_sampling` (ppm, sppm, pppm, on every driver): "uniform" (default: the scene's, else uniform) or
     "adaptive", photon paths drawn by
     Markov chains on their visibility to the pass's visible points (Hachisuka & Jensen 2011); stats["adaptive"]
@@ -421,6 +423,9 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
         raise InputError(f"radius must be a positive number, got {radius!r}")
     if not isinstance(alpha, (int, float)) or not 0 < alpha < 1:
         raise InputError(f"alpha must be in (0, 1), got {alpha!r}")
+    if volume_radius is not None and (isinstance(volume_radius, bool) or not isinstance(volume_radius, (int, float))
+                                      or not volume_radius > 0 or volume_radius == float("inf")):
+        raise InputError(f"volume_radius must be a positive number, got {volume_radius!r}")
     for name, v in (("seed", seed), ("threads", threads), ("pass_offset", pass_offset)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
             raise InputError(f"{name} must be a non-negative integer, got {v!r}")
@@ -435,7 +440,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             wavefront=bool(wavefront), compaction=bool(compaction),
                             sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
                             jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(o["photon_sampling"]),
-                            light_sampler=_light_sampler(o["light_sampler"]), **restir, **targets)
+                            light_sampler=_light_sampler(o["light_sampler"]),
+                            volume_radius=float(volume_radius or 0.0), **restir, **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -544,7 +550,7 @@ def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, t
     (passes, target_passes, samples, rays, shadow_rays, seconds); returning False stops
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,
-    pass_offset=, stochastic_hash=, photon_sampling=; stop on quality: target_error= with reference=, and
+    pass_offset=, stochastic_hash=, photon_sampling=, and pppm in media volume_radius=; stop on quality: target_error= with reference=, and
     target_noise= (see render_job)."""
     r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
                    **photon_options)

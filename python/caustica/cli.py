@@ -141,6 +141,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "pass (default: one per pixel)")
     r.add_argument("--radius", type=_float("--radius"), default=None,
                    help="photon integrators, bpm, vcm: initial gather/merge radius (default: automatic, printed)")
+    r.add_argument("--volume-radius", type=_float("--volume-radius"), default=None,
+                   help="pppm in scenes with participating media: the volume photons' initial radius "
+                        "(default: automatic, printed)")
     r.add_argument("--alpha", type=_float("--alpha"), default=None,
                    help="photon integrators, bpm, vcm: radius reduction, in (0, 1) (default: the scene's, else 0.7; "
                         "0.75 for bpm and vcm)")
@@ -302,6 +305,8 @@ def cmd_render(a) -> int:
         raise _api.InputError(f"--radius expects a positive number, got '{a.radius}'")
     if a.alpha is not None and not 0 < a.alpha < 1:
         raise _api.InputError(f"--alpha expects a number in (0, 1), got '{a.alpha}'")
+    if a.volume_radius is not None and not 0 < a.volume_radius < float("inf"):
+        raise _api.InputError(f"--volume-radius expects a positive number, got '{a.volume_radius}'")
     if a.strategy_images is not None and not os.path.isdir(a.strategy_images):
         raise _api.InputError(f"--strategy-images: '{a.strategy_images}' is not a directory")
     scene = _load(a, width=a.width, height=a.height, filter=a.filter)
@@ -334,7 +339,8 @@ def cmd_render(a) -> int:
         res = _api.render_job(scene, integrator=integrator, spp=spp, time=seconds, seed=a.seed,
                               threads=a.threads, max_depth=a.max_depth, rr_depth=o["rr_depth"],
                               sampler=o["sampler"], accel=a.accel, progress=prog, photons=o["photons"],
-                              radius=o["radius"], alpha=o["alpha"], pass_offset=a.pass_offset,
+                              radius=o["radius"], volume_radius=a.volume_radius, alpha=o["alpha"],
+                              pass_offset=a.pass_offset,
                               stochastic_hash=a.stochastic_hash, k=o["k"], checkpoint=write_all if a.checkpoint else None,
                               checkpoint_interval=a.checkpoint, target_error=a.target_error,
                               reference=a.reference, target_noise=a.target_noise,
@@ -379,6 +385,8 @@ def cmd_render(a) -> int:
         msg = (f"{scene.name}: {integrator}{where}, {st['passes']} passes, {scene.width}x{scene.height}, "
                f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "
                f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g}")
+        if st.get("volume_radius"):
+            msg += f", volume radius {st['volume_radius']:.4g}"
         if st.get("adaptive"):
             ad = st["adaptive"]
             msg += (f", adaptive: {100 * ad['visible_fraction']:.3g}% of uniform paths visible, acceptance "

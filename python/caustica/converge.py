@@ -48,7 +48,7 @@ REFERENCE_SEED = 1_000_003  # make_reference's default seed: far from converge's
 SNAPSHOT_MEMORY = 1 << 30    # snapshots beyond this many bytes (per integrator) go to a temporary directory
 RENDER_OPTIONS = ("threads", "max_depth", "rr_depth", "sampler", "accel", "photons", "radius", "alpha", "k",
                   "stochastic_hash", "photon_sampling", "restir_candidates", "restir_neighbors", "restir_radius",
-                  "restir_history", "light_sampler")
+                  "restir_history", "light_sampler", "volume_radius")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -211,6 +211,7 @@ def _job(scene, integrator: str, time: float, seed: int, opts: dict) -> "_native
                              photon_sampling=_api._photon_sampling(o["photon_sampling"]),
                              k=_api._positive_int("k", o["k"]),
                              light_sampler=_api._light_sampler(o["light_sampler"]),
+                             volume_radius=float(opts.get("volume_radius") or 0.0),
                              **_api.restir_job_options(scene, integrator, *(
                                  opts.get(key) if integrator == "restir" else None  # the others ignore them
                                  for key in ("restir_candidates", "restir_neighbors", "restir_radius",

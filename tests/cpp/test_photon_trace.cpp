@@ -142,3 +142,63 @@ TEST(PhotonEmission, EveryLightTypeDeliversItsPower) {
   direct_power(box_with(env, false), 400000, m, se);
   EXPECT_NEAR(m, kPi * 0.5 * A, 4 * se) << se;
 }
+
+// Volumetric photon tracing (photon/trace.h): a point light of power Phi = 4 pi I at the centre of a null
+// sphere of optical radius 40 filled with a grey medium of albedo a. Every photon path starts in the medium
+// (locate_medium finds it by the sphere), and practically every one scatters (escape without a collision:
+// exp(-40)); the free-flight weight makes the first event's photon carry Phi a exactly, and the events after
+// it Phi (a^2 + a^3 + ...) = Phi a^2 / (1 - a) in expectation. Photons are volume photons only (no surface
+// is hit before the boundary, which is crossed, not stored at).
+TEST(PhotonTrace, VolumePhotonsCarryTheScatteredPower) {
+  const float a = 0.6f, I = 3.f, sigma_t = 2.f;
+  SceneDesc d;
+  d.name = "fog-ball";
+  d.camera.position = {0, 0, 0};
+  d.camera.target = {0, 0, -1};
+  Medium m;
+  m.sigma_s = RGB(a * sigma_t);
+  m.sigma_a = RGB((1.f - a) * sigma_t);
+  m.g = 0.5f;
+  d.media.push_back(m);
+  d.medium_names.push_back("fog");
+  d.camera.medium = 0;
+  int null_material = d.add_material("boundary", Material());
+  d.materials[size_t(null_material)].type = MaterialType::kNull;
+  ShapeDesc s;
+  s.type = ShapeType::kSphere;
+  s.radius = 20.f;
+  s.material = null_material;
+  s.medium_interface = true;
+  s.interior = 0;
+  d.shapes.push_back(s);
+  Light l;
+  l.type = LightType::kPoint;
+  l.p = Vec3f(0.3f, -0.2f, 0.1f);
+  l.L = RGB(I);
+  d.lights.push_back(l);
+  auto sc = Scene::build(d);
+  const double phi = 4.0 * kPi * I;
+  const uint64_t n = 100000;
+  auto photons = PhotonIntegrator::trace_photons(sc->view(), sc->accel(), 3, 0, n, 0xffffffffu, true);
+  std::vector<double> per_path;
+  uint64_t ndirect = 0;
+  for (const Photon& p : photons) {
+    ASSERT_TRUE(p.flags & kPhotonVolume);
+    ASSERT_LT(length(p.p), 20.f);
+    if (p.flags & kPhotonDirect) {
+      ++ndirect;
+      EXPECT_NEAR(p.power.x, phi * a, 1e-4 * phi);  // exactly Phi a (float rounding)
+      per_path.push_back(0.0);
+    } else {
+      per_path.back() += p.power.x;
+    }
+  }
+  EXPECT_EQ(ndirect, n);
+  double sum = 0, sum2 = 0;
+  for (double v : per_path) {
+    sum += v;
+    sum2 += v * v;
+  }
+  const double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / n);
+  EXPECT_NEAR(mean, phi * a * a / (1 - a), 4 * se) << "se " << se;  // 4 standard errors
+}

@@ -295,8 +295,8 @@ def test_mitsuba_medium_errors(tmp_path, xml, message):
 
 def test_builtin_fog_scene():
     # smallvcm-fog: smallvcm-spheres with haze inside the box. The haze scatters light into the view of the
-    # dark opening's border and dims the walls; the same seed without the haze is another image. Only path
-    # renders it.
+    # dark opening's border and dims the walls; the same seed without the haze is another image. path and
+    # pppm render it (test_media_photons.py), sppm refuses it.
     assert caustica.describe("smallvcm-fog")["media"] == 1
     fog = caustica.render(caustica.load_scene("smallvcm-fog", width=32, height=32), spp=16, seed=1)
     clear = caustica.render(caustica.load_scene("smallvcm-spheres", width=32, height=32), spp=16, seed=1)

@@ -165,6 +165,7 @@ static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
   d["cancelled"] = s.cancelled;
   d["photons"] = s.photons;
   d["radius"] = s.radius;
+  if (s.volume_radius > 0.f) d["volume_radius"] = s.volume_radius;  // pppm in media
   if (s.adaptive.visible >= 0.0) {  // --photon-sampling adaptive
     nb::dict a;
     a["visible_fraction"] = s.adaptive.visible;
@@ -328,7 +329,7 @@ NB_MODULE(_native, m) {
               double target_noise, bool strategy_images, const std::string& device, bool wavefront,
               bool compaction, bool sort_materials, bool cache_first_bounce, bool jitter, bool lanes,
               const std::string& photon_sampling, int restir_candidates, int restir_neighbors, float restir_radius,
-              float restir_history, const std::string& light_sampler) {
+              float restir_history, const std::string& light_sampler, float volume_radius) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -343,6 +344,7 @@ NB_MODULE(_native, m) {
              o.accel = accel;
              o.photons = photons;
              o.radius = radius;
+             o.volume_radius = volume_radius;
              o.alpha = alpha;
              o.pass_offset = pass_offset;
              o.stochastic_hash = stochastic_hash;
@@ -381,7 +383,7 @@ NB_MODULE(_native, m) {
            nb::arg("sort_materials") = false, nb::arg("cache_first_bounce") = false, nb::arg("jitter") = true,
            nb::arg("lanes") = true, nb::arg("photon_sampling") = "uniform", nb::arg("restir_candidates") = 32,
            nb::arg("restir_neighbors") = 5, nb::arg("restir_radius") = 30.f, nb::arg("restir_history") = 20.f,
-           nb::arg("light_sampler") = "power")
+           nb::arg("light_sampler") = "power", nb::arg("volume_radius") = 0.f)
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())

@@ -38,6 +38,32 @@ float automatic_radius(const Scene& scene) {
   return 2.f * fp[fp.size() / 2];
 }
 
+float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_t seed, uint64_t photons,
+                              uint32_t max_depth) {
+  constexpr uint32_t kVolumeRadiusPass = 0xffffffeu;  // a pass index no render pass uses
+  std::vector<Photon> volume;
+  for (const Photon& ph : PhotonIntegrator::trace_photons(scene.view(), accel, seed, kVolumeRadiusPass, photons,
+                                                          max_depth, false))
+    if (ph.flags & kPhotonVolume) volume.push_back(ph);
+  if (volume.size() <= size_t(kVolumeRadiusK)) return 0.f;
+  PhotonKdTree tree;
+  tree.build(volume);
+  const size_t probes = std::min<size_t>(256, volume.size());
+  std::vector<float> d;
+  std::vector<uint32_t> idx(kVolumeRadiusK + 1);
+  std::vector<float> d2(kVolumeRadiusK + 1);
+  for (size_t j = 0; j < probes; ++j) {
+    // Probes spread evenly through the photons (in trace order, so through the photon paths); the photon
+    // itself is its own nearest, hence K + 1.
+    const Photon& ph = volume[j * volume.size() / probes];
+    const size_t n = tree.knn(ph.p, kVolumeRadiusK + 1, kInf, idx.data(), d2.data());
+    if (n == size_t(kVolumeRadiusK + 1)) d.push_back(std::sqrt(d2[n - 1]));
+  }
+  if (d.empty()) return 0.f;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
 std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed,
                                                     uint32_t pass, uint64_t count, uint32_t max_depth,
                                                     bool keep_direct, const std::atomic<bool>* cancel) {
@@ -85,6 +111,27 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   // camera rays to their first hit, if not given.
   r0_ = opt.radius;
   if (!(r0_ > 0.f)) r0_ = automatic_radius(*scene_);
+  // Participating media (pppm only; RenderJob refuses the others): volume photons and volume visible points.
+  media_ = scene_has_media(v);
+  if (media_ && kind_ != Kind::kPPPM)
+    throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
+                     "use --integrator path or pppm");
+  if (media_) {
+    // Photon paths start in the medium that encloses the light (locate_medium); the camera's medium must be
+    // one that photons can enter the same way.
+    const CpuAccel& accel = scene_->cpu_accel(opt.accel);
+    Ray forward = v.camera.generate_ray(Vec2f(0.5f * W_, 0.5f * H_), Vec2f(0.5f, 0.5f));
+    const int32_t found = locate_medium(v, [&](const Ray& r, Hit& h) { return accel.intersect(r, h); }, forward);
+    if (found != v.camera_medium)
+      throw InputError("integrator 'pppm': the camera's medium is not the one enclosed by the shapes around it "
+                       "(photons could not reach it); give the medium a closed boundary shape with it as interior, "
+                       "or use --integrator path");
+    rv0_ = opt.volume_radius;
+    const uint32_t photon_depth = max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1;
+    if (!(rv0_ > 0.f)) rv0_ = automatic_volume_radius(*scene_, accel, opt.seed, photons_per_pass_, photon_depth);
+    // No volume photons in a pass (a medium the lights do not reach): any radius gives the same zero.
+    if (!(rv0_ > 0.f)) rv0_ = r0_;
+  }
   size_t n = size_t(W_) * H_;
   K_ = kind_ == Kind::kPPM ? kPpmPointsPerPixel : 1;
   vp_.assign(n * K_, VisiblePoint());
@@ -192,10 +239,23 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
                                 photon_depth, false, &cancel);
   if (cancel.load()) return false;
   traced_ += photons_per_pass_;
-  PhotonHashGrid grid;
+  // Volume photons (scenes with media) in a grid of their own, with their own radius.
+  std::vector<Photon> volume_photons;
+  const float rv = media_ ? pppm_volume_radius(rv0_, opt_.alpha, abs_pass) : 0.f;
+  if (media_) {
+    auto is_volume = [](const Photon& ph) { return (ph.flags & kPhotonVolume) != 0; };
+    auto mid = std::stable_partition(photons.begin(), photons.end(), [&](const Photon& ph) { return !is_volume(ph); });
+    volume_photons.assign(mid, photons.end());
+    photons.erase(mid, photons.end());
+  }
+  PhotonHashGrid grid, volume_grid;
   // Cells of twice the largest radius: a query sphere then overlaps at most 2x2x2 cells.
   grid.build(photons, v.bounds, 2.f * rmax, opt_.stochastic_hash, hash3(opt_.seed, uint64_t(abs_pass), 0x9d));
   const PhotonGridView gv = grid.view();
+  if (media_)
+    volume_grid.build(volume_photons, v.bounds, 2.f * rv, opt_.stochastic_hash,
+                      hash3(opt_.seed, uint64_t(abs_pass), 0x9e));
+  const PhotonGridView vgv = media_ ? volume_grid.view() : PhotonGridView();
   const double inv_np = 1.0 / double(photons_per_pass_);
   restore.commit = true;  // the gather below only computes (no allocation, no cancel check)
   if (adaptive_) chains_.commit(pass_counts_);
@@ -205,9 +265,14 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
         size_t i = size_t(y) * W_ * K_ + x;  // visible point index (pixel i / K_)
         const VisiblePoint& vp = vp_[i];
         if (!vp.valid) continue;
-        float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
         double phi[3];
         uint32_t M;
+        if (vp.volume) {  // pppm in media (sppm.h)
+          pppm_volume_gather(vp, v, vgv, rv, phi, M);
+          pppm_add_volume(&indirect_[3 * i], vp.beta, phi, inv_np, rv);
+          continue;
+        }
+        float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
         sppm_gather(vp, gv, radius, phi, M);
         if (kind_ == Kind::kPPPM) pppm_add(&indirect_[3 * i], vp.beta, phi, inv_np, radius);
         else sppm_update(N_[i], &tau_[3 * i], R_[i], vp.beta, phi, M, opt_.alpha);

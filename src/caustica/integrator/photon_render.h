@@ -11,6 +11,10 @@
 //          Eq. 15, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1); images averaged.
 //          Passes are memoryless, so passes [i0, i0 + k) can be rendered anywhere
 //          and averaged later (RenderOptions::pass_offset).
+//          In scenes with participating media (pppm on this driver only): volumetric photon mapping
+//          (Jensen & Christensen 1998) with volume photons in their own hash grid, gathered at volume
+//          visible points with a ball of the global volume radius, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1)
+//          (sppm.h).
 //   --photon-sampling adaptive (ppm, sppm, pppm) - Hachisuka & Jensen 2011, "Robust Adaptive Photon Tracing
 //          using Photon Path Visibility": each pass's photon paths drawn by Markov chains whose target is
 //          the visibility of the path to the pass's visible points (photon/adaptive.h).
@@ -41,6 +45,14 @@ namespace caustica {
 // angle) of camera rays through a grid of at most 32 x 32 pixels.
 float automatic_radius(const Scene& scene);
 
+// The default initial radius of the volume photons (pppm in media): the median, over up to 256 volume
+// photons spread through a pass of `photons` photon paths (seed, pass index kVolumeRadiusPass), of the
+// distance to their kVolumeRadiusK-th nearest volume photon, so that a ball of that radius holds about
+// that many photons of a pass where they are typical; 0 when the pass stores no volume photons.
+constexpr int kVolumeRadiusK = 32;
+float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_t seed, uint64_t photons,
+                              uint32_t max_depth);
+
 class PhotonIntegrator {
  public:
   PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt);
@@ -49,6 +61,8 @@ class PhotonIntegrator {
   bool render_pass(int64_t pass, const std::atomic<bool>& cancel);
   std::vector<float> image(int64_t passes_done) const;
   float initial_radius() const { return r0_; }
+  // pppm in a scene with media: the volume photons' initial radius (0 otherwise).
+  float initial_volume_radius() const { return rv0_; }
   uint64_t photons_per_pass() const { return photons_per_pass_; }
   uint64_t photons_traced() const { return traced_; }
   // --photon-sampling adaptive: the chains' counters summed over the passes done, and the mutation size
@@ -80,6 +94,8 @@ class PhotonIntegrator {
   uint32_t max_depth_;
   uint64_t photons_per_pass_;
   float r0_;
+  bool media_ = false;  // pppm in a scene with media: volume photons and volume visible points (sppm.h)
+  float rv0_ = 0.f;     // their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
   int W_, H_;
   int K_ = 1;  // visible points per pixel: 1, or up to kPPMPoints for ppm's split specular chains
   std::vector<VisiblePoint> vp_;  // K_ per pixel

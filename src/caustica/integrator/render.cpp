@@ -194,12 +194,25 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
+  // Participating media and null surfaces: the path tracer on every driver, pppm on the CPU driver
+  // (volumetric photon mapping, integrator/sppm.h).
   if (scene_has_media(scene_->view()) && opt_.integrator != "path") {
     const SceneView& v = scene_->view();
-    throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces (" +
-                     std::to_string(v.num_media) + " media in scene '" + scene_->desc().name +
-                     "'); use --integrator path");
+    const std::string what = " (" + std::to_string(v.num_media) + " media in scene '" + scene_->desc().name + "')";
+    if (opt_.integrator != "pppm")
+      throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
+                       what + "; use --integrator path or pppm");
+    if (uses_wavefront(opt_))
+      throw InputError("integrator 'pppm' renders participating media on the CPU driver only (not with "
+                       "--wavefront or --device cuda)" + what);
+    if (opt_.photon_sampling != "uniform")
+      throw InputError("--photon-sampling adaptive does not trace photons through participating media" + what +
+                       "; use --photon-sampling uniform");
   }
+  if (opt_.volume_radius < 0.f || !std::isfinite(opt_.volume_radius))
+    throw InputError("--volume-radius must be a positive number");
+  if (opt_.volume_radius > 0.f && !(opt_.integrator == "pppm" && scene_has_media(scene_->view())))
+    throw InputError("--volume-radius applies to integrator 'pppm' in scenes with participating media");
   // --accel small on a scene it does not take fails here, not in the render thread.
   if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
@@ -510,6 +523,7 @@ RenderStats RenderJob::stats() const {
   s.seconds = seconds_.load();
   s.photons = photons_.load();
   s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
+  s.volume_radius = photon_ ? photon_->initial_volume_radius() : 0.f;
   if ((photon_ || wavefront_) && opt_.photon_sampling == "adaptive") {
     std::lock_guard<std::mutex> lock(adaptive_mutex_);
     s.adaptive = adaptive_;

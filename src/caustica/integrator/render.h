@@ -42,6 +42,9 @@ struct RenderOptions {
   // Photon mapping (ppm, sppm, pppm)
   int64_t photons = 0;       // photon paths per pass; 0 = one per pixel
   float radius = 0.f;        // initial gather radius; 0 = automatic (twice the median pixel footprint)
+  // pppm in scenes with participating media: the volume photons' initial radius; 0 = automatic
+  // (automatic_volume_radius in photon_render.h)
+  float volume_radius = 0.f;
   float alpha = 0.7f;        // radius reduction (Hachisuka et al. 2008; Knaus & Zwicker 2011)
   int64_t pass_offset = 0;   // pppm: render passes [pass_offset, pass_offset + spp)
   bool stochastic_hash = false;  // keep one photon per hash cell (Hachisuka & Jensen 2010)
@@ -84,6 +87,7 @@ struct RenderStats {
   uint64_t invalid_samples = 0;  // NaN/inf radiance, dropped
   uint64_t photons = 0;          // photon paths traced (photon integrators)
   float radius = 0.f;            // initial gather radius (photon integrators)
+  float volume_radius = 0.f;     // pppm in media: the volume photons' initial radius (0: no media)
   AdaptiveSummary adaptive;      // --photon-sampling adaptive
   double seconds = 0.0;
   bool done = false;

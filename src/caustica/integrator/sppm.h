@@ -8,10 +8,23 @@
 //   trace_measurement_points  ppm's fixed points of a pixel (Hachisuka et al. 2008, Sec. 4.1), traced once
 //   sppm_update    the progressive statistics (Hachisuka et al. 2008 Eqs. 6-11, shared per pixel in
 //                  Hachisuka & Jensen 2009 Eqs. 5-8): N += alpha M, R and tau scaled by (N + alpha M)/(N + M)
+//   pppm_volume_gather, pppm_add_volume, pppm_volume_radius  volumetric photon mapping in pppm (below)
+//
+// Participating media (pppm on the CPU driver; volumetric photon mapping, Jensen & Christensen 1998, with
+// Knaus & Zwicker 2011's global radius): the camera ray samples a free-flight distance on each segment in a
+// medium (medium/medium.h, as the path tracer does). A scattering event there ends it at a volume visible
+// point x: NEE with the phase function adds single scattering, and the volume photons within radius r of x
+// (photon/trace.h, stored with power beta T sigma_s / p(t), the direct ones left out as on surfaces) estimate
+// the rest of sigma_s(x) int p(wo, wi) L(x, wi) dwi as sum p(wo, wi_j) power_j / (N_emitted 4/3 pi r^3)
+// (Jensen & Christensen 1998 Eq. 5 with sigma_s folded into the photons' power, and the uniform kernel of
+// radius r in place of the k nearest). The camera weight at x is T(t) / p(t) without sigma_s. Reaching a
+// surface, the ray carries T / P(surface) and continues as without media; null surfaces are crossed without
+// a segment; NEE at surface points is attenuated by the media on the shadow ray (shadow_transmittance).
 #pragma once
 #include "../base/sampler.h"
 #include "../light/light_sample.h"
 #include "../material/bsdf.h"
+#include "../medium/medium_scene.h"
 #include "../photon/hash_grid.h"
 #include "../scene/shading.h"
 
@@ -23,23 +36,86 @@ struct VisiblePoint {
   RGB beta{0.f};        // camera throughput to the point
   Material material;     // with its textures applied at the point
   bool valid = false;
+  // A volume visible point (a scattering event of the camera ray in medium `medium`, header comment): p is
+  // the event, wo towards the camera, beta without the medium's sigma_s; ng, ns, tangent, material unused.
+  bool volume = false;
+  int32_t medium = -1;
 };
 
 // Follows a camera ray through specular bounces to the first non-specular
 // surface, adding emission seen along the way (no MIS: the specular chain has no
 // light-sampling alternative) and NEE at the visible point, its light chosen by power or, with light_bvh, by
-// the light BVH's importance from the point (light/light_bvh.h). Returns the point.
+// the light BVH's importance from the point (light/light_bvh.h). Returns the point. In scenes with media the
+// ray starts in the camera's medium and may end at a volume visible point instead (header comment).
 template <typename Tracer>
 CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, RGB beta, Sampler& smp,
                               uint32_t max_depth, RGB& L, bool light_bvh = false) {
   VisiblePoint vp;
+  const bool media = scene_has_media(s);
+  int32_t medium = media ? s.camera_medium : -1;
+  int32_t hero = -1;
+  RGB r_medium(1.f);
+  uint32_t null_crossings = 0;
   for (uint32_t depth = 1; depth <= max_depth; ++depth) {
     Hit hit;
-    if (!accel.intersect(ray, hit)) {
+    const bool found = accel.intersect(ray, hit);
+    if (medium >= 0) {
+      const Medium& md = s.media[medium];
+      const float dlen = length(ray.d);
+      const Vec3f d = ray.d / dlen;
+      const Vec2f u_m = smp.next_2d();
+      if (hero < 0) hero = u_m.x < 1.f / 3.f ? 0 : (u_m.x < 2.f / 3.f ? 1 : 2);
+      const MediumSample ms = sample_medium_distance(md, found ? hit.t * dlen : kInf, hero, u_m.y);
+      const RGB rp = r_medium * ms.p;
+      const float a = (rp.x + rp.y + rp.z) * (1.f / 3.f);
+      if (!(a > 0.f)) return vp;
+      r_medium = rp / a;
+      if (ms.scattered) {
+        const Vec3f x = ray.o + d * ms.t;
+        const RGB w = beta * medium_transmittance(medium_sigma_t(md), ms.t) / a;
+        if (depth < max_depth && s.num_lights > 0) {
+          // Single scattering by NEE with the phase function (volume photons of the first event are not
+          // stored).
+          float pmf = 0.f;
+          const float u_l = smp.next_1d();
+          const Vec2f u_l2 = smp.next_2d();
+          Vec2f u_choice(u_l, 0.f);
+          const int32_t li = choose_light(s, light_bvh, x, u_choice, pmf);
+          LightSample ls;
+          if (li >= 0 && sample_light(s, s.lights[li], x, u_l2, ls)) {
+            const float ph = hg_phase(dot(-d, ls.wi), md.g);
+            const Ray sray = std::isfinite(ls.dist) ? spawn_ray_to(x, ls.p_l, ls.n_l) : Ray{x, ls.wi, kInf};
+            const RGB c = w * md.sigma_s * ls.Li * (ph / (pmf * ls.pdf));
+            if (!is_black(c)) L += c * shadow_transmittance(s, accel, sray, medium);
+          }
+        }
+        vp.p = x;
+        vp.ng = vp.ns = -d;
+        vp.wo = -d;
+        vp.beta = w;
+        vp.volume = true;
+        vp.medium = medium;
+        vp.valid = depth < max_depth;
+        return vp;
+      }
+      beta = beta * ms.f / a;
+      if (is_black(beta)) return vp;
+    }
+    if (!found) {
       if (s.environment_light >= 0) L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
       return vp;
     }
     SurfaceHit sh = make_surface_hit(s, ray, hit);
+    if (media && is_null_surface(s, sh)) {
+      // Crossed unchanged into the medium behind it; not a segment.
+      if (++null_crossings > kMaxNullCrossings) return vp;
+      --depth;
+      medium = medium_after_crossing(prim_medium_interface(s, sh.prim), ray.d, sh.ng, medium);
+      ray.o = offset_ray_origin(sh.p, sh.ng, ray.d);
+      ray.tmax = kInf;
+      continue;
+    }
+    null_crossings = 0;
     Vec3f wo_world = -ray.d;
     beta *= segment_transmittance(s, ray.d, hit.t, sh);
     if (sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
@@ -63,7 +139,14 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
             Ray sray;
             if (std::isfinite(ls.dist)) sray = spawn_ray_to(o, ls.p_l, ls.n_l);
             else sray = Ray{o, ls.wi, kInf};
-            if (!accel.occluded(sray)) L += beta * f * ls.Li * (abs_cos_theta(frame.to_local(ls.wi)) / (pmf * ls.pdf));
+            const RGB c = beta * f * ls.Li * (abs_cos_theta(frame.to_local(ls.wi)) / (pmf * ls.pdf));
+            if (!media) {
+              if (!accel.occluded(sray)) L += c;
+            } else {
+              // The shadow ray is in the medium of the side it leaves on.
+              const int32_t sm = medium_after_crossing(prim_medium_interface(s, sh.prim), ls.wi, sh.ng, medium);
+              L += c * shadow_transmittance(s, accel, sray, sm);
+            }
           }
         }
       }
@@ -83,6 +166,7 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
     if (!bsdf_sample(m, wo, uc, u, bs)) return vp;
     Vec3f wi = frame.to_world(bs.wi);
     beta *= bs.weight;
+    if (media) medium = medium_after_crossing(prim_medium_interface(s, sh.prim), wi, sh.ng, medium);
     ray.o = offset_ray_origin(sh.p, sh.ng, wi);
     ray.d = wi;
     ray.tmax = kInf;
@@ -190,6 +274,36 @@ inline float pppm_radius(float r0, float alpha, int64_t abs_pass) {
   double r2 = double(r0) * r0;
   for (int64_t i = 1; i <= abs_pass; ++i) r2 *= (double(i) + alpha) / double(i + 1);
   return float(std::sqrt(r2));
+}
+
+// Volumetric photon mapping (header comment): the sum of p(wo, wi) * power over the volume photons of
+// `grid` within `radius` of the volume visible point; M counts them.
+CHD void pppm_volume_gather(const VisiblePoint& vp, const SceneView& s, const PhotonGridView& grid, float radius,
+                            double phi[3], uint32_t& M) {
+  const float g = s.media[vp.medium].g;
+  phi[0] = phi[1] = phi[2] = 0.0;
+  M = 0;
+  grid.query(vp.p, radius, [&](const Photon& ph) {
+    const double f = hg_phase(dot(vp.wo, ph.wi), g);
+    ++M;
+    for (int c = 0; c < 3; ++c) phi[c] += f * ph.power[c];
+  });
+}
+
+// One pass's in-scattered radiance at a volume visible point, added to the pixel's sum over passes:
+// beta * phi / (4/3 pi r^3 N_emitted) (the uniform kernel over the ball of radius r).
+CHD void pppm_add_volume(double* indirect, const RGB& beta, const double phi[3], double inv_emitted, float radius) {
+  const double k = inv_emitted / (4.0 / 3.0 * double(kPi) * double(radius) * radius * radius);
+  for (int c = 0; c < 3; ++c) indirect[c] += double(beta[c]) * phi[c] * k;
+}
+
+// The volume photons' radius of pass `abs_pass`: Knaus & Zwicker 2011's Eq. 15 derivation with the 3D
+// kernel's variance, which grows as r^-3 instead of r^-2 (their remark on volumetric photon mapping):
+// r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1), so the variance ratio per pass is again (i + 1) / (i + alpha).
+inline float pppm_volume_radius(float r0, float alpha, int64_t abs_pass) {
+  double r3 = double(r0) * r0 * r0;
+  for (int64_t i = 1; i <= abs_pass; ++i) r3 *= (double(i) + alpha) / double(i + 1);
+  return float(std::cbrt(r3));
 }
 
 }  // namespace caustica

@@ -7,10 +7,21 @@
 // keeps powers near constant: continue with q = min(1, max(beta') / max(beta))
 // (Jensen 2001 Sec. 5.2, in the throughput form of pbrt-v4's SPPM).
 // Each photon path's random stream depends only on (seed, pass, photon index).
+//
+// Participating media (volumetric photon tracing, Jensen & Christensen 1998, "Efficient Simulation of
+// Light Transport in Scenes with Participating Media using Photon Maps", Sec. 3): a photon path starts in the
+// medium that encloses its light (locate_medium), samples a free-flight distance on every segment in a
+// medium with the path tracer's estimator (medium/medium.h: hero channel, spectral MIS over the path), and at
+// a scattering event stores a volume photon (kPhotonVolume) of power beta T sigma_s / p(t), then samples the
+// phase function (weight 1) and the same roulette. Null surfaces are crossed without counting a segment; a
+// path leaving a medium boundary enters the medium of the side it leaves on. The density of stored power
+// per unit volume and solid angle is then sigma_s(x) L(x, w) per emitted path, the in-scattered radiance
+// estimate of integrator/sppm.h's pppm_volume_gather.
 #pragma once
 #include "../base/rng.h"
 #include "../light/light_emit.h"
 #include "../material/bsdf.h"
+#include "../medium/medium_scene.h"
 #include "../scene/shading.h"
 #include "photon.h"
 
@@ -28,6 +39,13 @@ struct PhotonPathStateT {
   uint32_t depth = 0;  // segments traced so far
   bool specular_seen = false, diffuse_seen = false;
   bool active = false;
+  // Participating media (header comment): the medium `ray` travels in (-1: vacuum), the hero channel (-1:
+  // none drawn yet), the path's distance densities per channel scaled to average 1, null surfaces crossed
+  // since the last vertex.
+  int32_t medium = -1;
+  int32_t hero = -1;
+  RGB r_medium{1.f};
+  uint32_t null_crossings = 0;
 };
 using PhotonPathState = PhotonPathStateT<PCG32>;
 
@@ -55,17 +73,62 @@ CHD void photon_start(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t
   photon_emit(s, st);
 }
 
-// The segment st.ray just traced ended at `hit`: stores a photon there (returns true and fills `ph`) if
-// the surface is not specular, then samples the BSDF and Russian roulette for the next segment (st.active
-// false when the path ends). max_depth counts segments from the light (the first hit is depth 1).
+// The segment st.ray just traced ended at `hit`: stores a photon where the path interacts - a scattering
+// event in the medium the segment crosses (a volume photon) or a non-specular surface at `hit` - (returns
+// true and fills `ph`), then samples the phase function or BSDF and Russian roulette for the next segment
+// (st.active false when the path ends). A null surface at `hit` is crossed (st.active stays true, no
+// segment counted). max_depth counts segments from the light (the first hit is depth 1).
 template <typename Rng>
 CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<Rng>& st, const Hit& hit, Photon& ph) {
   st.depth += 1;
+  if (st.medium >= 0) {
+    const Medium& md = s.media[st.medium];
+    const float dlen = length(st.ray.d);
+    const Vec3f d = st.ray.d / dlen;
+    const float u_hero = st.rng.next_float(), u_dist = st.rng.next_float();
+    if (st.hero < 0) st.hero = u_hero < 1.f / 3.f ? 0 : (u_hero < 2.f / 3.f ? 1 : 2);
+    const MediumSample ms = sample_medium_distance(md, hit.valid() ? hit.t * dlen : kInf, st.hero, u_dist);
+    const RGB before = st.beta;
+    if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) {
+      st.active = false;
+      return false;
+    }
+    if (ms.scattered) {
+      const Vec3f p = st.ray.o + d * ms.t;
+      ph.p = p;
+      ph.wi = -d;
+      ph.power = st.beta;
+      ph.flags = kPhotonVolume | (st.depth == 1 ? kPhotonDirect : 0u);
+      st.active = false;
+      if (st.depth >= max_depth) return true;
+      const float u_rr = st.rng.next_float();
+      const Vec2f u(st.rng.next_float(), st.rng.next_float());
+      float pdf;
+      const Vec3f wi = hg_sample(-d, md.g, u, &pdf);  // weight p / pdf = 1
+      const float q = minf(1.f, max_component(st.beta) / max_component(before));
+      if (!(u_rr < q)) return true;
+      st.beta = st.beta / q;
+      st.diffuse_seen = true;
+      st.ray = Ray{p, wi, kInf};
+      st.null_crossings = 0;
+      st.active = true;
+      return true;
+    }
+  }
   if (!hit.valid()) {
     st.active = false;
     return false;
   }
   SurfaceHit sh = make_surface_hit(s, st.ray, hit);
+  if (is_null_surface(s, sh)) {
+    st.depth -= 1;
+    st.active = ++st.null_crossings <= kMaxNullCrossings;
+    st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), st.ray.d, sh.ng, st.medium);
+    st.ray.o = offset_ray_origin(sh.p, sh.ng, st.ray.d);
+    st.ray.tmax = kInf;
+    return false;
+  }
+  st.null_crossings = 0;
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
   const Material m = surface_material(s, sh);
   Vec3f wo_world = -st.ray.d;
@@ -92,6 +155,7 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
   st.beta = next / q;
   if (bs.delta) st.specular_seen = true;
   else st.diffuse_seen = true;
+  st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), wi_world, sh.ng, st.medium);
   st.ray.o = offset_ray_origin(sh.p, sh.ng, wi_world);
   st.ray.d = wi_world;
   st.ray.tmax = kInf;
@@ -105,6 +169,7 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
 template <typename Rng, typename Intersect, typename Store>
 CHD void trace_photon_path(const SceneView& s, PhotonPathStateT<Rng>& st, uint32_t max_depth, Intersect&& intersect,
                            Store&& store) {
+  if (st.active && st.depth == 0) st.medium = locate_medium(s, intersect, st.ray);
   while (st.active && st.depth < max_depth) {
     Hit hit;
     intersect(st.ray, hit);
