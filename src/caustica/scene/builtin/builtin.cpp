@@ -13,7 +13,8 @@ const std::vector<std::pair<std::string, std::string>>& builtin_scenes() {
       {"smallvcm-point", "SmallVCM scene 2: glossy floor, mirror and glass spheres, point light"},
       {"smallvcm-env", "SmallVCM scene 3: glossy floor, mirror and glass spheres, constant environment"},
       {"point-in-glass", "SDS: SmallVCM's box lit only by a point light inside a glass sphere (path tracing renders it black)"},
-      {"smallvcm-fog", "SmallVCM's spheres and area light in a box filled with haze (participating media; integrator path)"},
+      {"smallvcm-fog", "SmallVCM's spheres and area light in a box filled with haze (participating media; path, pppm)"},
+      {"fog-lens", "a point light focused by a glass ball into fog: a volumetric caustic (pppm; path tracing cannot render it)"},
   };
   return s;
 }
@@ -35,6 +36,7 @@ SceneDesc builtin_scene(const std::string& name) {
   else if (name == "smallvcm-point") d = make_smallvcm_cornell(false, true, SmallVCMLight::kPoint);
   else if (name == "point-in-glass") d = make_point_in_glass();
   else if (name == "smallvcm-fog") d = make_smallvcm_fog();
+  else if (name == "fog-lens") d = make_fog_lens();
   else if (name == "smallvcm-env") d = make_smallvcm_cornell(false, true, SmallVCMLight::kBackground);
   else {
     std::string list;

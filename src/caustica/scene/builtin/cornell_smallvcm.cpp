@@ -169,3 +169,67 @@ SceneDesc make_smallvcm_fog() {
 }
 
 }  // namespace caustica
+
+namespace caustica {
+
+// A volumetric caustic (tests/python/test_media_photons.py's fog box with the lens): a point light 0.4
+// above a glass ball (radius 0.4, IOR 1.5) in a 4 x 4 x 4 box of fog (null boundary; sigma_s 0.3, sigma_a
+// 0.02, g 0.3) over a grey floor, the camera inside the fog. The ball focuses the light into a cone that
+// narrows towards the floor: paths L S S V E (and L S S D E on the floor), which the path tracer cannot
+// sample from a point light and pppm renders (its default here).
+SceneDesc make_fog_lens() {
+  SceneDesc d;
+  d.camera.position = {0.f, 0.f, 1.9f};
+  d.camera.target = {0.f, -0.3f, 0.f};
+  d.camera.up = {0.f, 1.f, 0.f};
+  d.camera.fov_degrees = 70.f;
+  d.camera.width = d.camera.height = 512;
+  Medium fog;
+  fog.sigma_a = RGB(0.02f);
+  fog.sigma_s = RGB(0.3f);
+  fog.g = 0.3f;
+  d.medium_names.push_back("fog");
+  d.media.push_back(fog);
+  d.camera.medium = 0;
+  const int boundary = d.add_material("fog", Material());
+  d.materials[size_t(boundary)].type = MaterialType::kNull;
+  const int floor = d.add_material("floor", make_diffuse(RGB(0.5f)));
+  const int glass = d.add_material("glass", make_dielectric(1.5f));
+  ShapeDesc box;
+  box.name = "fog";
+  box.type = ShapeType::kCube;
+  for (int k = 0; k < 3; ++k) box.to_world.m[k][k] = 2.f;
+  box.material = boundary;
+  box.medium_interface = true;
+  box.interior = 0;
+  d.shapes.push_back(box);
+  ShapeDesc ground;  // [-1, 1]^2 in z = 0 turned to face +y, scaled by 1.9, at y = -1.9
+  ground.name = "floor";
+  ground.type = ShapeType::kRectangle;
+  ground.to_world.m[0][0] = 1.9f;
+  ground.to_world.m[1][1] = 0.f;
+  ground.to_world.m[1][2] = 1.9f;
+  ground.to_world.m[1][3] = -1.9f;
+  ground.to_world.m[2][1] = -1.9f;
+  ground.to_world.m[2][2] = 0.f;
+  ground.material = floor;
+  d.shapes.push_back(ground);
+  ShapeDesc ball;
+  ball.name = "lens";
+  ball.type = ShapeType::kSphere;
+  ball.center = {0.f, 0.4f, 0.f};
+  ball.radius = 0.4f;
+  ball.material = glass;
+  ball.medium_interface = true;
+  ball.exterior = 0;
+  d.shapes.push_back(ball);
+  Light l;
+  l.type = LightType::kPoint;
+  l.p = {0.f, 1.2f, 0.f};
+  l.L = RGB(4.f);
+  d.lights.push_back(l);
+  d.integrator.type = "pppm";
+  return d;
+}
+
+}  // namespace caustica
