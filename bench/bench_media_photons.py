@@ -1,0 +1,72 @@
+#!/usr/bin/env python3
+"""Equal-time comparison of the volumetric path tracer and volumetric photon mapping (pppm) in fog.
+
+Two scenes of tests/python/test_media_photons.py (a point light in a box of fog over a grey floor): `fog-lamp`
+(no glass: both integrators render every path, the reference is the path tracer at high spp) and `fog-lens`
+(a glass ball under the light focuses it into the fog: a volumetric caustic through L S S V E paths, which
+the path tracer cannot sample from a point light; the reference is a long pppm render, itself consistent but
+biased at any finite pass count, so the pppm figures on that scene are optimistic by that residual). Each
+integrator renders each scene for the given seconds (whole passes until the budget is spent) and the script
+reports relMSE against the reference.
+
+usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16] [--rows]
+"""
+import argparse
+import datetime
+import os
+import sys
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "python"))
+sys.path.insert(0, os.path.join(ROOT, "tests", "python"))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--res", type=int, default=64)
+    ap.add_argument("--times", type=float, nargs="+", default=[1.0, 4.0, 16.0])
+    ap.add_argument("--photons", type=int, default=50000, help="pppm photon paths per pass")
+    ap.add_argument("--ref-spp", type=int, default=8192, help="fog-lamp reference: path tracer spp")
+    ap.add_argument("--ref-passes", type=int, default=1024, help="fog-lens reference: pppm passes")
+    ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
+    a = ap.parse_args()
+    import caustica
+    from caustica import _provenance
+    from conftest import relmse
+    from test_media_photons import fog_box
+
+    scenes = {"fog-lamp": fog_box(width=a.res), "fog-lens": fog_box("glass", width=a.res)}
+    refs = {
+        "fog-lamp": ("path", caustica.render(scenes["fog-lamp"], spp=a.ref_spp, seed=1000, max_depth=-1)),
+        "fog-lens": ("pppm", caustica.render(scenes["fog-lens"], integrator="pppm", spp=a.ref_passes,
+                                             photons=4 * a.photons, seed=1000, max_depth=-1)),
+    }
+    rows = []
+    for name, sc in scenes.items():
+        for integrator in ("path", "pppm"):
+            for t in a.times:
+                kw = dict(photons=a.photons) if integrator == "pppm" else {}
+                r = caustica.render_job(sc, integrator=integrator, time=t, seed=7, max_depth=-1, **kw)
+                e = relmse(r.image, refs[name][1])
+                rows.append((name, integrator, t, r.stats["passes"], r.stats["seconds"], e))
+                print(f"{name:9s} {integrator:5s} {t:6.1f} s  {r.stats['passes']:6d} passes  relMSE {e:.5f}",
+                      flush=True)
+    if a.rows:
+        prov = {"commit": _provenance.commit(ROOT), "machine": _provenance.machine()}
+        when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+        print(f"\n## {when}, commit {prov['commit']}: path against pppm in fog, equal time "
+              f"(`bench/bench_media_photons.py`)\n")
+        print(f"Machine: {prov['machine']}. Command: `.venv/bin/python bench/bench_media_photons.py --res {a.res} "
+              f"--times {' '.join(f'{t:g}' for t in a.times)} --rows`; {a.res}x{a.res}, pppm {a.photons} photon "
+              f"paths per pass; references: fog-lamp path {a.ref_spp} spp, fog-lens pppm {a.ref_passes} passes of "
+              f"{4 * a.photons} photons (seed 1000).\n")
+        print("| scene | integrator | seconds | passes | relMSE |")
+        print("|---|---|---|---|---|")
+        for name, integrator, t, passes, secs, e in rows:
+            print(f"| {name} | {integrator} | {secs:.2f} | {passes} | {e:.5f} |")
+
+
+if __name__ == "__main__":
+    main()
