@@ -64,6 +64,23 @@ float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_
   return d[d.size() / 2];
 }
 
+float pppm_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
+                       uint32_t photon_depth, float r0) {
+  const SceneView& v = scene.view();
+  // Photon paths start in the medium that encloses the light (locate_medium); the camera's medium must be
+  // one that photons can enter the same way.
+  Ray forward = v.camera.generate_ray(Vec2f(0.5f * v.camera.width, 0.5f * v.camera.height), Vec2f(0.5f, 0.5f));
+  const int32_t found = locate_medium(v, [&](const Ray& r, Hit& h) { return accel.intersect(r, h); }, forward);
+  if (found != v.camera_medium)
+    throw InputError("integrator 'pppm': the camera's medium is not the one enclosed by the shapes around it "
+                     "(photons could not reach it); give the medium a closed boundary shape with it as interior, "
+                     "or use --integrator path");
+  float rv = opt.volume_radius;
+  if (!(rv > 0.f)) rv = automatic_volume_radius(scene, accel, opt.seed, photons, photon_depth);
+  // No volume photons in a pass (a medium the lights do not reach): any radius gives the same zero.
+  return rv > 0.f ? rv : r0;
+}
+
 std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed,
                                                     uint32_t pass, uint64_t count, uint32_t max_depth,
                                                     bool keep_direct, const std::atomic<bool>* cancel) {
@@ -116,22 +133,9 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   if (media_ && kind_ != Kind::kPPPM)
     throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
                      "use --integrator path or pppm");
-  if (media_) {
-    // Photon paths start in the medium that encloses the light (locate_medium); the camera's medium must be
-    // one that photons can enter the same way.
-    const CpuAccel& accel = scene_->cpu_accel(opt.accel);
-    Ray forward = v.camera.generate_ray(Vec2f(0.5f * W_, 0.5f * H_), Vec2f(0.5f, 0.5f));
-    const int32_t found = locate_medium(v, [&](const Ray& r, Hit& h) { return accel.intersect(r, h); }, forward);
-    if (found != v.camera_medium)
-      throw InputError("integrator 'pppm': the camera's medium is not the one enclosed by the shapes around it "
-                       "(photons could not reach it); give the medium a closed boundary shape with it as interior, "
-                       "or use --integrator path");
-    rv0_ = opt.volume_radius;
-    const uint32_t photon_depth = max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1;
-    if (!(rv0_ > 0.f)) rv0_ = automatic_volume_radius(*scene_, accel, opt.seed, photons_per_pass_, photon_depth);
-    // No volume photons in a pass (a medium the lights do not reach): any radius gives the same zero.
-    if (!(rv0_ > 0.f)) rv0_ = r0_;
-  }
+  if (media_)
+    rv0_ = pppm_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
+                            max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_);
   size_t n = size_t(W_) * H_;
   K_ = kind_ == Kind::kPPM ? kPpmPointsPerPixel : 1;
   vp_.assign(n * K_, VisiblePoint());

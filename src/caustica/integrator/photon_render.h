@@ -53,6 +53,12 @@ constexpr int kVolumeRadiusK = 32;
 float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_t seed, uint64_t photons,
                               uint32_t max_depth);
 
+// pppm in a scene with media, on every driver: checks that the camera's medium is one that photon paths can
+// find (locate_medium: an InputError otherwise) and returns the volume photons' initial radius
+// (opt.volume_radius, else automatic_volume_radius over `photons` paths of photon_depth segments, else r0).
+float pppm_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
+                       uint32_t photon_depth, float r0);
+
 class PhotonIntegrator {
  public:
   PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& opt);

@@ -202,9 +202,6 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     if (opt_.integrator != "pppm")
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
                        what + "; use --integrator path or pppm");
-    if (uses_wavefront(opt_))
-      throw InputError("integrator 'pppm' renders participating media on the CPU driver only (not with "
-                       "--wavefront or --device cuda)" + what);
     if (opt_.photon_sampling != "uniform")
       throw InputError("--photon-sampling adaptive does not trace photons through participating media" + what +
                        "; use --photon-sampling uniform");
@@ -286,6 +283,12 @@ void RenderJob::make_integrator() {
     p.stochastic_hash = opt_.stochastic_hash;
     p.light_bvh = opt_.light_sampler == "bvh";
     p.adaptive = opt_.photon_sampling == "adaptive";
+    p.media = scene_has_media(v);  // pppm only (validated above)
+    if (p.media) {
+      p.volume_radius = pppm_media_setup(*scene_, cpu_accel(), opt_, p.photons,
+                                         p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius);
+      volume_radius_ = p.volume_radius;
+    }
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_photon_wavefront(scene_, p, dev)
                           : make_cpu_photon_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());
@@ -523,7 +526,7 @@ RenderStats RenderJob::stats() const {
   s.seconds = seconds_.load();
   s.photons = photons_.load();
   s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
-  s.volume_radius = photon_ ? photon_->initial_volume_radius() : 0.f;
+  s.volume_radius = photon_ ? photon_->initial_volume_radius() : volume_radius_;
   if ((photon_ || wavefront_) && opt_.photon_sampling == "adaptive") {
     std::lock_guard<std::mutex> lock(adaptive_mutex_);
     s.adaptive = adaptive_;

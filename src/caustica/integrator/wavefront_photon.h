@@ -23,6 +23,10 @@
 // are added in another order: images agree with the CPU integrator's to rounding (tests/cpp/
 // test_wavefront.cpp), except with stochastic hashing, where the photon kept in a cell is drawn among them
 // in another order (same distribution).
+// pppm in scenes with participating media (volumetric photon mapping, sppm.h and photon/trace.h): photon
+// paths start in their light's medium (locate_medium), the stored photons are split by a prefix sum into
+// surface photons and volume photons, each in a grid of its own, and volume visible points gather from the
+// second with the volume radius, as photon_render.cpp does.
 // Jensen's photon mapping (pm, Jensen 1996) runs here too, without visible points or grid: its first pass
 // traces the photons with the same stages (direct photons kept), builds the global and caustic maps on the
 // host as portable kd-trees (photon/knn_tree.h) and copies them to the backend; every pass then runs pm.h's
@@ -56,6 +60,13 @@ struct BoundsUnion {
 };
 struct FloatMax {
   CHD float operator()(float a, float b) const { return a > b ? a : b; }
+};
+
+// A tracer's closest-hit query as the function locate_medium takes.
+template <class T>
+struct TracerIntersect {
+  T tracer;
+  CHD void operator()(const Ray& r, Hit& h) const { tracer.intersect(r, h); }
 };
 
 // The sorted hash grid of hash_grid.h built by a backend; view() is what kernels query.
@@ -309,8 +320,32 @@ class WavefrontPhoton {
     clock.lap(stats.seconds_photons);
     if (cancelled()) return false;
 
+    // In media: the volume photons to a grid of their own (stable: both keep the photons' order).
+    const Photon* surface = photons_.data();
+    const float rv = p_.media ? pppm_volume_radius(p_.volume_radius, p_.alpha, abs_pass) : 0.f;
+    if (p_.media) {
+      if (split_flags_.size() < count + 1) split_flags_.resize(count + 1);
+      if (split_scan_.size() < count + 1) split_scan_.resize(count + 1);
+      if (surface_.size() < count) surface_.resize(count);
+      if (volume_.size() < count) volume_.resize(count);
+      const Photon* all = photons_.data();
+      uint32_t* flags = split_flags_.data();
+      uint32_t* scan = split_scan_.data();
+      b_.parallel_for(count, CAUSTICA_KERNEL(uint32_t k) { flags[k] = (all[k].flags & kPhotonVolume) ? 1u : 0u; });
+      const uint32_t nv = b_.exclusive_scan(flags, scan, count);
+      Photon* sp = surface_.data();
+      Photon* vp = volume_.data();
+      b_.parallel_for(count, CAUSTICA_KERNEL(uint32_t k) {
+        if (flags[k]) vp[scan[k]] = all[k];
+        else sp[k - scan[k]] = all[k];
+      });
+      volume_grid_.build(b_, volume_.data(), nv, s.bounds, 2.f * rv, p_.stochastic_hash,
+                         hash3(p_.seed, uint64_t(abs_pass), 0x9e));
+      surface = surface_.data();
+      count -= nv;
+    }
     // The grid, with cells of twice the largest radius (a query then overlaps at most 2x2x2 cells).
-    grid_.build(b_, photons_.data(), count, s.bounds, 2.f * rmax, p_.stochastic_hash,
+    grid_.build(b_, surface, count, s.bounds, 2.f * rmax, p_.stochastic_hash,
                 hash3(p_.seed, uint64_t(abs_pass), 0x9d));
     clock.lap(stats.seconds_grid);
     if (cancelled()) return false;
@@ -318,6 +353,7 @@ class WavefrontPhoton {
     // Gather and update: the last stage, so a cancelled pass changes nothing.
     {
       const PhotonGridView g = grid_.view();
+      const PhotonGridView vg = p_.media ? volume_grid_.view() : PhotonGridView();
       const VisiblePoint* vp = vp_.data();
       const double* lpass = lpass_.data();
       const PixelStats ps = pixel_stats();
@@ -331,6 +367,11 @@ class WavefrontPhoton {
         if (!vp[i].valid) return;
         double phi[3];
         uint32_t M;
+        if (vp[i].volume) {  // pppm in media (sppm.h)
+          pppm_volume_gather(vp[i], s, vg, rv, phi, M);
+          pppm_add_volume(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, rv);
+          return;
+        }
         float radius = pppm ? rmax : ps.R[i];
         sppm_gather(vp[i], g, radius, phi, M);
         if (pppm) pppm_add(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, radius);
@@ -357,9 +398,11 @@ class WavefrontPhoton {
       PhotonPathState* paths = paths_.data();
       uint32_t* queue = queue_.data();
       const uint64_t seed = p_.seed;
+      const bool media = p_.media;
       b_.parallel_for(P, CAUSTICA_KERNEL(uint32_t i) {
         photon_start(s, seed, pass_index, i, paths[i]);
         if (photon_depth == 0) paths[i].active = false;
+        if (media && paths[i].active) paths[i].medium = locate_medium(s, TracerIntersect<decltype(tracer)>{tracer}, paths[i].ray);
         queue[i] = i;
       });
     }
@@ -706,6 +749,10 @@ class WavefrontPhoton {
   Buffer<Photon> staged_, photons_;
   Buffer<uint32_t> queue_, queue2_, flags_, scan_;
   BackendPhotonGrid<B> grid_;
+  // pppm in media: the pass's photons split into surface and volume photons, the volume photons' grid
+  Buffer<Photon> surface_, volume_;
+  Buffer<uint32_t> split_flags_, split_scan_;
+  BackendPhotonGrid<B> volume_grid_;
 };
 
 }  // namespace caustica
