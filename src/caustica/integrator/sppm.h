@@ -16,8 +16,9 @@
 // point x: NEE with the phase function adds single scattering, and the volume photons within radius r of x
 // (photon/trace.h, stored with power beta T sigma_s / p(t), the direct ones left out as on surfaces) estimate
 // the rest of sigma_s(x) int p(wo, wi) L(x, wi) dwi as sum p(wo, wi_j) power_j / (N_emitted 4/3 pi r^3)
-// (Jensen & Christensen 1998 Eq. 5 with sigma_s folded into the photons' power, and the uniform kernel of
-// radius r in place of the k nearest). The camera weight at x is T(t) / p(t) without sigma_s. Reaching a
+// (Jensen & Christensen 1998's volume radiance estimate, the "point query, 3D blur" of Jarosz et al. 2011,
+// "A Comprehensive Theory of Volumetric Radiance Estimation", with sigma_s folded into the photons' power
+// and the uniform kernel of radius r in place of the k nearest). The camera weight at x is T(t) / p(t) without sigma_s. Reaching a
 // surface, the ray carries T / P(surface) and continues as without media; null surfaces are crossed without
 // a segment; NEE at surface points is attenuated by the media on the shadow ray (shadow_transmittance).
 #pragma once
