@@ -11,7 +11,7 @@
 //          Eq. 15, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1); images averaged.
 //          Passes are memoryless, so passes [i0, i0 + k) can be rendered anywhere
 //          and averaged later (RenderOptions::pass_offset).
-//          In scenes with participating media (pppm on this driver only): volumetric photon mapping
+//          In scenes with participating media (pppm only; the wavefront's too): volumetric photon mapping
 //          (Jensen & Christensen 1998) with volume photons in their own hash grid, gathered at volume
 //          visible points with a ball of the global volume radius, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1)
 //          (sppm.h).

@@ -9,7 +9,7 @@
 // Each photon path's random stream depends only on (seed, pass, photon index).
 //
 // Participating media (volumetric photon tracing, Jensen & Christensen 1998, "Efficient Simulation of
-// Light Transport in Scenes with Participating Media using Photon Maps", Sec. 3): a photon path starts in the
+// Light Transport in Scenes with Participating Media using Photon Maps"): a photon path starts in the
 // medium that encloses its light (locate_medium), samples a free-flight distance on every segment in a
 // medium with the path tracer's estimator (medium/medium.h: hero channel, spectral MIS over the path), and at
 // a scattering event stores a volume photon (kPhotonVolume) of power beta T sigma_s / p(t), then samples the
