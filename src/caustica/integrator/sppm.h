@@ -11,8 +11,8 @@
 //   pppm_volume_gather, pppm_add_volume, pppm_volume_radius  volumetric photon mapping in pppm (below)
 //
 // Participating media (pppm, on the CPU and wavefront drivers; volumetric photon mapping, Jensen &
-// Christensen 1998, with Knaus & Zwicker 2011's global radius): the camera ray samples a free-flight distance on each segment in a
-// medium (medium/medium.h, as the path tracer does). A scattering event there ends it at a volume visible
+// Christensen 1998, with Knaus & Zwicker 2011's global radius): the camera ray samples a free-flight
+// distance on each segment in a medium (medium/medium.h, as the path tracer does). A scattering event there ends it at a volume visible
 // point x: NEE with the phase function adds single scattering, and the volume photons within radius r of x
 // (photon/trace.h, stored with power beta T sigma_s / p(t), the direct ones left out as on surfaces) estimate
 // the rest of sigma_s(x) int p(wo, wi) L(x, wi) dwi as sum p(wo, wi_j) power_j / (N_emitted 4/3 pi r^3)
