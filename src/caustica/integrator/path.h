@@ -256,7 +256,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     // Free-flight sampling up to the surface (medium/medium.h).
     Vec2f u_m = st.sampler.next_2d();
     // The hero channel is drawn at the path's first medium event (u_m.x) and kept (medium/medium.h).
-    if (st.hero < 0) st.hero = u_m.x < 1.f / 3.f ? 0 : (u_m.x < 2.f / 3.f ? 1 : 2);
+    if (st.hero < 0) st.hero = medium_hero_channel(u_m.x);
     MediumSample ms = sample_medium_distance(md, t_max, st.hero, u_m.y);
     const RGB rp = st.r_medium * ms.p;
     const float q = (rp.x + rp.y + rp.z) * (1.f / 3.f);
@@ -291,10 +291,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     // A null surface: the ray goes on unchanged, into the medium behind it, and no segment is counted
     // (prev_p, prev_pdf and prev_delta stay those of the vertex that sampled the direction).
     st.depth -= 1;
-    if (++st.null_crossings > kMaxNullCrossings) { st.active = false; return; }
-    st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), st.ray.d, sh.ng, st.medium);
-    st.ray.o = offset_ray_origin(sh.p, sh.ng, st.ray.d);
-    st.ray.tmax = kInf;
+    if (!cross_null_surface(s, sh, st.ray, st.medium, st.null_crossings)) st.active = false;
     return;
   }
   st.null_crossings = 0;

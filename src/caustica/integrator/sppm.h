@@ -65,15 +65,14 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
       const float dlen = length(ray.d);
       const Vec3f d = ray.d / dlen;
       const Vec2f u_m = smp.next_2d();
-      if (hero < 0) hero = u_m.x < 1.f / 3.f ? 0 : (u_m.x < 2.f / 3.f ? 1 : 2);
-      const MediumSample ms = sample_medium_distance(md, found ? hit.t * dlen : kInf, hero, u_m.y);
-      const RGB rp = r_medium * ms.p;
-      const float a = (rp.x + rp.y + rp.z) * (1.f / 3.f);
-      if (!(a > 0.f)) return vp;
-      r_medium = rp / a;
+      if (hero < 0) hero = medium_hero_channel(u_m.x);
+      MediumSample ms = sample_medium_distance(md, found ? hit.t * dlen : kInf, hero, u_m.y);
+      // At a scattering event the camera carries T / p without sigma_s: the volume photons' power holds it.
+      if (ms.scattered) ms.f = medium_transmittance(medium_sigma_t(md), ms.t);
+      if (!medium_update_throughput(ms, beta, r_medium)) return vp;
       if (ms.scattered) {
         const Vec3f x = ray.o + d * ms.t;
-        const RGB w = beta * medium_transmittance(medium_sigma_t(md), ms.t) / a;
+        const RGB w = beta;
         if (depth < max_depth && s.num_lights > 0) {
           // Single scattering by NEE with the phase function (volume photons of the first event are not
           // stored).
@@ -99,7 +98,6 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
         vp.valid = depth < max_depth;
         return vp;
       }
-      beta = beta * ms.f / a;
       if (is_black(beta)) return vp;
     }
     if (!found) {
@@ -109,11 +107,8 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
     SurfaceHit sh = make_surface_hit(s, ray, hit);
     if (media && is_null_surface(s, sh)) {
       // Crossed unchanged into the medium behind it; not a segment.
-      if (++null_crossings > kMaxNullCrossings) return vp;
+      if (!cross_null_surface(s, sh, ray, medium, null_crossings)) return vp;
       --depth;
-      medium = medium_after_crossing(prim_medium_interface(s, sh.prim), ray.d, sh.ng, medium);
-      ray.o = offset_ray_origin(sh.p, sh.ng, ray.d);
-      ray.tmax = kInf;
       continue;
     }
     null_crossings = 0;

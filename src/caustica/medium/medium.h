@@ -56,6 +56,9 @@ CHD int32_t medium_after_crossing(const MediumInterface& mi, Vec3f d, Vec3f ng, 
   return dot(d, ng) < 0.f ? mi.interior : mi.exterior;
 }
 
+// The hero channel of a path (the header comment), drawn from the uniform number u at its first medium event.
+CHD int32_t medium_hero_channel(float u) { return u < 1.f / 3.f ? 0 : (u < 2.f / 3.f ? 1 : 2); }
+
 // exp(-sigma_t * t), with t = infinity giving 0 where sigma_t > 0 and 1 where it is 0.
 CHD RGB medium_transmittance(RGB sigma_t, float t) {
   RGB r;

@@ -20,6 +20,17 @@ CHD bool is_null_surface(const SceneView& s, const SurfaceHit& sh) {
   return s.has_null && s.materials[sh.material].type == MaterialType::kNull;
 }
 
+// Crosses the null surface at sh that `ray` reached: the ray goes on from just past it, in the medium of the
+// side it enters. False (and nothing changed) when the ray has already crossed kMaxNullCrossings since its
+// last vertex, the count in `crossings` (a guard against loops).
+CHD bool cross_null_surface(const SceneView& s, const SurfaceHit& sh, Ray& ray, int32_t& medium, uint32_t& crossings) {
+  if (++crossings > kMaxNullCrossings) return false;
+  medium = medium_after_crossing(prim_medium_interface(s, sh.prim), ray.d, sh.ng, medium);
+  ray.o = offset_ray_origin(sh.p, sh.ng, ray.d);
+  ray.tmax = kInf;
+  return true;
+}
+
 // The fraction of a shadow ray's contribution that arrives: 0 or 1 from one occlusion query in scenes
 // without media; otherwise the product of the media's transmittances along it, through null surfaces
 // (any other surface occludes). `tracer` is any type with intersect(Ray, Hit&) and occluded(Ray).

@@ -86,7 +86,7 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
     const float dlen = length(st.ray.d);
     const Vec3f d = st.ray.d / dlen;
     const float u_hero = st.rng.next_float(), u_dist = st.rng.next_float();
-    if (st.hero < 0) st.hero = u_hero < 1.f / 3.f ? 0 : (u_hero < 2.f / 3.f ? 1 : 2);
+    if (st.hero < 0) st.hero = medium_hero_channel(u_hero);
     const MediumSample ms = sample_medium_distance(md, hit.valid() ? hit.t * dlen : kInf, st.hero, u_dist);
     const RGB before = st.beta;
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) {
@@ -122,10 +122,7 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
   SurfaceHit sh = make_surface_hit(s, st.ray, hit);
   if (is_null_surface(s, sh)) {
     st.depth -= 1;
-    st.active = ++st.null_crossings <= kMaxNullCrossings;
-    st.medium = medium_after_crossing(prim_medium_interface(s, sh.prim), st.ray.d, sh.ng, st.medium);
-    st.ray.o = offset_ray_origin(sh.p, sh.ng, st.ray.d);
-    st.ray.tmax = kInf;
+    st.active = cross_null_surface(s, sh, st.ray, st.medium, st.null_crossings);
     return false;
   }
   st.null_crossings = 0;
