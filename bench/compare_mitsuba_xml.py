@@ -21,7 +21,7 @@ falls on the floor, and a sphere of opacity 0.5; rendered with Mitsuba's volpath
 blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one), and
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF against caustica's
 metallic-roughness mapping), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
-cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog).
+cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box).
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -342,13 +342,47 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
 </scene>
 """)
+    # A heterogeneous medium (Mitsuba's heterogeneous with a gridvolume sigma_t): a lopsided smoke plume (dense
+    # low on one side, a rippled haze above) in a null box turned about y, over a diffuse floor, lit by an area
+    # light and the sky. The grid is written in Mitsuba's .vol format beside the XML.
+    n = 24
+    c = (np.arange(n) + 0.5) / n
+    gz, gy, gx = np.meshgrid(c, c, c, indexing="ij")
+    dens = (4.0 * np.exp(-((gx - 0.35) ** 2 + (gy - 0.3) ** 2 + (gz - 0.5) ** 2) / 0.03)
+            + 0.6 * np.clip(gy, 0, 1) * (1 + np.sin(12 * gx) * np.cos(9 * gz)))
+    dens[:, :, : n // 8] = 0.0  # an empty slab on one side
+    with open(os.path.join(OUT, "smoke.vol"), "wb") as f:
+        f.write(b"VOL" + bytes([3]) + np.array([1, n, n, n, 1], "<i4").tobytes()
+                + np.array([0, 0, 0, 1, 1, 1], "<f4").tobytes() + dens.astype("<f4").tobytes())
+    with open(os.path.join(OUT, "smoky.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="volpath"><integer name="max_depth" value="16"/></integrator>
+  <medium type="heterogeneous" id="smoke">
+    <volume name="sigma_t" type="gridvolume"><string name="filename" value="smoke.vol"/>
+      <transform name="to_world"><translate value="-0.5, 0, -0.5"/><scale x="2.4" y="1.8" z="2.4"/>
+        <rotate y="1" angle="30"/><translate y="0.01"/></transform></volume>
+    <rgb name="albedo" value="0.95, 0.9, 0.8"/><float name="scale" value="4"/>
+    <phase type="hg"><float name="g" value="0.4"/></phase></medium>
+  {sensor}
+  <shape type="cube"><transform name="to_world"><scale value="0.5"/><translate value="0.5, 0.5, 0.5"/>
+      <translate value="-0.5, 0, -0.5"/><scale x="2.4" y="1.8" z="2.4"/><rotate y="1" angle="30"/>
+      <translate y="0.01"/></transform>
+    <bsdf type="null"/><ref name="interior" id="smoke"/></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
             "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml"),
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
-            "foggy": os.path.join(OUT, "foggy.xml")}
+            "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml")}
 
 
 def render_caustica(path, res, spp, seed):

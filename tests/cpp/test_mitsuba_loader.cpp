@@ -688,8 +688,9 @@ TEST(MitsubaShape, Errors) {
   EXPECT_EQ(error_of(f), f + ":3: <float name=\"radius\">: expected a positive radius");
   f = scene_file("shape_err6.xml", "<shape type=\"cube\">\n<emitter type=\"point\"/></shape>\n");
   EXPECT_EQ(error_of(f), f + ":3: <emitter type=\"point\">: only an area emitter can be attached to a shape");
-  f = scene_file("shape_err7.xml", "<shape type=\"cube\">\n<medium type=\"heterogeneous\" name=\"interior\"/></shape>\n");
-  EXPECT_EQ(error_of(f), f + ":3: <medium type=\"heterogeneous\" name=\"interior\">: unsupported medium type (supported: homogeneous)");
+  f = scene_file("shape_err7.xml", "<shape type=\"cube\">\n<medium type=\"grid\" name=\"interior\"/></shape>\n");
+  EXPECT_EQ(error_of(f), f + ":3: <medium type=\"grid\" name=\"interior\">: unsupported medium type (supported: "
+                             "homogeneous, heterogeneous)");
   f = scene_file("shape_err8.xml", "<shape type=\"cube\">\n<float name=\"radius\" value=\"1\"/></shape>\n");
   EXPECT_EQ(error_of(f), f + ":3: <float name=\"radius\">: unknown property of shape cube (supported: to_world, "
                              "flip_normals, interior, exterior)");

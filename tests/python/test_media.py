@@ -197,7 +197,9 @@ def test_cli_refuses_media_with_exit_code_2(tmp_path):
     (lambda d: d["camera"].update(medium="smoke"), "/camera/medium: no medium named 'smoke' in /media (media: m)"),
     (lambda d: d["media"]["m"].update(albedo=0.5), "/media/m: give sigma_a and sigma_s, or sigma_t and albedo, not both pairs"),
     (lambda d: d["media"]["m"].update(g=1.0), "/media/m/g: expected a number in (-1, 1)"),
-    (lambda d: d["media"]["m"].update(type="heterogeneous"), "/media/m/type: unknown medium type 'heterogeneous' (allowed: homogeneous)"),
+    (lambda d: d["media"]["m"].update(type="grid"), "/media/m/type: unknown medium type 'grid' (allowed: homogeneous, heterogeneous)"),
+    (lambda d: d["media"]["m"].update(type="heterogeneous"), "/media/m: a heterogeneous medium needs \"density\" (a grid)"),
+    (lambda d: d["media"]["m"].update(density={"file": "x.vol"}), "/media/m/density: unknown key (allowed: type, sigma_a, sigma_s, sigma_t, albedo, scale, g)"),
     (lambda d: d["media"]["m"].update(sigma_a=-1.0), "/media/m/sigma_a: expected non-negative colour values"),
     (lambda d: d["materials"]["boundary"].update(eta=1.5), "/materials/boundary/eta: unknown key (allowed: type)"),
 ])
@@ -279,7 +281,11 @@ def test_mitsuba_homogeneous_medium_null_bsdf_and_sensor_medium(tmp_path):
 
 
 @pytest.mark.parametrize("xml,message", [
-    ('<medium type="heterogeneous" id="x"/>', 'unsupported medium type (supported: homogeneous)'),
+    ('<medium type="grid" id="x"/>', 'unsupported medium type (supported: homogeneous, heterogeneous)'),
+    ('<medium type="heterogeneous" id="x"><volume name="sigma_t" type="gridvolume"/></medium>',
+     'a gridvolume needs a filename (a .vol file)'),
+    ('<medium type="homogeneous" id="x"><volume name="sigma_t" type="gridvolume"/></medium>',
+     'unsupported volume here (supported: constvolume; a gridvolume only as a heterogeneous medium\'s sigma_t)'),
     ('<medium type="homogeneous" id="x"><phase type="rayleigh"/></medium>',
      'unsupported phase function (supported: isotropic, hg)'),
     ('<medium type="homogeneous" id="x"><rgb name="albedo" value="1.5"/></medium>', 'expected an albedo in [0, 1]'),

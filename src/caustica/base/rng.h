@@ -4,6 +4,7 @@
 // one independent stream per (pixel, sample index) or per (pass, photon index).
 #pragma once
 #include <cstdint>
+#include <cstring>
 #include "host_device.h"
 #include "math.h"
 
@@ -20,6 +21,17 @@ CHD U64 mix64_of(U64 k) {
 CHD uint64_t mix64(uint64_t k) { return mix64_of(k); }
 CHD uint64_t hash3(uint64_t a, uint64_t b, uint64_t c) {
   return mix64(a * 0x9E3779B97F4A7C15ULL ^ mix64(b + 0x632BE59BD9B4E019ULL) ^ mix64(c ^ 0x8CB92BA72F3D8DD7ULL));
+}
+
+// The bits of a float (for hashing it).
+CHD uint32_t float_bits(float f) {
+#ifdef __CUDA_ARCH__
+  return __float_as_uint(f);
+#else
+  uint32_t u;
+  std::memcpy(&u, &f, sizeof u);
+  return u;
+#endif
 }
 
 CHD float u32_to_unit_float(uint32_t v) {

@@ -115,6 +115,9 @@ struct Sampler {
     uint32_t y = reverse_bits32(lk_permutation(sobol_dim1_reversed(shuffled), h2));
     return {u32_to_unit_float(x), u32_to_unit_float(y)};
   }
+  // A number unique to (seed, pixel, sample index, dimensions drawn so far) that seeds a stream of its own
+  // (delta tracking in heterogeneous media draws as many numbers as it needs from one); draws no dimension.
+  CHD uint64_t stream_seed() const { return hash3(pixel_seed ^ rng.state, index_reversed, dimension); }
   CHD float next_1d() {
     if (type == SamplerType::kIndependent) return rng.next_float();
     uint64_t h = mix64(pixel_seed + dimension++);

@@ -18,7 +18,8 @@
 // max_depth = 1 shows only emitters and 2 adds direct lighting.
 //
 // Participating media (volumetric path tracing; the radiative transfer equation in pbrt-v4 Eq. 14.3, the
-// estimator of pbrt-v3 Sec. 15.2 with pbrt-v4's spectral MIS over the path, medium/medium.h): a path knows
+// estimator of pbrt-v3 Sec. 15.2 with pbrt-v4's spectral MIS over the path, medium/medium.h; heterogeneous
+// media by delta and ratio tracking, medium/medium_grid.h): a path knows
 // the medium its ray travels in. Before a surface, path_shade samples a free-flight distance; a scattering
 // event in the medium is a vertex like a surface's, with the phase function in the place of the BSDF (NEE
 // with MIS, phase sampling, Russian roulette). Leaving a surface with a medium interface puts the ray in the
@@ -248,16 +249,20 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     const Vec3f o = st.ray.o, d = st.ray.d / dlen;
     const float t_max = hit.valid() ? hit.t * dlen : kInf;
     // Equiangular single scattering from point and spot lights along the segment (its own shadow ray).
-    const bool equiangular = eq && s.num_point_lights > 0 && st.depth < pp.max_depth;
+    // (Homogeneous media only: the MIS weight needs the free-flight density, which a grid medium's delta
+    // tracking does not give; there NEE at the scattering events samples the point lights.)
+    const bool equiangular = eq && s.num_point_lights > 0 && st.depth < pp.max_depth && md.grid < 0;
     if (equiangular) {
       Vec2f u_eq = st.sampler.next_2d();
       path_equiangular(s, pp, st, md, o, d, t_max, u_eq, *eq);
     }
-    // Free-flight sampling up to the surface (medium/medium.h).
+    // Free-flight sampling up to the surface (medium/medium.h; delta tracking in a grid medium,
+    // medium/medium_grid.h, from a stream of its own seeded by the sampler's state).
+    const uint64_t track_seed = md.grid >= 0 ? st.sampler.stream_seed() : 0;
     Vec2f u_m = st.sampler.next_2d();
     // The hero channel is drawn at the path's first medium event (u_m.x) and kept (medium/medium.h).
     if (st.hero < 0) st.hero = medium_hero_channel(u_m.x);
-    MediumSample ms = sample_medium_distance(md, t_max, st.hero, u_m.y);
+    MediumSample ms = medium_sample(s, md, o, d, t_max, st.hero, u_m.y, track_seed);
     const RGB rp = st.r_medium * ms.p;
     const float q = (rp.x + rp.y + rp.z) * (1.f / 3.f);
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }

@@ -64,11 +64,12 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
       const Medium& md = s.media[medium];
       const float dlen = length(ray.d);
       const Vec3f d = ray.d / dlen;
+      const uint64_t track_seed = md.grid >= 0 ? smp.stream_seed() : 0;
       const Vec2f u_m = smp.next_2d();
       if (hero < 0) hero = medium_hero_channel(u_m.x);
-      MediumSample ms = sample_medium_distance(md, found ? hit.t * dlen : kInf, hero, u_m.y);
+      MediumSample ms = medium_sample(s, md, ray.o, d, found ? hit.t * dlen : kInf, hero, u_m.y, track_seed);
       // At a scattering event the camera carries T / p without sigma_s: the volume photons' power holds it.
-      if (ms.scattered) ms.f = medium_transmittance(medium_sigma_t(md), ms.t);
+      if (ms.scattered) ms.f = ms.Tf;
       if (!medium_update_throughput(ms, beta, r_medium)) return vp;
       if (ms.scattered) {
         const Vec3f x = ray.o + d * ms.t;
@@ -85,7 +86,7 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
           if (li >= 0 && sample_light(s, s.lights[li], x, u_l2, ls)) {
             const float ph = hg_phase(dot(-d, ls.wi), md.g);
             const Ray sray = std::isfinite(ls.dist) ? spawn_ray_to(x, ls.p_l, ls.n_l) : Ray{x, ls.wi, kInf};
-            const RGB c = w * md.sigma_s * ls.Li * (ph / (pmf * ls.pdf));
+            const RGB c = w * ms.sigma_s * ls.Li * (ph / (pmf * ls.pdf));
             if (!is_black(c)) L += c * shadow_transmittance(s, accel, sray, medium);
           }
         }

@@ -33,9 +33,12 @@
 namespace caustica {
 
 struct Medium {
-  RGB sigma_a{0.f};  // absorption coefficient (per unit length)
-  RGB sigma_s{0.f};  // scattering coefficient
+  RGB sigma_a{0.f};  // absorption coefficient (per unit length; of a grid medium, per unit density)
+  RGB sigma_s{0.f};  // scattering coefficient (likewise)
   float g = 0.f;     // Henyey-Greenstein asymmetry in (-1, 1); 0 = isotropic
+  // A heterogeneous medium's density grid (index into SceneView::medium_grids, medium/medium_grid.h): the
+  // coefficients at x are density(x) times the two above. -1: homogeneous.
+  int32_t grid = -1;
 };
 
 // Which media lie on either side of a surface: `interior` behind its geometric normal (where a ray goes
@@ -71,6 +74,11 @@ struct MediumSample {
   float t = 0.f;  // scattering distance (when scattered)
   RGB f{0.f};     // T sigma_s (scattered) or T (surface)
   RGB p{0.f};     // per channel, the density of this outcome: sigma_t T (scattered) or T (surface)
+  // When scattered: f without the sigma_s factor (f = Tf sigma_s), and sigma_s at the event. For a grid
+  // medium (medium/medium_grid.h) f, p and Tf share one arbitrary positive factor (only their ratios enter
+  // medium_update_throughput), so p is not an absolute density there.
+  RGB Tf{0.f};
+  RGB sigma_s{0.f};
 };
 
 // Free-flight sampling along a ray through `m` whose next surface is t_surface away (infinity: none), the
@@ -85,6 +93,8 @@ CHD MediumSample sample_medium_distance(const Medium& m, float t_surface, int he
     ms.t = t;
     ms.f = m.sigma_s * T;
     ms.p = st * T;
+    ms.Tf = T;
+    ms.sigma_s = m.sigma_s;
     return ms;
   }
   RGB T = medium_transmittance(st, t_surface);

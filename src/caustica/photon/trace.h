@@ -87,7 +87,14 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
     const Vec3f d = st.ray.d / dlen;
     const float u_hero = st.rng.next_float(), u_dist = st.rng.next_float();
     if (st.hero < 0) st.hero = medium_hero_channel(u_hero);
-    const MediumSample ms = sample_medium_distance(md, hit.valid() ? hit.t * dlen : kInf, st.hero, u_dist);
+    // A grid medium's delta tracking draws from a stream of its own, seeded by two more of the path's numbers.
+    uint64_t track_seed = 0;
+    if (md.grid >= 0) {
+      const uint32_t a = float_bits(st.rng.next_float());
+      track_seed = hash3(uint64_t(a) << 32 | float_bits(st.rng.next_float()), st.depth, 0x9d1c3a5bULL);
+    }
+    const MediumSample ms =
+        medium_sample(s, md, st.ray.o, d, hit.valid() ? hit.t * dlen : kInf, st.hero, u_dist, track_seed);
     const RGB before = st.beta;
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) {
       st.active = false;

@@ -4,6 +4,7 @@
 // loader's double arithmetic gives back the same float, and materials are
 // written with the parameters their make_* constructors take.
 #include "json_writer.h"
+#include "volume_io.h"
 
 #include <cmath>
 #include <cstdio>
@@ -499,8 +500,18 @@ struct Writer {
       for (size_t i = 0; i < d.media.size(); ++i) {
         const Medium& m = d.media[i];
         JV o = JV::object();
-        o.set("type", JV::str("homogeneous")).set("sigma_a", col(m.sigma_a)).set("sigma_s", col(m.sigma_s));
+        o.set("type", JV::str(m.grid >= 0 ? "heterogeneous" : "homogeneous"))
+            .set("sigma_a", col(m.sigma_a))
+            .set("sigma_s", col(m.sigma_s));
         if (m.g != 0.f) o.set("g", JV::flt(m.g));
+        if (m.grid >= 0) {
+          if (size_t(m.grid) >= d.grids.size()) throw InputError("export: density grid index out of range");
+          const MediumGridDesc& g = d.grids[m.grid];
+          o.set("density", JV::object().set("file", JV::str(exported_grid_name(stem, size_t(m.grid)))));
+          if (!is_identity(g.to_world)) o.set("transform", matrix(g.to_world));
+          if (g.nearest) o.set("filter", JV::str("nearest"));
+          if (g.clamp) o.set("outside", JV::str("clamp"));
+        }
         media.set(medium_key(int(i)), o);
       }
       root.set("media", media);
@@ -583,6 +594,9 @@ struct Writer {
 std::string exported_texture_name(const std::string& texture_stem, size_t index) {
   return texture_stem + ".tex" + std::to_string(index) + ".exr";
 }
+std::string exported_grid_name(const std::string& texture_stem, size_t index) {
+  return texture_stem + ".grid" + std::to_string(index) + ".vol";
+}
 std::string exported_alpha_texture_name(const std::string& texture_stem, size_t index) {
   return texture_stem + ".tex" + std::to_string(index) + ".alpha.exr";
 }
@@ -639,6 +653,10 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
       for (int ch = 0; ch < 3; ++ch) grey[k * 3 + ch] = t.rgba[k * 4 + 3];
     write_image((dir / exported_alpha_texture_name(stem, i)).string(), grey, t.width, t.height);
   }
+  // The density grids the media use (Mitsuba's .vol format).
+  for (const Medium& m : desc.media)
+    if (m.grid >= 0 && size_t(m.grid) < desc.grids.size())
+      write_vol_grid(desc.grids[m.grid], (dir / exported_grid_name(stem, size_t(m.grid))).string());
   std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary);

@@ -17,12 +17,14 @@ std::string scene_desc_to_json(const SceneDesc& desc, const std::string& texture
 
 // Writes `path` (atomically: a temporary file renamed into place) and, if the
 // scene has textures, one float EXR per texture in use beside it, named after
-// the JSON file's stem. Texture alpha channels are not kept; textures nothing
-// refers to are dropped.
+// the JSON file's stem, and one .vol file per density grid a medium uses.
+// Texture alpha channels are not kept; textures nothing refers to are dropped.
 void write_scene_json(const SceneDesc& desc, const std::string& path);
 
 // The texture file name scene_desc_to_json uses for texture `index`.
 std::string exported_texture_name(const std::string& texture_stem, size_t index);
+// The .vol file scene_desc_to_json names for density grid `index` (write_scene_json writes it).
+std::string exported_grid_name(const std::string& texture_stem, size_t index);
 // The grey image of texture `index`'s alpha channel (an opacity read from the alpha channel).
 std::string exported_alpha_texture_name(const std::string& texture_stem, size_t index);
 

@@ -11,21 +11,10 @@
 // for camera rays, shadow rays and photons alike. A light sample on an emitter with opacity is weighted by the
 // same probability (area_coverage), which is what the hits that reach it see on average.
 #pragma once
-#include <cstring>
 #include "../base/rng.h"
 #include "interaction.h"
 
 namespace caustica {
-
-CHD uint32_t float_bits(float f) {
-#ifdef __CUDA_ARCH__
-  return __float_as_uint(f);
-#else
-  uint32_t u;
-  std::memcpy(&u, &f, sizeof u);
-  return u;
-#endif
-}
 
 // The material's opacity at texture coordinates uv, before the cutoff: opacity x the texture's alpha (or
 // luminance), clamped to [0, 1].

@@ -463,6 +463,76 @@ void build_alias(const std::vector<float>& w, std::vector<float>& prob, std::vec
 
 Scene::~Scene() = default;
 
+namespace {
+
+// The inverse of an affine map; false when its linear part is singular.
+bool invert_affine(const Affine& a, Affine& inv) {
+  const float(*m)[4] = a.m;
+  const double c00 = double(m[1][1]) * m[2][2] - double(m[1][2]) * m[2][1];
+  const double c01 = double(m[1][2]) * m[2][0] - double(m[1][0]) * m[2][2];
+  const double c02 = double(m[1][0]) * m[2][1] - double(m[1][1]) * m[2][0];
+  const double det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
+  if (!(std::fabs(det) > 1e-30) || !std::isfinite(det)) return false;
+  const double r = 1.0 / det;
+  double b[3][3];
+  b[0][0] = c00 * r;
+  b[1][0] = c01 * r;
+  b[2][0] = c02 * r;
+  b[0][1] = (double(m[0][2]) * m[2][1] - double(m[0][1]) * m[2][2]) * r;
+  b[1][1] = (double(m[0][0]) * m[2][2] - double(m[0][2]) * m[2][0]) * r;
+  b[2][1] = (double(m[0][1]) * m[2][0] - double(m[0][0]) * m[2][1]) * r;
+  b[0][2] = (double(m[0][1]) * m[1][2] - double(m[0][2]) * m[1][1]) * r;
+  b[1][2] = (double(m[0][2]) * m[1][0] - double(m[0][0]) * m[1][2]) * r;
+  b[2][2] = (double(m[0][0]) * m[1][1] - double(m[0][1]) * m[1][0]) * r;
+  for (int i = 0; i < 3; ++i) {
+    double t = 0.0;
+    for (int j = 0; j < 3; ++j) {
+      inv.m[i][j] = float(b[i][j]);
+      t -= b[i][j] * m[j][3];
+    }
+    inv.m[i][3] = float(t);
+  }
+  return true;
+}
+
+}  // namespace
+
+// The density grids of heterogeneous media (medium/medium_grid.h), checked: sizes, finite samples >= 0, an
+// invertible placement.
+void build_medium_grids(const SceneDesc& desc, std::vector<MediumGrid>& grids, std::vector<float>& values) {
+  grids.clear();
+  values.clear();
+  for (size_t i = 0; i < desc.grids.size(); ++i) {
+    const MediumGridDesc& gd = desc.grids[i];
+    const std::string name = "density grid '" + (gd.name.empty() ? std::to_string(i) : gd.name) + "'";
+    if (gd.nx <= 0 || gd.ny <= 0 || gd.nz <= 0)
+      throw InputError(name + ": expected a resolution of at least 1 x 1 x 1");
+    const size_t n = size_t(gd.nx) * size_t(gd.ny) * size_t(gd.nz);
+    if (gd.values.size() != n)
+      throw InputError(name + ": expected " + std::to_string(n) + " samples (" + std::to_string(gd.nx) + " x " +
+                       std::to_string(gd.ny) + " x " + std::to_string(gd.nz) + "), got " +
+                       std::to_string(gd.values.size()));
+    if (values.size() + n > size_t(UINT32_MAX)) throw InputError(name + ": the grids hold more than 2^32 samples");
+    MediumGrid g;
+    g.nx = uint32_t(gd.nx);
+    g.ny = uint32_t(gd.ny);
+    g.nz = uint32_t(gd.nz);
+    g.offset = uint32_t(values.size());
+    g.nearest = gd.nearest ? 1u : 0u;
+    g.clamp = gd.clamp ? 1u : 0u;
+    if (!invert_affine(gd.to_world, g.world_to_grid)) throw InputError(name + ": its transform is singular");
+    for (size_t k = 0; k < n; ++k) {
+      const float v = gd.values[k];
+      if (!(v >= 0.f) || !std::isfinite(v))
+        throw InputError(name + ": sample " + std::to_string(k) + " is " + std::to_string(v) +
+                         " (expected finite densities >= 0)");
+      g.max_density = std::max(g.max_density, v);
+    }
+    values.insert(values.end(), gd.values.begin(), gd.values.end());
+    grids.push_back(g);
+  }
+}
+
 std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   std::shared_ptr<Scene> sc(new Scene());
   Scene& s = *sc;
@@ -520,7 +590,10 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     if (!ok(md.sigma_a) || !ok(md.sigma_s))
       throw InputError("medium '" + name + "': sigma_a and sigma_s must be finite and >= 0");
     if (!(md.g > -1.f && md.g < 1.f)) throw InputError("medium '" + name + "': g must be in (-1, 1)");
+    if (md.grid < -1 || md.grid >= int(desc.grids.size()))
+      throw InputError("medium '" + name + "': density grid index out of range");
   }
+  build_medium_grids(desc, s.medium_grids, s.grid_values);
   auto medium_ok = [&](int m) { return m >= -1 && m < int(desc.media.size()); };
   if (!medium_ok(desc.camera.medium)) throw InputError("the camera's medium index is out of range");
   bool any_interface = false;
@@ -897,6 +970,8 @@ void Scene::update_view() {
   v.num_media = uint32_t(media.size());
   v.prim_medium = prim_medium.empty() ? nullptr : prim_medium.data();
   v.camera_medium = desc_.camera.medium;
+  v.medium_grids = medium_grids.empty() ? nullptr : medium_grids.data();
+  v.grid_values = grid_values.empty() ? nullptr : grid_values.data();
   v.has_null = 0;
   for (const Material& m : materials) v.has_null |= m.type == MaterialType::kNull ? 1u : 0u;
   v.lights = lights.data();

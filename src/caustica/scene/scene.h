@@ -44,6 +44,8 @@ class Scene {
   std::vector<Material> materials;
   std::vector<Medium> media;
   std::vector<MediumInterface> prim_medium;  // empty, or one per primitive (where some shape has an interface)
+  std::vector<MediumGrid> medium_grids;  // one per SceneDesc::grids entry
+  std::vector<float> grid_values;        // their samples, one after another (MediumGrid::offset)
   std::vector<Light> lights;
   std::vector<float> alias_prob, light_pmf;
   std::vector<uint32_t> alias_index;
@@ -63,6 +65,8 @@ class Scene {
 };
 
 Camera make_camera(const CameraDesc& c);
+// The flat density grids of desc.grids (medium/medium_grid.h); InputError for a grid that is not valid.
+void build_medium_grids(const SceneDesc& desc, std::vector<MediumGrid>& grids, std::vector<float>& values);
 // Power of a light (luminance of its emitted flux), for the light sampler.
 float light_power(const SceneView& s, const Light& l);
 

@@ -47,6 +47,17 @@ struct TextureDesc {
   float uv_rotation = 0.f;  // radians
 };
 
+// The density grid of a heterogeneous medium (medium/medium_grid.h): nx * ny * nz samples, x fastest, then
+// y, then z, filling the unit cube of grid space, which to_world places in the scene.
+struct MediumGridDesc {
+  std::string name;  // the file it came from, or a generated name
+  int nx = 0, ny = 0, nz = 0;
+  std::vector<float> values;
+  Affine to_world;
+  bool nearest = false;  // nearest sample instead of trilinear interpolation
+  bool clamp = false;    // outside the cube: the nearest border sample (Mitsuba 3) instead of 0 (pbrt-v4)
+};
+
 enum class ShapeType { kMesh, kSphere, kRectangle, kCube, kDisk };
 
 struct ShapeDesc {
@@ -97,7 +108,8 @@ struct SceneDesc {
   std::vector<MeshDesc> meshes;
   std::vector<ShapeDesc> shapes;
   std::vector<std::string> medium_names;
-  std::vector<Medium> media;  // homogeneous participating media (medium/medium.h)
+  std::vector<Medium> media;  // participating media (medium/medium.h)
+  std::vector<MediumGridDesc> grids;  // the density grids of heterogeneous media (Medium::grid)
   std::vector<Light> lights;  // point, spot, directional, environment (area lights come from shapes)
   // An environment light with Light::texture >= 0 is an equirectangular map
   // (Mitsuba's envmap convention in its local frame, y up); this rotation

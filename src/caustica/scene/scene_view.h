@@ -13,6 +13,7 @@
 #include "../texture/texture.h"
 #include "../material/material.h"
 #include "../medium/medium.h"
+#include "../medium/medium_grid.h"
 
 namespace caustica {
 
@@ -79,6 +80,9 @@ struct SceneView {
   uint32_t num_media = 0;
   const MediumInterface* prim_medium = nullptr;
   int32_t camera_medium = -1;
+  // The density grids of heterogeneous media (Medium::grid; medium/medium_grid.h) and their samples.
+  const MediumGrid* medium_grids = nullptr;
+  const float* grid_values = nullptr;
   uint32_t has_null = 0;
   // Shading
   const Material* materials = nullptr;

@@ -55,6 +55,8 @@ class DeviceScene {
     v.materials = upload(sc.materials);
     v.media = upload(sc.media);
     v.prim_medium = upload(sc.prim_medium);
+    v.medium_grids = upload(sc.medium_grids);
+    v.grid_values = upload(sc.grid_values);
     v.lights = upload(sc.lights);
     v.light_sampler.prob = upload(sc.alias_prob);
     v.light_sampler.alias = upload(sc.alias_index);

@@ -13,6 +13,7 @@
 #include "json_text.h"
 #include "../../integrator/render.h"
 #include "mesh_loaders.h"
+#include "../volume_io.h"
 
 namespace caustica {
 namespace {
@@ -632,15 +633,93 @@ std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::str
 
 // ---------------------------------------------------------------- media
 
-// A homogeneous medium: sigma_a and sigma_s, or sigma_t and albedo (Mitsuba's parameters), times scale;
-// g the Henyey-Greenstein asymmetry.
+// A heterogeneous medium's density grid (docs/scene-format.md#media): "density" is {"file": a Mitsuba .vol
+// file} or {"resolution": [nx, ny, nz], "values": [nx * ny * nz numbers, x fastest]}; "bounds" ([lo, hi]) or
+// "transform" places the grid's unit cube (default: the unit cube itself); "filter" trilinear or nearest;
+// "outside" zero or clamp. Appended to c.d->grids; returns its index.
+int parse_density_grid(const Ctx& c, const json& j, const std::string& p) {
+  if (!j.contains("density")) c.fail(p, "a heterogeneous medium needs \"density\" (a grid)");
+  const json& dj = j["density"];
+  const std::string dp = p + "/density";
+  if (!dj.is_object()) c.fail(dp, std::string("expected an object ({\"file\": ...} or {\"resolution\": ..., \"values\": ...}), got ") + type_name(dj));
+  check_keys(c, dj, dp, {"file", "resolution", "values"});
+  MediumGridDesc g;
+  if (dj.contains("file")) {
+    if (dj.contains("resolution") || dj.contains("values"))
+      c.fail(dp, "give \"file\", or \"resolution\" and \"values\", not both");
+    g = read_vol_grid(c.resolve(str(c, dj["file"], dp + "/file")), c.source + ": " + dp + "/file");
+  } else {
+    if (!dj.contains("resolution") || !dj.contains("values"))
+      c.fail(dp, "expected {\"file\": \"grid.vol\"} or {\"resolution\": [nx, ny, nz], \"values\": [...]}");
+    const json& r = dj["resolution"];
+    if (!r.is_array() || r.size() != 3) c.fail(dp + "/resolution", "expected [nx, ny, nz]");
+    int n[3];
+    for (int k = 0; k < 3; ++k) {
+      const std::string rp = dp + "/resolution/" + std::to_string(k);
+      if (!r[k].is_number_integer() || r[k].get<int64_t>() < 1 || r[k].get<int64_t>() > (1 << 16))
+        c.fail(rp, "expected an integer in [1, 65536]");
+      n[k] = int(r[k].get<int64_t>());
+    }
+    g.nx = n[0];
+    g.ny = n[1];
+    g.nz = n[2];
+    const json& v = dj["values"];
+    const size_t count = size_t(n[0]) * size_t(n[1]) * size_t(n[2]);
+    if (!v.is_array()) c.fail(dp + "/values", std::string("expected a list of numbers, got ") + type_name(v));
+    if (v.size() != count)
+      c.fail(dp + "/values", "expected " + std::to_string(count) + " numbers (" + std::to_string(n[0]) + " x " +
+                                 std::to_string(n[1]) + " x " + std::to_string(n[2]) + "), got " + std::to_string(v.size()));
+    g.values.resize(count);
+    for (size_t i = 0; i < count; ++i) {
+      const std::string vp = dp + "/values/" + std::to_string(i);
+      g.values[i] = num(c, v[i], vp);
+      if (!(g.values[i] >= 0.f)) c.fail(vp, "expected a density >= 0");
+    }
+    g.name = "grid@" + c.source + ":" + dp;
+  }
+  if (j.contains("bounds") && j.contains("transform")) c.fail(p, "give \"bounds\" or \"transform\", not both");
+  if (j.contains("bounds")) {
+    const json& b = j["bounds"];
+    if (!b.is_array() || b.size() != 2) c.fail(p + "/bounds", "expected [[x0, y0, z0], [x1, y1, z1]]");
+    const Vec3f lo = point3(c, b[0], p + "/bounds/0"), hi = point3(c, b[1], p + "/bounds/1");
+    if (!(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z)) c.fail(p + "/bounds", "expected the second corner above the first on every axis");
+    for (int i = 0; i < 3; ++i) {
+      g.to_world.m[i][i] = hi[i] - lo[i];
+      g.to_world.m[i][3] = lo[i];
+    }
+  } else if (j.contains("transform")) {
+    g.to_world = parse_transform(c, j["transform"], p + "/transform");
+  }
+  if (j.contains("filter")) {
+    const std::string f = str(c, j["filter"], p + "/filter");
+    if (f == "nearest") g.nearest = true;
+    else if (f != "trilinear") c.fail(p + "/filter", "unknown filter '" + f + "' (allowed: trilinear, nearest)");
+  }
+  if (j.contains("outside")) {
+    const std::string o = str(c, j["outside"], p + "/outside");
+    if (o == "clamp") g.clamp = true;
+    else if (o != "zero") c.fail(p + "/outside", "unknown value '" + o + "' (allowed: zero, clamp)");
+  }
+  c.d->grids.push_back(std::move(g));
+  return int(c.d->grids.size()) - 1;
+}
+
+// A medium: sigma_a and sigma_s, or sigma_t and albedo (Mitsuba's parameters), times scale; g the
+// Henyey-Greenstein asymmetry; homogeneous, or heterogeneous with a density grid (parse_density_grid) that
+// multiplies the coefficients.
 Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
   if (!j.is_object()) c.fail(p, std::string("expected an object, got ") + type_name(j));
-  check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g"});
+  bool grid = false;
   if (j.contains("type")) {
     std::string t = str(c, j["type"], p + "/type");
-    if (t != "homogeneous") c.fail(p + "/type", "unknown medium type '" + t + "' (allowed: homogeneous)");
+    if (t == "heterogeneous") grid = true;
+    else if (t != "homogeneous") c.fail(p + "/type", "unknown medium type '" + t + "' (allowed: homogeneous, heterogeneous)");
   }
+  if (grid)
+    check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g", "density", "bounds",
+                         "transform", "filter", "outside"});
+  else
+    check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g"});
   Medium m;
   const bool as = j.contains("sigma_a") || j.contains("sigma_s");
   const bool ta = j.contains("sigma_t") || j.contains("albedo");
@@ -664,6 +743,7 @@ Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
   }
   if (j.contains("g")) m.g = num(c, j["g"], p + "/g");
   if (!(m.g > -1.f && m.g < 1.f)) c.fail(p + "/g", "expected a number in (-1, 1)");
+  if (grid) m.grid = parse_density_grid(c, j, p);
   return m;
 }
 

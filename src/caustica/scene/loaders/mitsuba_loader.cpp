@@ -22,6 +22,7 @@
 #include "../../base/error.h"
 #include "../load.h"
 #include "mesh_loaders.h"
+#include "../volume_io.h"
 
 namespace caustica {
 namespace {
@@ -940,25 +941,99 @@ class Loader {
   }
 
   // ---- media ----
-  // <medium type="homogeneous">: sigma_t and albedo (Mitsuba's defaults 1 and 0.75) times scale, and a
-  // <phase> (isotropic or hg); registered under its id. Returns its index in d.media.
+  // A medium's <volume name="sigma_t|albedo">: constvolume (its colour `value`, to *constant) or, with
+  // `grid_ok`, gridvolume (a one-channel .vol file placed by to_world, docs/formats-mitsuba.md; to *grid).
+  void parse_medium_volume(xml_node v, bool grid_ok, RGB* constant, MediumGridDesc* grid) {
+    check_attrs(v, {"type", "id", "name"});
+    const std::string vt = attr(v, "type");
+    Props vp(*this, v);
+    if (vt == "constvolume") {
+      vp.declare({"value", "to_world"});
+      *constant = vp.get_color("value", RGB(1.f));
+      vp.get_transform("to_world");
+      vp.finish();
+      return;
+    }
+    if (vt != "gridvolume" || !grid_ok)
+      fail(v, grid_ok ? "unsupported volume type (supported: gridvolume, constvolume)"
+                      : "unsupported volume here (supported: constvolume; a gridvolume only as a heterogeneous medium's sigma_t)");
+    vp.declare({"filename", "to_world", "filter_type", "wrap_mode", "use_grid_bbox", "raw", "accel"});
+    const std::string fname = vp.get_string("filename", "");
+    if (fname.empty()) fail(v, "a gridvolume needs a filename (a .vol file)");
+    const fs::path file = existing_file(vp.get("filename"), fname, "volume file");
+    Vec3f lo, hi;
+    *grid = read_vol_grid(file.string(), where(vp.get("filename")), &lo, &hi);
+    M4 tw = vp.get_transform("to_world");
+    if (vp.get_bool("use_grid_bbox", false)) {
+      M4 box;
+      for (int i = 0; i < 3; ++i) {
+        box.a[i][i] = double(hi[i]) - double(lo[i]);
+        box.a[i][3] = lo[i];
+      }
+      tw = mul(tw, box);
+    }
+    grid->to_world = to_affine(tw);
+    const std::string filter = vp.get_string("filter_type", "trilinear");
+    if (filter == "nearest") grid->nearest = true;
+    else if (filter != "trilinear") fail(vp.get("filter_type"), "unsupported filter_type (supported: trilinear, nearest)");
+    const std::string wrap = vp.get_string("wrap_mode", "clamp");
+    if (wrap != "clamp") fail(vp.get("wrap_mode"), "unsupported wrap_mode (supported: clamp)");
+    grid->clamp = true;  // Mitsuba 3 clamps at the border, inside and outside the unit cube
+    vp.get_bool("raw", false);  // one channel: nothing to convert
+    vp.get_bool("accel", true);
+    vp.finish();
+  }
+
+  // <medium type="homogeneous|heterogeneous">: sigma_t and albedo (Mitsuba's defaults 1 and 0.75) times
+  // scale, and a <phase> (isotropic or hg); heterogeneous with sigma_t a one-channel gridvolume (the grid
+  // times scale is the extinction, medium/medium_grid.h) or a constant. Registered under its id. Returns its
+  // index in d.media.
   int parse_medium(xml_node n) {
     if (std::string(n.name()) == "ref") return lookup(n, "medium").index;
     check_attrs(n, {"type", "id", "name"});
     std::string type = attr(n, "type");
-    if (type != "homogeneous") fail(n, "unsupported medium type (supported: homogeneous)");
+    if (type != "homogeneous" && type != "heterogeneous")
+      fail(n, "unsupported medium type (supported: homogeneous, heterogeneous)");
+    const bool hetero = type == "heterogeneous";
     Props p(*this, n);
     p.declare({"sigma_t", "albedo", "scale", "sample_emitters"});
-    RGB sigma_t = p.get_color("sigma_t", RGB(1.f));
-    RGB albedo = p.get_color("albedo", RGB(0.75f));
+    if (hetero) p.declare({"has_spectral_extinction"});
+    RGB sigma_t(1.f), albedo(0.75f);
+    bool vol_sigma_t = false, vol_albedo = false;
+    MediumGridDesc grid;
+    bool has_grid = false;
+    for (xml_node v : p.take_objects("volume")) {
+      if (!has_attr(v, "name")) fail(v, "a medium's <volume> needs name=\"sigma_t\" or name=\"albedo\"");
+      const std::string vn = attr(v, "name");
+      if (vn == "sigma_t") {
+        if (vol_sigma_t || p.has("sigma_t")) fail(v, "sigma_t is given twice");
+        vol_sigma_t = true;
+        parse_medium_volume(v, hetero, &sigma_t, &grid);
+        if (!grid.values.empty()) {
+          has_grid = true;
+          sigma_t = RGB(1.f);
+        }
+      } else if (vn == "albedo") {
+        if (vol_albedo || p.has("albedo")) fail(v, "albedo is given twice");
+        vol_albedo = true;
+        parse_medium_volume(v, false, &albedo, nullptr);
+      } else {
+        fail(v, "unknown volume '" + vn + "' (a medium takes sigma_t and albedo)");
+      }
+    }
+    // (A heterogeneous medium with constant sigma_t and albedo is a homogeneous one.)
+    if (!vol_sigma_t) sigma_t = p.get_color("sigma_t", RGB(1.f));
+    if (!vol_albedo) albedo = p.get_color("albedo", RGB(0.75f));
     float scale = p.get_float("scale", 1.f);
-    if (!(sigma_t.x >= 0.f && sigma_t.y >= 0.f && sigma_t.z >= 0.f)) fail(p.get("sigma_t"), "expected sigma_t >= 0");
+    auto where_of = [&](const char* k) { xml_node x = p.get(k); return x ? x : n; };
+    if (!(sigma_t.x >= 0.f && sigma_t.y >= 0.f && sigma_t.z >= 0.f)) fail(where_of("sigma_t"), "expected sigma_t >= 0");
     if (!(albedo.x >= 0.f && albedo.y >= 0.f && albedo.z >= 0.f && albedo.x <= 1.f && albedo.y <= 1.f &&
           albedo.z <= 1.f))
-      fail(p.get("albedo"), "expected an albedo in [0, 1]");
+      fail(where_of("albedo"), "expected an albedo in [0, 1]");
     if (!(scale >= 0.f)) fail(p.get("scale"), "expected a scale >= 0");
     if (!p.get_bool("sample_emitters", true))
       warn(p.get("sample_emitters"), "sample_emitters", "sample_emitters=false ignored (caustica always samples emitters in media)");
+    if (hetero) p.get_bool("has_spectral_extinction", true);  // a one-channel grid: grey extinction either way
     Medium m;
     m.sigma_s = sigma_t * albedo * scale;
     m.sigma_a = sigma_t * scale - m.sigma_s;
@@ -981,6 +1056,10 @@ class Loader {
     }
     p.finish();
     std::string name = has_attr(n, "id") ? attr(n, "id") : "medium@" + where(n);
+    if (has_grid) {
+      d.grids.push_back(std::move(grid));
+      m.grid = int(d.grids.size()) - 1;
+    }
     d.medium_names.push_back(name);
     d.media.push_back(m);
     int idx = int(d.media.size()) - 1;
