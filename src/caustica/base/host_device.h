@@ -12,3 +12,10 @@
 #endif
 
 #define CHD CAUSTICA_HOST_DEVICE CAUSTICA_INLINE
+
+// For a rarely taken branch kept out of its caller's body (so that the common path stays small and inlined).
+#if defined(__CUDACC__)
+#define CAUSTICA_NOINLINE __noinline__
+#else
+#define CAUSTICA_NOINLINE __attribute__((noinline))
+#endif

@@ -34,23 +34,36 @@ CHD bool cross_null_surface(const SceneView& s, const SurfaceHit& sh, Ray& ray, 
 // Free-flight sampling in medium md along o + t d (unit d) up to the surface at t_surface (infinity: none),
 // distances in channel `hero`: a homogeneous medium by sample_medium_distance from u_dist, a grid medium by
 // delta tracking (medium/medium_grid.h) with a PCG32 stream seeded by (track_seed, u_dist).
+// (The grid media's walks are kept out of line: scenes without them keep the homogeneous path as compact as
+// before, measured 2% faster on smallvcm-fog than with the walk inlined.)
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline MediumSample medium_sample_grid(const SceneView& s, const Medium& md,
+                                                                             Vec3f o, Vec3f d, float t_surface,
+                                                                             int hero, float u_dist,
+                                                                             uint64_t track_seed) {
+  PCG32 rng(track_seed, mix64(float_bits(u_dist)));
+  return grid_sample_distance(md, s.medium_grids[md.grid], s.grid_values, o, d, t_surface, hero, rng);
+}
 CHD MediumSample medium_sample(const SceneView& s, const Medium& md, Vec3f o, Vec3f d, float t_surface, int hero,
                                float u_dist, uint64_t track_seed) {
   if (md.grid < 0) return sample_medium_distance(md, t_surface, hero, u_dist);
-  PCG32 rng(track_seed, mix64(float_bits(u_dist)));
-  return grid_sample_distance(md, s.medium_grids[md.grid], s.grid_values, o, d, t_surface, hero, rng);
+  return medium_sample_grid(s, md, o, d, t_surface, hero, u_dist, track_seed);
 }
 
 // The transmittance of medium md along o + t d (unit d), 0 <= t < len: exact for a homogeneous medium, by
 // ratio tracking for a grid medium, its random stream a hash of the segment (so the same query always gets
 // the same answer, on any thread or device).
-CHD RGB medium_segment_transmittance(const SceneView& s, const Medium& md, Vec3f o, Vec3f d, float len) {
-  if (md.grid < 0) return medium_transmittance(medium_sigma_t(md), len);
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB medium_segment_transmittance_grid(const SceneView& s,
+                                                                                   const Medium& md, Vec3f o,
+                                                                                   Vec3f d, float len) {
   const uint64_t h = hash3(uint64_t(float_bits(o.x)) << 32 | float_bits(o.y),
                            uint64_t(float_bits(o.z)) << 32 | float_bits(d.x),
                            uint64_t(float_bits(d.y)) << 32 | float_bits(d.z));
   PCG32 rng(h, mix64(h ^ float_bits(len)));
   return grid_transmittance(md, s.medium_grids[md.grid], s.grid_values, o, d, len, rng);
+}
+CHD RGB medium_segment_transmittance(const SceneView& s, const Medium& md, Vec3f o, Vec3f d, float len) {
+  if (md.grid < 0) return medium_transmittance(medium_sigma_t(md), len);
+  return medium_segment_transmittance_grid(s, md, o, d, len);
 }
 
 // The fraction of a shadow ray's contribution that arrives: 0 or 1 from one occlusion query in scenes
