@@ -1,5 +1,6 @@
 // Heterogeneous media (medium/medium_grid.h): the grid's lookup convention (Mitsuba 3's gridvolume: cell-
-// centred samples, trilinear, clamped border), its placement by Scene's build (the inverse of to_world),
+// centred samples, trilinear, clamped border), its placement by Scene's build (the inverse of to_world), the
+// majorant grid's walk (contiguous segments bounding the density),
 // delta tracking's collision distances against the exact density sigma_t(t) T(t) (chi-square, chi2.h; with
 // a negative control whose majorant is too small), its per-channel unbiasedness with chromatic coefficients
 // through a turned, scaled grid (Monte Carlo means against quadrature, 4 standard errors), and ratio
@@ -122,12 +123,90 @@ TEST(MediumGrid, TrilinearInThreeDimensionsAndPlacedByItsTransform) {
         want += v(x, y, z) * (x ? fx : 1 - fx) * (y ? fy : 1 - fy) * (z ? fz : 1 - fz);
   const Vec3f world(1.f + 2.f * q.x, -1.f + 4.f * q.y, 3.f + q.z);
   EXPECT_NEAR(grid_density(b.g, b.values.data(), world), want, 1e-5f);
-  // The ray's overlap with the placed cube: along +x through its middle from x = 0, [1, 3].
-  float t0, t1;
-  ASSERT_TRUE(grid_ray_overlap(b.g, Vec3f(0.f, 1.f, 3.5f), Vec3f(1.f, 0.f, 0.f), kInf, t0, t1));
-  EXPECT_NEAR(t0, 1.f, 1e-6f);
-  EXPECT_NEAR(t1, 3.f, 1e-6f);
-  EXPECT_FALSE(grid_ray_overlap(b.g, Vec3f(0.f, 5.f, 3.5f), Vec3f(1.f, 0.f, 0.f), kInf, t0, t1));
+  // The majorant walk along +x through the placed cube's middle from x = 0 covers its overlap, [1, 3].
+  MajorantWalk w = majorant_walk(b.g, Vec3f(0.f, 1.f, 3.5f), Vec3f(1.f, 0.f, 0.f), kInf);
+  MajorantSegment seg;
+  float first = -1.f, last = -1.f;
+  while (majorant_next(b.g, b.values.data(), w, seg)) {
+    if (first < 0.f) first = seg.t0;
+    last = seg.t1;
+  }
+  EXPECT_NEAR(first, 1.f, 1e-6f);
+  EXPECT_NEAR(last, 3.f, 1e-6f);
+  w = majorant_walk(b.g, Vec3f(0.f, 5.f, 3.5f), Vec3f(1.f, 0.f, 0.f), kInf);
+  EXPECT_FALSE(majorant_next(b.g, b.values.data(), w, seg));
+}
+
+// The majorant walk over random rays through a turned 37 x 20 x 9 grid (coarse cells of several samples, and
+// of one along z): its segments follow one another without gaps, cover the ray's overlap with the cube (all
+// of [0, t_max) for a clamped grid, whose outside parts take d_max), and bound the density at every point of
+// them (64 points per segment, the segments' ends included).
+TEST(MediumGrid, MajorantWalkCoversTheRayAndBoundsTheDensity) {
+  MediumGridDesc gd;
+  gd.nx = 37;
+  gd.ny = 20;
+  gd.nz = 9;
+  PCG32 vr(3, 4);
+  for (int i = 0; i < 37 * 20 * 9; ++i) gd.values.push_back(vr.next_float() < 0.7f ? 0.f : 5.f * vr.next_float());
+  const float c = std::cos(0.7f), s = std::sin(0.7f);
+  const float R[3][3] = {{c, 0, s}, {0, 1, 0}, {-s, 0, c}};
+  const float sc[3] = {2.f, 1.2f, 0.7f};
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) gd.to_world.m[i][k] = R[i][k] * sc[k];
+  gd.to_world.m[1][3] = 0.3f;
+  for (bool clamp : {false, true}) {
+    gd.clamp = clamp;
+    BuiltGrid b = build(gd);
+    EXPECT_EQ(b.g.mx, 16u);
+    EXPECT_EQ(b.g.mz, 9u);
+    PCG32 rng(clamp ? 8 : 9, 10);
+    long segments = 0, points = 0, hits = 0;
+    for (int r = 0; r < 2000; ++r) {
+      const Vec3f o(-2.f + 4.f * rng.next_float(), -1.f + 3.f * rng.next_float(), -2.f + 4.f * rng.next_float());
+      // Aimed at a point of the cube grown by a fifth on each side, so that most rays cross it and some miss.
+      const Vec3f q(-0.2f + 1.4f * rng.next_float(), -0.2f + 1.4f * rng.next_float(), -0.2f + 1.4f * rng.next_float());
+      const Vec3f d = normalize(gd.to_world.point(q) - o);
+      const float t_max = r % 3 == 0 ? kInf : 4.f * rng.next_float();
+      float t0, t1;
+      grid_cube_overlap(b.g, o, d, t_max, t0, t1);
+      MajorantWalk w = majorant_walk(b.g, o, d, t_max);
+      MajorantSegment seg;
+      float expect = clamp ? 0.f : t0, end = expect;
+      bool any = false;
+      while (majorant_next(b.g, b.values.data(), w, seg)) {
+        any = true;
+        ++segments;
+        ASSERT_NEAR(seg.t0, expect, 1e-4f * std::max(1.f, std::fabs(expect))) << "a gap before a segment";
+        ASSERT_GT(seg.t1, seg.t0);
+        expect = end = seg.t1;
+        if (!std::isfinite(seg.t1)) {
+          EXPECT_EQ(seg.d, b.g.max_density);
+          continue;
+        }
+        for (int k = 0; k <= 63; ++k) {
+          const float t = seg.t0 + (seg.t1 - seg.t0) * float(k) / 63.f;
+          ASSERT_LE(grid_density(b.g, b.values.data(), o + d * t), seg.d * (1.f + 1e-6f)) << "t " << t;
+          ++points;
+        }
+      }
+      if (clamp) {
+        EXPECT_TRUE(any);
+        if (std::isfinite(t_max)) EXPECT_NEAR(end, t_max, 1e-4f * std::max(1.f, t_max));
+      } else if (t0 < t1) {
+        ++hits;
+        EXPECT_TRUE(any);
+        EXPECT_NEAR(end, t1, 1e-4f * std::max(1.f, t1));
+      } else {
+        EXPECT_FALSE(any);
+      }
+    }
+    // Enough rays cross the cube, each through several cells (its rays' segments outnumber them).
+    if (!clamp) {
+      EXPECT_GT(hits, 1000);
+      EXPECT_GT(segments, 3 * hits);
+    }
+    EXPECT_GT(points, 100000);
+  }
 }
 
 TEST(MediumGrid, BuildRejectsBadGrids) {
@@ -164,8 +243,9 @@ struct GreyRow {
 // Bins of the collision distance t in [0, t_s] with their exact probabilities T(a) - T(b), the "other" bin
 // the surface, T(t_s).
 chi2::Result chi2_of_delta_tracking(const GreyRow& s, float majorant_scale) {
-  MediumGrid g = s.b.g;
-  g.max_density *= majorant_scale;
+  const MediumGrid g = s.b.g;
+  std::vector<float> values = s.b.values;  // the samples, then the majorant grid's cells, scaled
+  for (size_t i = g.maj_offset; i < values.size(); ++i) values[i] *= majorant_scale;
   const int bins = 40;
   std::vector<double> tau(bins + 1, 0.0);
   for (int i = 1; i <= bins; ++i)
@@ -180,7 +260,7 @@ chi2::Result chi2_of_delta_tracking(const GreyRow& s, float majorant_scale) {
   PCG32 rng(21, 22);
   auto sample = [&]() {
     const int hero = hero_of(rng.next_float());
-    MediumSample ms = grid_sample_distance(s.m, g, s.b.values.data(), s.o, s.d, s.ts, hero, rng);
+    MediumSample ms = grid_sample_distance(s.m, g, values.data(), s.o, s.d, s.ts, hero, rng);
     chi2::Sample2 p;
     p.ok = ms.scattered;
     p.x = ms.t;
@@ -207,8 +287,8 @@ TEST(MediumGrid, DeltaTrackingCollisionsFollowTheDensity) {
 }
 
 TEST(MediumGrid, DeltaTrackingWithTooSmallAMajorantFails) {
-  // Negative control: with the majorant at 0.6 of the largest density, collisions in the dense samples are
-  // too rare (the real-collision probability is clipped at 1), and the same chi-square test rejects it.
+  // Negative control: with the majorants at 0.6 of the densities they bound, collisions in the dense samples
+  // are too rare (the real-collision probability is clipped at 1), and the same chi-square test rejects it.
   GreyRow s;
   chi2::Result r = chi2_of_delta_tracking(s, 0.6f);
   EXPECT_FALSE(r.passed) << r.report;

@@ -9,12 +9,17 @@
 // density is 0 (pbrt-v4) or, with `clamp`, the nearest border sample's (Mitsuba 3's default wrap mode). An
 // affine map takes world space to grid space, so a grid can be placed, scaled and turned.
 //
+// Majorants: a coarse grid of at most 16^3 cells over the cube (pbrt-v4's majorant grid), each holding the
+// largest sample a lookup inside it can read, d_maj; a ray walks the cells it crosses (a 3D DDA, Amanatides &
+// Woo 1987, "A Fast Voxel Traversal Algorithm for Ray Tracing"), so empty and thin regions cost few or no
+// tentative collisions. With `clamp`, the ray's parts outside the cube take d_max, the largest sample.
+//
 // Free-flight sampling by delta tracking with null collisions (Woodcock et al. 1965; the null-scattering
 // formulation of Miller, Georgiev & Jarosz 2019, "A Null-Scattering Path Integral Formulation of Light
-// Transport", as pbrt-v4 uses it in Sec. 14.1.2 and its VolPathIntegrator, Sec. 14.2.2): the majorant
-// sigma_maj = d_max (sigma_a + sigma_s) per channel bounds sigma_t(x) along every ray. Tentative collisions
+// Transport", as pbrt-v4 uses it in Sec. 14.1.2 and its VolPathIntegrator, Sec. 14.2.2): in each cell the
+// majorant sigma_maj = d_maj (sigma_a + sigma_s) per channel bounds sigma_t(x). Tentative collisions
 // are drawn at the rate of the path's hero channel's majorant (medium/medium.h); at each, a real collision
-// happens with probability sigma_t(x) / sigma_maj = d(x) / d_max (the same in every channel with
+// happens with probability sigma_t(x) / sigma_maj = d(x) / d_maj (the same in every channel with
 // sigma_t > 0), else a null collision and the walk goes on. In the terms of medium/medium.h each tentative
 // step of length dt contributes, per channel,
 //   null collision:      f = T_maj(dt) sigma_n(x),  p = T_maj(dt) sigma_n(x),  sigma_n = sigma_maj - sigma_t(x)
@@ -23,13 +28,15 @@
 // with T_maj(dt) = exp(-sigma_maj dt), and the event's f and p are the products over its steps, so the
 // path's throughput stays f / avg(r p) over all its medium events and channels (one-sample MIS over the
 // channels, pbrt-v4's r_u ratios) and the estimate is unbiased in every channel. For a homogeneous medium
-// (d = d_max everywhere) there are no null collisions and this is the free-flight sampling of medium.h.
-// The steps' f and p are rescaled together as the walk goes on (they would underflow over many steps);
-// their ratios are all that medium_update_throughput uses.
+// (d = d_maj everywhere) there are no null collisions and this is the free-flight sampling of medium.h.
+// Crossing a cell's far face without a collision is a step too, of factor and density T_maj of the rest of
+// the cell (a fresh exponential sample starts in the next cell: the exponential is memoryless). The steps' f
+// and p are rescaled together as the walk goes on (they would underflow over many steps); their ratios are
+// all that medium_update_throughput uses.
 //
 // Transmittance of shadow rays by ratio tracking (Novak, Selle & Jarosz 2014, "Residual Ratio Tracking for
 // Estimating Attenuation in Participating Media"; pbrt-v4 Sec. 11.2): tentative collisions at one rate mu =
-// d_max max_c sigma_t[c] for all channels, and T_c = prod over them of (1 - sigma_t[c](x_i) / mu), an
+// d_maj max_c sigma_t[c] for all channels (per cell), and T_c = prod over them of (1 - sigma_t[c](x_i) / mu), an
 // unbiased estimate in [0, 1] of each channel's exp(-int sigma_t[c]); Russian roulette once its largest
 // channel falls below 0.1 (continue with that probability, divide by it).
 //
@@ -54,7 +61,15 @@ struct MediumGrid {
   float max_density = 0.f; // d_max: the largest sample (the majorant's density)
   uint32_t nearest = 0;    // 1: the nearest sample; 0: trilinear interpolation
   uint32_t clamp = 0;      // outside the cube: 1 the nearest border sample, 0 density 0
+  // The majorant grid (header comment): mx x my x mz cells over the cube, each the largest density in it,
+  // stored in SceneView::grid_values from maj_offset (x fastest).
+  uint32_t mx = 0, my = 0, mz = 0;
+  uint32_t maj_offset = 0;
 };
+
+// The coarse grid's resolution along an axis of n samples (pbrt-v4 uses 16^3).
+constexpr uint32_t kMajorantRes = 16;
+CHD uint32_t majorant_res(uint32_t n) { return n < kMajorantRes ? n : kMajorantRes; }
 
 CHD float grid_sample_at(const MediumGrid& g, const float* values, int x, int y, int z) {
   x = x < 0 ? 0 : (x >= int(g.nx) ? int(g.nx) - 1 : x);
@@ -87,18 +102,16 @@ CHD float grid_density(const MediumGrid& g, const float* values, Vec3f p) {
   return grid_density_local(g, values, g.world_to_grid.point(p));
 }
 
-// The part [t0, t1] of the ray o + t d, 0 <= t < t_max, where the density can be non-zero: all of it for a
-// clamped grid, else its overlap with the grid's cube (the slab test in grid space, where the affine map
-// keeps t). False when there is none.
-CHD bool grid_ray_overlap(const MediumGrid& g, Vec3f o, Vec3f d, float t_max, float& t0, float& t1) {
+// The part [t0, t1) of the ray o + t d, 0 <= t < t_max, inside the grid's cube (the slab test in grid space,
+// where the affine map keeps t); t0 >= t1 when there is none.
+CHD void grid_cube_overlap(const MediumGrid& g, Vec3f o, Vec3f d, float t_max, float& t0, float& t1) {
+  const Vec3f og = g.world_to_grid.point(o), dg = g.world_to_grid.vector(d);
   t0 = 0.f;
   t1 = t_max;
-  if (g.clamp) return true;
-  const Vec3f og = g.world_to_grid.point(o), dg = g.world_to_grid.vector(d);
   for (int a = 0; a < 3; ++a) {
     const float oa = og[a], da = dg[a];
     if (da == 0.f) {
-      if (!(oa >= 0.f && oa <= 1.f)) return false;
+      if (!(oa >= 0.f && oa <= 1.f)) t1 = -1.f;
       continue;
     }
     float ta = (0.f - oa) / da, tb = (1.f - oa) / da;
@@ -106,7 +119,103 @@ CHD bool grid_ray_overlap(const MediumGrid& g, Vec3f o, Vec3f d, float t_max, fl
     t0 = maxf(t0, ta);
     t1 = minf(t1, tb);
   }
-  return t0 < t1;
+}
+
+// The ray's path through the majorant grid, as segments [t0, t1) of constant majorant density d: the cells
+// of the cube it crosses in order (a 3D DDA, Amanatides & Woo 1987), and with a clamped grid the parts before
+// and after the cube at d_max. Segments cover [0, t_max) where the density can be non-zero.
+struct MajorantSegment {
+  float t0 = 0.f, t1 = 0.f, d = 0.f;
+};
+struct MajorantWalk {
+  float t_max = 0.f, tin = 0.f, tout = 0.f;  // the ray's range; its overlap with the cube (tin >= tout: none)
+  float t = 0.f;                             // where the next segment starts
+  int phase = 3;                             // 0 before the cube, 1 in it, 2 after it, 3 done
+  int cell[3] = {0, 0, 0}, step[3] = {0, 0, 0};
+  float next_t[3] = {0.f, 0.f, 0.f}, delta_t[3] = {0.f, 0.f, 0.f};
+};
+
+CHD MajorantWalk majorant_walk(const MediumGrid& g, Vec3f o, Vec3f d, float t_max) {
+  MajorantWalk w;
+  w.t_max = t_max;
+  const Vec3f og = g.world_to_grid.point(o), dg = g.world_to_grid.vector(d);
+  float t0, t1;
+  grid_cube_overlap(g, o, d, t_max, t0, t1);
+  w.tin = t0;
+  w.tout = t1;
+  const bool inside = t0 < t1;
+  w.phase = g.clamp ? 0 : (inside ? 1 : 3);
+  w.t = g.clamp ? 0.f : t0;
+  if (inside) {
+    const uint32_t m[3] = {g.mx, g.my, g.mz};
+    const Vec3f p = og + dg * t0;
+    for (int a = 0; a < 3; ++a) {
+      const float pa = clampf(p[a], 0.f, 1.f) * float(m[a]);
+      int c = int(std::floor(pa));
+      c = c < 0 ? 0 : (c >= int(m[a]) ? int(m[a]) - 1 : c);
+      w.cell[a] = c;
+      if (dg[a] == 0.f) {
+        w.step[a] = 0;
+        w.next_t[a] = kInf;
+        w.delta_t[a] = kInf;
+        continue;
+      }
+      w.step[a] = dg[a] > 0.f ? 1 : -1;
+      const float bound = float(c + (dg[a] > 0.f ? 1 : 0)) / float(m[a]);
+      w.next_t[a] = t0 + (bound - p[a]) / dg[a];
+      w.delta_t[a] = 1.f / (float(m[a]) * std::fabs(dg[a]));
+    }
+  }
+  return w;
+}
+
+// The next segment of the walk; false when there is none left.
+CHD bool majorant_next(const MediumGrid& g, const float* values, MajorantWalk& w, MajorantSegment& seg) {
+  while (w.phase < 3) {
+    if (w.phase == 0) {  // a clamped grid before the cube: d_max up to the cube (or the whole ray)
+      w.phase = w.tin < w.tout ? 1 : 2;
+      const float end = w.tin < w.tout ? w.tin : w.t_max;
+      if (end > w.t) {
+        seg = {w.t, end, g.max_density};
+        w.t = end;
+        if (w.phase == 2 && !(w.t < w.t_max)) w.phase = 3;
+        return true;
+      }
+      if (w.phase == 2 && !(w.t < w.t_max)) w.phase = 3;
+      continue;
+    }
+    if (w.phase == 1) {
+      int a = 0;
+      if (w.next_t[1] < w.next_t[a]) a = 1;
+      if (w.next_t[2] < w.next_t[a]) a = 2;
+      const float end = minf(w.next_t[a], w.tout);
+      seg.t0 = w.t;
+      seg.t1 = end;
+      seg.d = values[g.maj_offset + (size_t(w.cell[2]) * g.my + size_t(w.cell[1])) * g.mx + size_t(w.cell[0])];
+      w.t = end;
+      const uint32_t m[3] = {g.mx, g.my, g.mz};
+      if (!(end < w.tout)) {
+        w.phase = g.clamp ? 2 : 3;
+      } else {
+        w.cell[a] += w.step[a];
+        w.next_t[a] += w.delta_t[a];
+        if (w.cell[a] < 0 || w.cell[a] >= int(m[a])) {  // left the cube early by rounding
+          w.t = w.tout;
+          w.phase = g.clamp ? 2 : 3;
+        }
+      }
+      if (seg.t1 > seg.t0) return true;
+      continue;
+    }
+    // phase 2: a clamped grid after the cube
+    w.phase = 3;
+    if (w.t_max > w.t) {
+      seg = {w.t, w.t_max, g.max_density};
+      w.t = w.t_max;
+      return true;
+    }
+  }
+  return false;
 }
 
 // Delta tracking along o + t d (unit d) up to the surface at t_surface (infinity: none), tentative collisions
@@ -116,71 +225,87 @@ CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid& g, cons
                                       float t_surface, int hero, Rng& rng) {
   MediumSample ms;
   ms.f = ms.p = RGB(1.f);
-  float t0, t1;
-  if (!grid_ray_overlap(g, o, d, t_surface, t0, t1)) return ms;
-  const RGB sigma_t = medium_sigma_t(m), maj = sigma_t * g.max_density;
-  const float rate = maj[hero];
-  float t = t0;
-  for (uint32_t step = 0; step < kMaxGridSteps; ++step) {
-    const float dt = rate > 0.f ? -std::log1p(-minf(rng.next_float(), kOneMinusEpsilon)) / rate : kInf;
-    if (!(t + dt < t1)) {
-      const RGB T = medium_transmittance(maj, t1 - t);
-      ms.f *= T;
-      ms.p *= T;
-      return ms;
+  const RGB sigma_t = medium_sigma_t(m);
+  MajorantWalk w = majorant_walk(g, o, d, t_surface);
+  MajorantSegment seg;
+  uint32_t steps = 0;
+  bool absorbed = false;  // the guard in the header comment, or no density left in any channel
+  while (!absorbed && majorant_next(g, values, w, seg)) {
+    const RGB maj = sigma_t * seg.d;
+    const float rate = maj[hero];
+    float t = seg.t0;
+    for (;;) {
+      if (++steps > kMaxGridSteps) {
+        absorbed = true;
+        break;
+      }
+      const float dt = rate > 0.f ? -std::log1p(-minf(rng.next_float(), kOneMinusEpsilon)) / rate : kInf;
+      if (!(t + dt < seg.t1)) {  // through the segment: its majorant transmittance, to both f and p
+        const RGB T = medium_transmittance(maj, seg.t1 - t);
+        ms.f *= T;
+        ms.p *= T;
+        break;
+      }
+      t += dt;
+      const RGB T = medium_transmittance(maj, dt);
+      const float density = grid_density(g, values, o + d * t);
+      const float real = clampf(density / seg.d, 0.f, 1.f);
+      if (rng.next_float() < real) {
+        ms.scattered = true;
+        ms.t = t;
+        ms.sigma_s = m.sigma_s * density;
+        ms.Tf = ms.f * T;
+        ms.f = ms.Tf * ms.sigma_s;
+        ms.p = ms.p * T * (sigma_t * density);
+        return ms;
+      }
+      const RGB sigma_n = maj * (1.f - real);
+      ms.f *= T * sigma_n;
+      ms.p *= T * sigma_n;
     }
-    t += dt;
-    const RGB T = medium_transmittance(maj, dt);
-    const float density = grid_density(g, values, o + d * t);
-    const float real = clampf(density / g.max_density, 0.f, 1.f);
-    if (rng.next_float() < real) {
-      ms.scattered = true;
-      ms.t = t;
-      ms.sigma_s = m.sigma_s * density;
-      ms.Tf = ms.f * T;
-      ms.f = ms.Tf * ms.sigma_s;
-      ms.p = ms.p * T * (sigma_t * density);
-      return ms;
-    }
-    const RGB sigma_n = maj * (1.f - real);
-    ms.f *= T * sigma_n;
-    ms.p *= T * sigma_n;
     const float a = (ms.p.x + ms.p.y + ms.p.z) * (1.f / 3.f);
-    if (!(a > 0.f)) break;
-    ms.f /= a;
-    ms.p /= a;
+    if (!(a > 0.f)) absorbed = true;
+    else {
+      ms.f /= a;
+      ms.p /= a;
+    }
   }
-  // Absorbed (the guard in the header comment, or no density left in any channel).
-  ms.scattered = false;
-  ms.f = RGB(0.f);
-  ms.p = RGB(1.f);
-  return ms;
+  if (absorbed) {
+    ms.f = RGB(0.f);
+    ms.p = RGB(1.f);
+  }
+  return ms;  // the surface (or absorbed)
 }
 
 // Ratio tracking of the transmittance along o + t d (unit d), 0 <= t < t_end. See the header comment.
 template <typename Rng>
 CHD RGB grid_transmittance(const Medium& m, const MediumGrid& g, const float* values, Vec3f o, Vec3f d, float t_end,
                            Rng& rng) {
-  float t0, t1;
-  if (!grid_ray_overlap(g, o, d, t_end, t0, t1)) return RGB(1.f);
   const RGB sigma_t = medium_sigma_t(m);
-  const float mu = max_component(sigma_t) * g.max_density;
-  if (!(mu > 0.f)) return RGB(1.f);
+  const float st_max = max_component(sigma_t);
   RGB Tr(1.f);
-  float t = t0;
-  for (uint32_t step = 0; step < kMaxGridSteps; ++step) {
-    t += -std::log1p(-minf(rng.next_float(), kOneMinusEpsilon)) / mu;
-    if (!(t < t1)) return Tr;
-    const float density = grid_density(g, values, o + d * t);
-    Tr *= RGB(1.f) - sigma_t * (density / mu);
-    Tr = RGB(maxf(Tr.x, 0.f), maxf(Tr.y, 0.f), maxf(Tr.z, 0.f));
-    const float mx = max_component(Tr);
-    if (mx < 0.1f) {
-      if (!(rng.next_float() < mx)) return RGB(0.f);
-      Tr /= mx;
+  MajorantWalk w = majorant_walk(g, o, d, t_end);
+  MajorantSegment seg;
+  uint32_t steps = 0;
+  while (majorant_next(g, values, w, seg)) {
+    const float mu = st_max * seg.d;
+    if (!(mu > 0.f)) continue;
+    float t = seg.t0;
+    for (;;) {
+      if (++steps > kMaxGridSteps) return RGB(0.f);
+      t += -std::log1p(-minf(rng.next_float(), kOneMinusEpsilon)) / mu;
+      if (!(t < seg.t1)) break;
+      const float density = grid_density(g, values, o + d * t);
+      Tr *= RGB(1.f) - sigma_t * (density / mu);
+      Tr = RGB(maxf(Tr.x, 0.f), maxf(Tr.y, 0.f), maxf(Tr.z, 0.f));
+      const float mx = max_component(Tr);
+      if (mx < 0.1f) {
+        if (!(rng.next_float() < mx)) return RGB(0.f);
+        Tr /= mx;
+      }
     }
   }
-  return RGB(0.f);
+  return Tr;
 }
 
 }  // namespace caustica

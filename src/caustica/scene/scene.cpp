@@ -529,6 +529,31 @@ void build_medium_grids(const SceneDesc& desc, std::vector<MediumGrid>& grids, s
       g.max_density = std::max(g.max_density, v);
     }
     values.insert(values.end(), gd.values.begin(), gd.values.end());
+    // The majorant grid: per coarse cell, the largest sample that a lookup in it can read (trilinear reads
+    // floor(q n - 1/2) and the next; one more on each side for the rounding of q near a cell's faces).
+    g.mx = majorant_res(g.nx);
+    g.my = majorant_res(g.ny);
+    g.mz = majorant_res(g.nz);
+    g.maj_offset = uint32_t(values.size());
+    auto range = [](uint32_t c, uint32_t m, int n, int& lo, int& hi) {
+      lo = std::max(0, int(std::floor(double(c) / m * n - 0.5)) - 1);
+      hi = std::min(n - 1, int(std::floor(double(c + 1) / m * n - 0.5)) + 2);
+    };
+    for (uint32_t k = 0; k < g.mz; ++k)
+      for (uint32_t j = 0; j < g.my; ++j)
+        for (uint32_t i = 0; i < g.mx; ++i) {
+          int x0, x1, y0, y1, z0, z1;
+          range(i, g.mx, gd.nx, x0, x1);
+          range(j, g.my, gd.ny, y0, y1);
+          range(k, g.mz, gd.nz, z0, z1);
+          float mx = 0.f;
+          for (int z = z0; z <= z1; ++z)
+            for (int y = y0; y <= y1; ++y)
+              for (int x = x0; x <= x1; ++x)
+                mx = std::max(mx, gd.values[(size_t(z) * gd.ny + size_t(y)) * gd.nx + size_t(x)]);
+          values.push_back(mx);
+        }
+    if (values.size() > size_t(UINT32_MAX)) throw InputError(name + ": the grids hold more than 2^32 samples");
     grids.push_back(g);
   }
 }
