@@ -141,7 +141,8 @@ TEST(CpuBackend, SortPairsIsAStableSortByTheLowKeyBits) {
 // Bit-identity with the CPU path tracer, for every combination of the wavefront's switches, on scenes with
 // diffuse, glossy, mirror and glass materials, area, point and environment lights.
 TEST(Wavefront, CpuBackendReproducesThePathTracerBitForBit) {
-  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-point", "smallvcm-env", "smallvcm-sun", "smallvcm-fog"}) {
+  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-point", "smallvcm-env", "smallvcm-sun", "smallvcm-fog",
+                          "smallvcm-smoke"}) {
     auto sc = small_scene(name, 40, 30);
     RenderOptions o = path_options(3, 11);
     RenderStats ref_stats;
@@ -239,7 +240,7 @@ TEST(Cuda, WithoutAGpuTheDeviceIsAnInputError) {
 TEST(Cuda, PathTracerMatchesTheCpuPerRegion) {
   std::string why;
   if (cuda_devices(&why).empty()) GTEST_SKIP() << "no CUDA device: " << why;
-  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-fog"}) {
+  for (const char* name : {"cornell", "smallvcm-spheres", "smallvcm-fog", "smallvcm-smoke"}) {
     auto sc = small_scene(name, 32, 32);
     RenderOptions o = path_options(16, 0);
     o.sampler = SamplerType::kIndependent;
@@ -620,7 +621,7 @@ TEST(Cuda, PhotonMappingMatchesTheCpuPerRegion) {
     o.photon_sampling = "adaptive";
     expect_gpu_agrees_per_region(sc, o, std::string(integrator) + " adaptive");
   }
-  for (const char* name : {"smallvcm-fog", "fog-lens"}) {  // pppm in media (volumetric photon mapping)
+  for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"}) {  // pppm in media (volumetric photon mapping)
     RenderOptions o = photon_options("pppm", 8, 0);
     expect_gpu_agrees_per_region(small_scene(name, 32, 32), o, std::string("pppm ") + name);
   }

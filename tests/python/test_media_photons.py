@@ -170,12 +170,12 @@ def test_threads_and_pass_ranges_give_the_same_image():
     assert np.allclose((a.astype(np.float64) + b) / 2, one, rtol=1e-5, atol=1e-7)
 
 
-@pytest.mark.parametrize("scene", ["lens", "smallvcm-fog"])
+@pytest.mark.parametrize("scene", ["lens", "smallvcm-fog", "smallvcm-smoke"])
 def test_cpu_wavefront_matches_the_cpu_driver(scene):
     # The wavefront runs the same stage functions (locate_medium at emission, the volume photons split off
     # into their own grid by a prefix sum): a visible point adds its photons in another order (in doubles),
     # so values agree to 1e-5 relative, as for the photon mappers without media (test_wavefront.py).
-    s = fog_box("glass", width=24) if scene == "lens" else caustica.load_scene("smallvcm-fog", width=24, height=20)
+    s = fog_box("glass", width=24) if scene == "lens" else caustica.load_scene(scene, width=24, height=20)
     kw = dict(integrator="pppm", spp=3, seed=4, photons=5000, max_depth=-1)
     ref = caustica.render_job(s, **kw)
     r = caustica.render_job(s, wavefront=True, **kw)

@@ -14,6 +14,7 @@ const std::vector<std::pair<std::string, std::string>>& builtin_scenes() {
       {"smallvcm-env", "SmallVCM scene 3: glossy floor, mirror and glass spheres, constant environment"},
       {"point-in-glass", "SDS: SmallVCM's box lit only by a point light inside a glass sphere (path tracing renders it black)"},
       {"smallvcm-fog", "SmallVCM's spheres and area light in a box filled with haze (participating media; path, pppm)"},
+      {"smallvcm-smoke", "SmallVCM's box and area light with a plume of smoke (a heterogeneous medium: a density grid; path, pppm)"},
       {"fog-lens", "a point light focused by a glass ball into fog: a volumetric caustic (pppm; path tracing cannot render it)"},
   };
   return s;
@@ -36,6 +37,7 @@ SceneDesc builtin_scene(const std::string& name) {
   else if (name == "smallvcm-point") d = make_smallvcm_cornell(false, true, SmallVCMLight::kPoint);
   else if (name == "point-in-glass") d = make_point_in_glass();
   else if (name == "smallvcm-fog") d = make_smallvcm_fog();
+  else if (name == "smallvcm-smoke") d = make_smallvcm_smoke();
   else if (name == "fog-lens") d = make_fog_lens();
   else if (name == "smallvcm-env") d = make_smallvcm_cornell(false, true, SmallVCMLight::kBackground);
   else {

@@ -22,6 +22,7 @@ SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, Sm
 SceneDesc make_point_in_glass();
 // SmallVCM's box (area light, mirror and glass spheres) filled with a homogeneous haze.
 SceneDesc make_smallvcm_fog();
+SceneDesc make_smallvcm_smoke();
 SceneDesc make_fog_lens();
 
 }  // namespace caustica

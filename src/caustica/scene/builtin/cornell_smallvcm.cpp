@@ -5,6 +5,8 @@
 // one of four lights. Path length counts segments, at most 10.
 #include "builtin.h"
 
+#include <cmath>
+
 namespace caustica {
 
 SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, SmallVCMLight light) {
@@ -131,10 +133,34 @@ SceneDesc make_point_in_glass() {
   return d;
 }
 
+namespace {
+
+// The inside of SmallVCM's box, 0.005 in from the walls (a face in a wall's plane would be ambiguous to the
+// ray queries), as a null cube whose interior is medium `medium`: the front, open side included, so camera
+// rays enter the medium at the box's opening.
+void add_box_medium(SceneDesc& d, const char* name, int medium) {
+  int null_material = d.add_material(std::string(name) + "-boundary", Material());
+  d.materials[size_t(null_material)].type = MaterialType::kNull;
+  const Vec3f lo(-1.27029f, -1.25549f, -1.28002f), hi(1.28975f, 1.30455f, 1.28002f);
+  const Vec3f half = (hi - lo) * 0.5f - Vec3f(0.005f), centre = (hi + lo) * 0.5f;
+  ShapeDesc box;
+  box.name = name;
+  box.type = ShapeType::kCube;
+  for (int k = 0; k < 3; ++k) {
+    box.to_world.m[k][k] = half[k];
+    box.to_world.m[k][3] = centre[k];
+  }
+  box.material = null_material;
+  box.medium_interface = true;
+  box.interior = medium;
+  d.shapes.push_back(box);
+}
+
+}  // namespace
+
 // SmallVCM's box with the area light and both spheres, filled with a homogeneous haze (participating
-// media, medium/medium.h): a null box just inside the walls holds it (the front, open side included), so
-// camera rays enter the haze at the box's opening; the glass sphere is clear inside (its exterior is the
-// haze). Rendered by the volumetric path tracer (`path`).
+// media, medium/medium.h): a null box just inside the walls holds it; the glass sphere is clear inside (its
+// exterior is the haze). Rendered by the volumetric path tracer (`path`).
 SceneDesc make_smallvcm_fog() {
   SceneDesc d = make_smallvcm_cornell(false, true, SmallVCMLight::kArea);
   Medium haze;
@@ -143,27 +169,55 @@ SceneDesc make_smallvcm_fog() {
   haze.g = 0.4f;
   d.medium_names.push_back("haze");
   d.media.push_back(haze);
-  int null_material = d.add_material("haze-boundary", Material());
-  d.materials[size_t(null_material)].type = MaterialType::kNull;
-  // The box's inside, 0.005 in from the walls (a face in a wall's plane would be ambiguous to the ray queries).
-  const Vec3f lo(-1.27029f, -1.25549f, -1.28002f), hi(1.28975f, 1.30455f, 1.28002f);
-  const Vec3f half = (hi - lo) * 0.5f - Vec3f(0.005f), centre = (hi + lo) * 0.5f;
-  ShapeDesc box;
-  box.name = "haze";
-  box.type = ShapeType::kCube;
-  for (int k = 0; k < 3; ++k) {
-    box.to_world.m[k][k] = half[k];
-    box.to_world.m[k][3] = centre[k];
-  }
-  box.material = null_material;
-  box.medium_interface = true;
-  box.interior = 0;
-  d.shapes.push_back(box);
+  add_box_medium(d, "haze", 0);
   for (ShapeDesc& s : d.shapes)
     if (s.name == "glass-sphere") {
       s.medium_interface = true;
       s.exterior = 0;
     }
+  d.max_depth = 16;
+  return d;
+}
+
+// SmallVCM's box with the area light and its glossy floor, the spheres replaced by a plume of smoke rising
+// from the floor (a heterogeneous medium, medium/medium_grid.h): a 48^3 density grid filling the box, a
+// column that widens and sways as it rises and fades out between 0.6 and 0.85 of the box's height, its
+// density modulated by a product of sines (billows), in a faint haze. sigma_s 2.4, sigma_a 0.1 per unit
+// density (up to about 6), forward scattering (g 0.3). Rendered by `path` (its default) and `pppm`.
+SceneDesc make_smallvcm_smoke() {
+  SceneDesc d = make_smallvcm_cornell(false, false, SmallVCMLight::kArea);
+  Medium smoke;
+  smoke.sigma_a = RGB(0.1f);
+  smoke.sigma_s = RGB(2.4f);
+  smoke.g = 0.3f;
+  MediumGridDesc g;
+  g.name = "smallvcm-smoke plume";
+  g.nx = g.ny = g.nz = 48;
+  g.values.resize(size_t(48) * 48 * 48);
+  for (int k = 0; k < 48; ++k)
+    for (int j = 0; j < 48; ++j)
+      for (int i = 0; i < 48; ++i) {
+        // The box is z-up (SmallVCM's frame): h is the height, (x, y) the floor's coordinates.
+        const float x = (i + 0.5f) / 48.f, y = (j + 0.5f) / 48.f, h = (k + 0.5f) / 48.f;
+        // The column's axis sways with height; its radius grows from 0.05 to 0.19 of the box.
+        const float cx = 0.5f + 0.1f * std::sin(5.f * h + 0.5f), cy = 0.55f + 0.08f * std::cos(4.f * h);
+        const float r2 = (x - cx) * (x - cx) + (y - cy) * (y - cy), w = 0.05f + 0.14f * h;
+        const float billow = 0.55f + 0.45f * std::sin(19.f * x + 7.f * h) * std::sin(17.f * h + 2.f) *
+                                         std::sin(23.f * y + 5.f * h + 1.f);
+        const float fade = h < 0.6f ? 1.f : (h < 0.85f ? (0.85f - h) / 0.25f : 0.f);
+        g.values[(size_t(k) * 48 + size_t(j)) * 48 + size_t(i)] =
+            (1.2f / (w * 4.f)) * std::exp(-r2 / (w * w)) * billow * fade + 0.004f;
+      }
+  const Vec3f lo(-1.27029f, -1.25549f, -1.28002f), hi(1.28975f, 1.30455f, 1.28002f);
+  for (int c = 0; c < 3; ++c) {
+    g.to_world.m[c][c] = hi[c] - lo[c];
+    g.to_world.m[c][3] = lo[c];
+  }
+  d.grids.push_back(std::move(g));
+  smoke.grid = 0;
+  d.medium_names.push_back("smoke");
+  d.media.push_back(smoke);
+  add_box_medium(d, "smoke", 0);
   d.max_depth = 16;
   return d;
 }
