@@ -10,6 +10,7 @@
 #include "caustica/base/rng.h"
 #include "caustica/medium/medium.h"
 #include "chi2.h"
+#include "moments.h"
 
 using namespace caustica;
 
@@ -26,21 +27,6 @@ chi2::Options options() {
   return o;
 }
 
-// Mean and standard error of a running sum.
-struct Moments {
-  double sum = 0, sum2 = 0;
-  long n = 0;
-  void add(double x) {
-    sum += x;
-    sum2 += x * x;
-    ++n;
-  }
-  double mean() const { return sum / double(n); }
-  double se() const {
-    double m = mean();
-    return std::sqrt(std::max(0.0, sum2 / double(n) - m * m) / double(n - 1));
-  }
-};
 
 }  // namespace
 

@@ -15,6 +15,7 @@
 #include "caustica/medium/medium_grid.h"
 #include "caustica/scene/scene.h"
 #include "chi2.h"
+#include "moments.h"
 
 using namespace caustica;
 
@@ -23,20 +24,6 @@ namespace {
 // Chi-square tests in this file (the Sidak correction is over these; the negative control is not one).
 constexpr int kNumChi2Tests = 2;
 
-struct Moments {
-  double sum = 0, sum2 = 0;
-  long n = 0;
-  void add(double x) {
-    sum += x;
-    sum2 += x * x;
-    ++n;
-  }
-  double mean() const { return sum / double(n); }
-  double se() const {
-    double m = mean();
-    return std::sqrt(std::max(0.0, sum2 / double(n) - m * m) / double(n - 1));
-  }
-};
 
 // A grid built the way Scene::build builds it (so world_to_grid is the inverse of to_world).
 struct BuiltGrid {

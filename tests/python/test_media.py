@@ -39,14 +39,19 @@ def medium_sphere(medium, boundary="null", camera_inside=True, env=LE, width=24)
     }
 
 
+def assert_pixel_means(img, expected, k=4.0):
+    """Each channel's mean over the pixels (independent estimates) within k standard errors of `expected`."""
+    for c in range(3):
+        m, se = mean_and_se(img[..., c])
+        assert se > 0.0
+        assert abs(m - expected[c]) < k * se, (c, m, expected[c], se)
+
+
 def test_absorbing_medium_is_beer_lambert():
     sa = np.array([0.2, 0.5, 1.0])
     img = caustica.render(medium_sphere({"sigma_a": sa.tolist(), "sigma_s": 0.0}), spp=64, seed=1, max_depth=-1)
     expected = np.array(LE) * np.exp(-sa * R)
-    for c in range(3):
-        m, se = mean_and_se(img[..., c])
-        # 4 standard errors of the 576-pixel mean.
-        assert abs(m - expected[c]) < 4 * se, (c, m, expected[c], se)
+    assert_pixel_means(img, expected)  # 4 standard errors of the 576-pixel mean
 
 
 @pytest.mark.parametrize("g", [0.0, 0.7, -0.4])
@@ -56,11 +61,7 @@ def test_scattering_furnace(g, sampler):
     # over 8 seeds for each case: |z| <= 2.4.
     medium = {"sigma_a": 0.0, "sigma_s": [0.8, 1.0, 1.25], "g": g}
     img = caustica.render(medium_sphere(medium), spp=64, seed=2, max_depth=-1, sampler=sampler)
-    for c in range(3):
-        m, se = mean_and_se(img[..., c])
-        assert se > 0.0
-        # 4 standard errors of the 576-pixel mean.
-        assert abs(m - LE[c]) < 4 * se, (c, m, LE[c], se)
+    assert_pixel_means(img, LE)  # 4 standard errors of the 576-pixel mean
 
 
 def test_scattering_furnace_strongly_spectral():
@@ -71,9 +72,7 @@ def test_scattering_furnace_strongly_spectral():
     medium = {"sigma_a": 0.0, "sigma_s": [0.5, 1.0, 1.5]}
     img = caustica.render(medium_sphere(medium), spp=512, seed=5, max_depth=-1, sampler="independent",
                           rr_depth=1000)
-    for c in range(3):
-        m, se = mean_and_se(img[..., c])
-        assert abs(m - LE[c]) < 4 * se, (c, m, LE[c], se)
+    assert_pixel_means(img, LE)
 
 
 def test_scattering_furnace_fails_without_the_medium_inside():
