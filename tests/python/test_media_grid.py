@@ -19,7 +19,7 @@ import pytest
 import caustica
 from conftest import mean_and_se, relmse
 from test_media import LE, assert_pixel_means, medium_sphere
-from test_media_photons import fog_box, region_means, seed_means
+from test_media_photons import fog_box, region_means
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
