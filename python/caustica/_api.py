@@ -118,9 +118,36 @@ def _camera(camera: Optional[str]) -> str:
     return camera
 
 
+def _numpy_media(d: dict) -> dict:
+    """A heterogeneous medium's density given as a 3D NumPy array indexed [z, y, x] (docs/scene-format.md#media)
+    becomes the format's flat "values" (x fastest) with its "resolution" [nx, ny, nz] filled in; the dict is
+    copied where it changes."""
+    media = d.get("media")
+    if not isinstance(media, dict):
+        return d
+    changed = {}
+    for name, m in media.items():
+        dens = m.get("density") if isinstance(m, dict) else None
+        vals = dens.get("values") if isinstance(dens, dict) else None
+        shape = getattr(vals, "shape", None)
+        if shape is None or len(shape) != 3 or not hasattr(vals, "ravel"):
+            continue
+        nd = dict(dens, values=vals.ravel().tolist())
+        nd.setdefault("resolution", [int(shape[2]), int(shape[1]), int(shape[0])])
+        changed[name] = dict(m, density=nd)
+    return dict(d, media=dict(media, **changed)) if changed else d
+
+
+def _json_default(o):
+    # NumPy arrays and scalars anywhere in a scene dict (colours, positions, values) as JSON lists and numbers.
+    if hasattr(o, "tolist"):
+        return o.tolist()
+    raise TypeError(f"Object of type {type(o).__name__} is not JSON serializable")
+
+
 def _dict_text(d: dict) -> str:
     try:
-        return json.dumps(d, allow_nan=False)
+        return json.dumps(_numpy_media(d), allow_nan=False, default=_json_default)
     except (TypeError, ValueError) as e:
         raise SceneError(f"<dict>: not representable as JSON: {e}") from None
 

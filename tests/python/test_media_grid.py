@@ -360,3 +360,18 @@ def test_builtin_smallvcm_smoke(tmp_path):
     # pppm renders it too (volume photons in the grid).
     img = caustica.render(s, integrator="pppm", spp=2, photons=5000, seed=1)
     assert np.isfinite(img).all() and img.mean() > 0
+
+
+def test_numpy_density_in_a_dict():
+    # From Python the density can be a 3D NumPy array indexed [z, y, x]: its resolution is read from the
+    # shape and its samples raveled (x fastest), giving the same image as the flat list.
+    values = blob(8)[:, :6, :]  # 8 x 6 x 8: z, y, x
+    flat = smoke_box(width=8)
+    flat["media"]["fog"] = grid_medium(values, sigma_a=0.02, sigma_s=np.float32(0.4), g=0.3)
+    arr = smoke_box(width=8)
+    arr["media"]["fog"] = {"type": "heterogeneous", "sigma_a": 0.02, "sigma_s": 0.4, "g": 0.3,
+                           "density": {"values": values}, "bounds": [[-2, -2, -2], [2, 2, 2]]}
+    assert flat["media"]["fog"]["density"]["resolution"] == [8, 6, 8]
+    kw = dict(spp=2, seed=5, max_depth=-1)
+    assert np.array_equal(caustica.render(flat, **kw), caustica.render(arr, **kw))
+    assert isinstance(arr["media"]["fog"]["density"]["values"], np.ndarray)  # the caller's dict is unchanged
