@@ -1,15 +1,17 @@
 #!/usr/bin/env python3
-"""Equal-time comparison of the volumetric path tracer and volumetric photon mapping (pppm) in fog.
+"""Equal-time comparison of the volumetric path tracer and volumetric photon mapping (pppm, sppm) in fog.
 
 Two scenes of tests/python/test_media_photons.py (a point light in a box of fog over a grey floor): `fog-lamp`
 (no glass: both integrators render every path, the reference is the path tracer at high spp) and `fog-lens`
 (a glass ball under the light focuses it into the fog: a volumetric caustic through L S S V E paths, which
 the path tracer cannot sample from a point light; the reference is a long pppm render, itself consistent but
-biased at any finite pass count, so the pppm figures on that scene are optimistic by that residual). Each
+biased at any finite pass count, so the pppm figures on that scene are optimistic by that residual), and
+`smoke-lamp` (test_media_grid.py's smoke box: the fog a heterogeneous blob; reference: the path tracer). Each
 integrator renders each scene for the given seconds (whole passes until the budget is spent) and the script
 reports relMSE against the reference.
 
-usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16] [--rows]
+usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16] [--integrators path pppm sppm]
+       [--scenes fog-lamp fog-lens smoke-lamp] [--rows]
 """
 import argparse
 import datetime
@@ -30,24 +32,32 @@ def main():
     ap.add_argument("--photons", type=int, default=50000, help="pppm photon paths per pass")
     ap.add_argument("--ref-spp", type=int, default=8192, help="fog-lamp reference: path tracer spp")
     ap.add_argument("--ref-passes", type=int, default=1024, help="fog-lens reference: pppm passes")
+    ap.add_argument("--integrators", nargs="+", default=["path", "pppm", "sppm"])
+    ap.add_argument("--scenes", nargs="+", default=["fog-lamp", "fog-lens", "smoke-lamp"])
     ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
     a = ap.parse_args()
     import caustica
     from caustica import _provenance
     from conftest import relmse
+    from test_media_grid import smoke_box
     from test_media_photons import fog_box
 
-    scenes = {"fog-lamp": fog_box(width=a.res), "fog-lens": fog_box("glass", width=a.res)}
-    refs = {
-        "fog-lamp": ("path", caustica.render(scenes["fog-lamp"], spp=a.ref_spp, seed=1000, max_depth=-1)),
-        "fog-lens": ("pppm", caustica.render(scenes["fog-lens"], integrator="pppm", spp=a.ref_passes,
-                                             photons=4 * a.photons, seed=1000, max_depth=-1)),
-    }
+    make = {"fog-lamp": lambda: fog_box(width=a.res), "fog-lens": lambda: fog_box("glass", width=a.res),
+            "smoke-lamp": lambda: smoke_box(width=a.res)}
+    scenes = {n: make[n]() for n in a.scenes}
+
+    def reference(name):
+        if name == "fog-lens":
+            return caustica.render(scenes[name], integrator="pppm", spp=a.ref_passes, photons=4 * a.photons,
+                                   seed=1000, max_depth=-1)
+        return caustica.render(scenes[name], spp=a.ref_spp, seed=1000, max_depth=-1)
+
+    refs = {n: (("pppm" if n == "fog-lens" else "path"), reference(n)) for n in scenes}
     rows = []
     for name, sc in scenes.items():
-        for integrator in ("path", "pppm"):
+        for integrator in a.integrators:
             for t in a.times:
-                kw = dict(photons=a.photons) if integrator == "pppm" else {}
+                kw = dict(photons=a.photons) if integrator != "path" else {}
                 r = caustica.render_job(sc, integrator=integrator, time=t, seed=7, max_depth=-1, **kw)
                 e = relmse(r.image, refs[name][1])
                 rows.append((name, integrator, t, r.stats["passes"], r.stats["seconds"], e))
@@ -56,11 +66,12 @@ def main():
     if a.rows:
         prov = {"commit": _provenance.commit(ROOT), "machine": _provenance.machine()}
         when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-        print(f"\n## {when}, commit {prov['commit']}: path against pppm in fog, equal time "
+        print(f"\n## {when}, commit {prov['commit']}: {', '.join(a.integrators)} in fog and smoke, equal time "
               f"(`bench/bench_media_photons.py`)\n")
         print(f"Machine: {prov['machine']}. Command: `.venv/bin/python bench/bench_media_photons.py --res {a.res} "
-              f"--times {' '.join(f'{t:g}' for t in a.times)} --rows`; {a.res}x{a.res}, pppm {a.photons} photon "
-              f"paths per pass; references: fog-lamp path {a.ref_spp} spp, fog-lens pppm {a.ref_passes} passes of "
+              f"--times {' '.join(f'{t:g}' for t in a.times)} --integrators {' '.join(a.integrators)} --scenes "
+              f"{' '.join(a.scenes)} --rows`; {a.res}x{a.res}, {a.photons} photon paths per pass; references: "
+              f"fog-lamp and smoke-lamp path {a.ref_spp} spp, fog-lens pppm {a.ref_passes} passes of "
               f"{4 * a.photons} photons (seed 1000).\n")
         print("| scene | integrator | seconds | passes | relMSE |")
         print("|---|---|---|---|---|")

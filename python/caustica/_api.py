@@ -375,8 +375,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
-    pppm renders participating media (volumetric photon mapping, on the CPU driver): `volume_radius` is the
-    volume photons' initial radius (default automatic, reported in stats["volume_radius"]).
+    pppm and sppm render participating media (volumetric photon mapping, on every driver): `volume_radius` is
+    the volume photons' initial radius (default automatic, reported in stats["volume_radius"]).
     `photon_sampling` (ppm, sppm, pppm, on every driver): "uniform" (default: the scene's, else uniform) or
     "adaptive", photon paths drawn by
     Markov chains on their visibility to the pass's visible points (Hachisuka & Jensen 2011); stats["adaptive"]
@@ -577,7 +577,7 @@ def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, t
     (passes, target_passes, samples, rays, shadow_rays, seconds); returning False stops
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,
-    pass_offset=, stochastic_hash=, photon_sampling=, and pppm in media volume_radius=; stop on quality: target_error= with reference=, and
+    pass_offset=, stochastic_hash=, photon_sampling=, and pppm/sppm in media volume_radius=; stop on quality: target_error= with reference=, and
     target_noise= (see render_job)."""
     r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
                    **photon_options)

@@ -142,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--radius", type=_float("--radius"), default=None,
                    help="photon integrators, bpm, vcm: initial gather/merge radius (default: automatic, printed)")
     r.add_argument("--volume-radius", type=_float("--volume-radius"), default=None,
-                   help="pppm in scenes with participating media: the volume photons' initial radius "
+                   help="pppm and sppm in scenes with participating media: the volume photons' initial radius "
                         "(default: automatic, printed)")
     r.add_argument("--alpha", type=_float("--alpha"), default=None,
                    help="photon integrators, bpm, vcm: radius reduction, in (0, 1) (default: the scene's, else 0.7; "

@@ -621,10 +621,11 @@ TEST(Cuda, PhotonMappingMatchesTheCpuPerRegion) {
     o.photon_sampling = "adaptive";
     expect_gpu_agrees_per_region(sc, o, std::string(integrator) + " adaptive");
   }
-  for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"}) {  // pppm in media (volumetric photon mapping)
-    RenderOptions o = photon_options("pppm", 8, 0);
-    expect_gpu_agrees_per_region(small_scene(name, 32, 32), o, std::string("pppm ") + name);
-  }
+  for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"})  // pppm and sppm in media
+    for (const char* integrator : {"pppm", "sppm"}) {
+      RenderOptions o = photon_options(integrator, 8, 0);
+      expect_gpu_agrees_per_region(small_scene(name, 32, 32), o, std::string(integrator) + " " + name);
+    }
 }
 
 // On a GPU: the portable BVH traversed by the CUDA backend finds the same hits as on the CPU, on random

@@ -131,22 +131,28 @@ def smoke_box(width=32):
     return d
 
 
-def test_pppm_cross_checks_the_path_tracer_in_smoke():
+@pytest.fixture(scope="module")
+def smoke_reference():
+    # The path tracer's reference: two halves of 2048 spp (their difference gives its standard error per
+    # 8 x 8 region).
+    a, b = (caustica.render(smoke_box(), spp=2048, seed=k, max_depth=-1).astype(np.float64) for k in (11, 12))
+    return 0.5 * (a + b), (0.5 * (a - b)).reshape(4, 8, 4, 8, 3).std(axis=(1, 3), ddof=1) / 8
+
+
+@pytest.mark.parametrize("integrator", ["pppm", "sppm"])
+def test_photon_mapping_cross_checks_the_path_tracer_in_smoke(smoke_reference, integrator):
     # A point light in the smoke blob over a diffuse floor: single and multiple scattering in a heterogeneous
-    # medium. The path tracer's reference: two halves of 2048 spp (their difference gives its standard error
-    # per 8 x 8 region). pppm's error falls from 4 to 64 passes (measured relMSE 0.066 -> 0.0084), and per
-    # region the means over 4 seeds of 64 passes agree with the reference within 5 standard errors plus 2% of
-    # the value for the kernels' bias at the automatic radii (measured -2.6% to +3.9%, at most 2.4 standard
-    # errors). A density lost or counted twice (sigma_s(x) in the photons' power and not the camera's weight)
-    # would be off by far more.
+    # medium. The photon mapper's error falls from 4 to 64 passes (measured relMSE 0.066 -> 0.0084 for pppm,
+    # 0.066 -> 0.0086 for sppm), and per region the means over 4 seeds of 64 passes agree with the reference
+    # within 5 standard errors plus 2% of the value for the kernels' bias at the automatic radii (measured
+    # -2.6% to +3.9% for pppm, -2.1% to +4.2% for sppm, at most 2.4 standard errors). A density lost or
+    # counted twice (sigma_s(x) in the photons' power and not the camera's weight) would be off by far more.
     s = smoke_box()
-    a, b = (caustica.render(s, spp=2048, seed=k, max_depth=-1).astype(np.float64) for k in (11, 12))
-    ref = 0.5 * (a + b)
-    se_r = (0.5 * (a - b)).reshape(4, 8, 4, 8, 3).std(axis=(1, 3), ddof=1) / 8
-    e = {p: relmse(caustica.render(s, integrator="pppm", spp=p, photons=20000, seed=5, max_depth=-1), ref)
+    ref, se_r = smoke_reference
+    e = {p: relmse(caustica.render(s, integrator=integrator, spp=p, photons=20000, seed=5, max_depth=-1), ref)
          for p in (4, 64)}
     assert e[64] < 0.5 * e[4], e
-    runs = np.array([region_means(caustica.render(s, integrator="pppm", spp=64, photons=20000, seed=k,
+    runs = np.array([region_means(caustica.render(s, integrator=integrator, spp=64, photons=20000, seed=k,
                                                   max_depth=-1)) for k in range(4)])
     m, se_p, r = runs.mean(axis=0), runs.std(axis=0, ddof=1) / 2, region_means(ref)
     z = np.abs(m - r) / (5 * np.sqrt(se_p ** 2 + se_r ** 2) + 0.02 * r)

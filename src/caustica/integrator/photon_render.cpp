@@ -72,9 +72,10 @@ float pppm_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOp
   Ray forward = v.camera.generate_ray(Vec2f(0.5f * v.camera.width, 0.5f * v.camera.height), Vec2f(0.5f, 0.5f));
   const int32_t found = locate_medium(v, [&](const Ray& r, Hit& h) { return accel.intersect(r, h); }, forward);
   if (found != v.camera_medium)
-    throw InputError("integrator 'pppm': the camera's medium is not the one enclosed by the shapes around it "
-                     "(photons could not reach it); give the medium a closed boundary shape with it as interior, "
-                     "or use --integrator path");
+    throw InputError("integrator '" + opt.integrator +
+                     "': the camera's medium is not the one enclosed by the shapes around it (photons could not "
+                     "reach it); give the medium a closed boundary shape with it as interior, or use --integrator "
+                     "path");
   float rv = opt.volume_radius;
   if (!(rv > 0.f)) rv = automatic_volume_radius(scene, accel, opt.seed, photons, photon_depth);
   // No volume photons in a pass (a medium the lights do not reach): any radius gives the same zero.
@@ -128,11 +129,12 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   // camera rays to their first hit, if not given.
   r0_ = opt.radius;
   if (!(r0_ > 0.f)) r0_ = automatic_radius(*scene_);
-  // Participating media (pppm only; RenderJob refuses the others): volume photons and volume visible points.
+  // Participating media (pppm and sppm; RenderJob refuses the others): volume photons and volume visible
+  // points.
   media_ = scene_has_media(v);
-  if (media_ && kind_ != Kind::kPPPM)
+  if (media_ && kind_ != Kind::kPPPM && kind_ != Kind::kSPPM)
     throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
-                     "use --integrator path or pppm");
+                     "use --integrator path, sppm or pppm");
   if (media_)
     rv0_ = pppm_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
                             max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_);
@@ -146,6 +148,11 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
     N_.assign(n * K_, 0.0);
     tau_.assign(3 * n * K_, 0.0);
     R_.assign(n * K_, r0_);
+    if (media_) {
+      Nv_.assign(n, 0.0);
+      tauv_.assign(3 * n, 0.0);
+      Rv_.assign(n, rv0_);
+    }
   }
 }
 
@@ -245,7 +252,9 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   traced_ += photons_per_pass_;
   // Volume photons (scenes with media) in a grid of their own, with their own radius.
   std::vector<Photon> volume_photons;
-  const float rv = media_ ? pppm_volume_radius(rv0_, opt_.alpha, abs_pass) : 0.f;
+  const float rv = !media_                ? 0.f
+                   : kind_ == Kind::kPPPM ? pppm_volume_radius(rv0_, opt_.alpha, abs_pass)
+                                          : *std::max_element(Rv_.begin(), Rv_.end());
   if (media_) {
     auto is_volume = [](const Photon& ph) { return (ph.flags & kPhotonVolume) != 0; };
     auto mid = std::stable_partition(photons.begin(), photons.end(), [&](const Photon& ph) { return !is_volume(ph); });
@@ -271,9 +280,10 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
         if (!vp.valid) continue;
         double phi[3];
         uint32_t M;
-        if (vp.volume) {  // pppm in media (sppm.h)
-          pppm_volume_gather(vp, v, vgv, rv, phi, M);
-          pppm_add_volume(&indirect_[3 * i], vp.beta, phi, inv_np, rv);
+        if (vp.volume) {  // pppm and sppm in media (sppm.h); K_ is 1 here
+          pppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[i], phi, M);
+          if (kind_ == Kind::kPPPM) pppm_add_volume(&indirect_[3 * i], vp.beta, phi, inv_np, rv);
+          else sppm_update(Nv_[i], &tauv_[3 * i], Rv_[i], vp.beta, phi, M, opt_.alpha, 3);
           continue;
         }
         float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
@@ -356,7 +366,8 @@ AdaptiveSummary PhotonIntegrator::adaptive_summary() const {
 
 std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t photons_per_pass, PhotonEstimate kind,
                                 const std::vector<double>& direct, const std::vector<double>& tau,
-                                const std::vector<float>& R, const std::vector<double>& indirect) {
+                                const std::vector<float>& R, const std::vector<double>& indirect,
+                                const std::vector<double>* tau_v, const std::vector<float>* R_v) {
   std::vector<float> img(3 * pixels, 0.f);
   if (passes <= 0) return img;
   double emitted = double(passes) * double(photons_per_pass);
@@ -369,6 +380,10 @@ std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t p
           size_t j = i * K + k;
           L += tau[3 * j + c] / (emitted * double(kPi) * double(R[j]) * R[j]);
         }
+      if (kind == PhotonEstimate::kProgressive && tau_v && !tau_v->empty()) {
+        const double r = (*R_v)[i];
+        L += (*tau_v)[3 * i + c] / (emitted * 4.0 / 3.0 * double(kPi) * r * r * r);
+      }
       img[3 * i + c] = float(L);
     }
   return img;
@@ -378,7 +393,7 @@ std::vector<float> PhotonIntegrator::image(int64_t passes) const {
   PhotonEstimate e = kind_ == Kind::kPPPM ? PhotonEstimate::kPerPass
                      : kind_ == Kind::kPM ? PhotonEstimate::kNone
                                           : PhotonEstimate::kProgressive;
-  return photon_image(size_t(W_) * H_, K_, passes, photons_per_pass_, e, direct_, tau_, R_, indirect_);
+  return photon_image(size_t(W_) * H_, K_, passes, photons_per_pass_, e, direct_, tau_, R_, indirect_, &tauv_, &Rv_);
 }
 
 }  // namespace caustica

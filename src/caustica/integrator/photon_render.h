@@ -11,10 +11,10 @@
 //          Eq. 15, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1); images averaged.
 //          Passes are memoryless, so passes [i0, i0 + k) can be rendered anywhere
 //          and averaged later (RenderOptions::pass_offset).
-//          In scenes with participating media (pppm only; the wavefront's too): volumetric photon mapping
-//          (Jensen & Christensen 1998) with volume photons in their own hash grid, gathered at volume
-//          visible points with a ball of the global volume radius, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1)
-//          (sppm.h).
+//          In scenes with participating media (pppm and sppm; the wavefront's too): volumetric photon
+//          mapping (Jensen & Christensen 1998) with volume photons in their own hash grid, gathered at volume
+//          visible points with a ball: pppm's global volume radius, r_{i+1}^3 = r_i^3 (i + alpha) / (i + 1),
+//          or sppm's per-pixel statistics of volume points, R^3 reduced like the disc's area (sppm.h).
 //   --photon-sampling adaptive (ppm, sppm, pppm) - Hachisuka & Jensen 2011, "Robust Adaptive Photon Tracing
 //          using Photon Path Visibility": each pass's photon paths drawn by Markov chains whose target is
 //          the visibility of the path to the pass's visible points (photon/adaptive.h).
@@ -45,7 +45,7 @@ namespace caustica {
 // angle) of camera rays through a grid of at most 32 x 32 pixels.
 float automatic_radius(const Scene& scene);
 
-// The default initial radius of the volume photons (pppm in media): the median, over up to 256 volume
+// The default initial radius of the volume photons (pppm and sppm in media): the median, over up to 256 volume
 // photons spread through a pass of `photons` photon paths (seed, pass index kVolumeRadiusPass), of the
 // distance to their kVolumeRadiusK-th nearest volume photon, so that a ball of that radius holds about
 // that many photons of a pass where they are typical; 0 when the pass stores no volume photons.
@@ -53,7 +53,7 @@ constexpr int kVolumeRadiusK = 32;
 float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_t seed, uint64_t photons,
                               uint32_t max_depth);
 
-// pppm in a scene with media, on every driver: checks that the camera's medium is one that photon paths can
+// pppm or sppm in a scene with media, on every driver: checks that the camera's medium is one that photon paths can
 // find (locate_medium: an InputError otherwise) and returns the volume photons' initial radius
 // (opt.volume_radius, else automatic_volume_radius over `photons` paths of photon_depth segments, else r0).
 float pppm_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
@@ -67,7 +67,7 @@ class PhotonIntegrator {
   bool render_pass(int64_t pass, const std::atomic<bool>& cancel);
   std::vector<float> image(int64_t passes_done) const;
   float initial_radius() const { return r0_; }
-  // pppm in a scene with media: the volume photons' initial radius (0 otherwise).
+  // pppm or sppm in a scene with media: the volume photons' initial radius (0 otherwise).
   float initial_volume_radius() const { return rv0_; }
   uint64_t photons_per_pass() const { return photons_per_pass_; }
   uint64_t photons_traced() const { return traced_; }
@@ -100,8 +100,10 @@ class PhotonIntegrator {
   uint32_t max_depth_;
   uint64_t photons_per_pass_;
   float r0_;
-  bool media_ = false;  // pppm in a scene with media: volume photons and volume visible points (sppm.h)
+  bool media_ = false;  // pppm or sppm in a scene with media: volume photons and volume visible points (sppm.h)
   float rv0_ = 0.f;     // their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
+  std::vector<double> Nv_, tauv_;  // sppm in media: each pixel's statistics of its volume visible points
+  std::vector<float> Rv_;          // (sppm_update with dims 3), beside N_, tau_, R_ for its surface ones
   int W_, H_;
   int K_ = 1;  // visible points per pixel: 1, or up to kPPMPoints for ppm's split specular chains
   std::vector<VisiblePoint> vp_;  // K_ per pixel
@@ -118,8 +120,10 @@ bool is_photon_integrator(const std::string& name);
 // pixel (Hachisuka et al. 2008 Eq. 12); kPerPass (pppm) adds the mean of the per-pass estimates (Knaus &
 // Zwicker 2011 Eq. 4); kNone (pm) has its photon estimates in `direct` already.
 enum class PhotonEstimate { kNone, kProgressive, kPerPass };
+// kProgressive in media (sppm) also adds tau_v / (4/3 pi R_v^3 N_emitted) per pixel when tau_v is given.
 std::vector<float> photon_image(size_t pixels, int K, int64_t passes, uint64_t photons_per_pass, PhotonEstimate kind,
                                 const std::vector<double>& direct, const std::vector<double>& tau,
-                                const std::vector<float>& R, const std::vector<double>& indirect);
+                                const std::vector<float>& R, const std::vector<double>& indirect,
+                                const std::vector<double>* tau_v = nullptr, const std::vector<float>* R_v = nullptr);
 
 }  // namespace caustica

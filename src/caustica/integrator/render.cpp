@@ -194,22 +194,23 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
-  // Participating media and null surfaces: the path tracer on every driver, pppm on the CPU driver
-  // (volumetric photon mapping, integrator/sppm.h).
+  // Participating media and null surfaces: the path tracer, and pppm and sppm (volumetric photon mapping,
+  // integrator/sppm.h), on every driver.
+  const bool media_photons = opt_.integrator == "pppm" || opt_.integrator == "sppm";
   if (scene_has_media(scene_->view()) && opt_.integrator != "path") {
     const SceneView& v = scene_->view();
     const std::string what = " (" + std::to_string(v.num_media) + " media in scene '" + scene_->desc().name + "')";
-    if (opt_.integrator != "pppm")
+    if (!media_photons)
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
-                       what + "; use --integrator path or pppm");
+                       what + "; use --integrator path, sppm or pppm");
     if (opt_.photon_sampling != "uniform")
       throw InputError("--photon-sampling adaptive does not trace photons through participating media" + what +
                        "; use --photon-sampling uniform");
   }
   if (opt_.volume_radius < 0.f || !std::isfinite(opt_.volume_radius))
     throw InputError("--volume-radius must be a positive number");
-  if (opt_.volume_radius > 0.f && !(opt_.integrator == "pppm" && scene_has_media(scene_->view())))
-    throw InputError("--volume-radius applies to integrator 'pppm' in scenes with participating media");
+  if (opt_.volume_radius > 0.f && !(media_photons && scene_has_media(scene_->view())))
+    throw InputError("--volume-radius applies to integrators 'pppm' and 'sppm' in scenes with participating media");
   // --accel small on a scene it does not take fails here, not in the render thread.
   if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
@@ -283,7 +284,7 @@ void RenderJob::make_integrator() {
     p.stochastic_hash = opt_.stochastic_hash;
     p.light_bvh = opt_.light_sampler == "bvh";
     p.adaptive = opt_.photon_sampling == "adaptive";
-    p.media = scene_has_media(v);  // pppm only (validated above)
+    p.media = scene_has_media(v);  // pppm or sppm (validated above)
     if (p.media) {
       p.volume_radius = pppm_media_setup(*scene_, cpu_accel(), opt_, p.photons,
                                          p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius);

@@ -87,7 +87,7 @@ struct RenderStats {
   uint64_t invalid_samples = 0;  // NaN/inf radiance, dropped
   uint64_t photons = 0;          // photon paths traced (photon integrators)
   float radius = 0.f;            // initial gather radius (photon integrators)
-  float volume_radius = 0.f;     // pppm in media: the volume photons' initial radius (0: no media)
+  float volume_radius = 0.f;     // pppm and sppm in media: the volume photons' initial radius (0: no media)
   AdaptiveSummary adaptive;      // --photon-sampling adaptive
   double seconds = 0.0;
   bool done = false;
@@ -215,7 +215,7 @@ class RenderJob {
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::unique_ptr<UpgIntegrator> upg_;
   std::unique_ptr<WavefrontRenderer> wavefront_;
-  float volume_radius_ = 0.f;  // pppm in media on the wavefront: the volume photons' initial radius
+  float volume_radius_ = 0.f;  // pppm and sppm in media on the wavefront: the volume photons' initial radius
   std::atomic<uint64_t> photons_{0};
   std::unique_ptr<WavefrontPassStats> stage_totals_;  // wavefront renders: sums over passes
   mutable std::mutex stage_mutex_;                     // guards stage_totals_ (held briefly)

@@ -10,8 +10,9 @@
 //                  Hachisuka & Jensen 2009 Eqs. 5-8): N += alpha M, R and tau scaled by (N + alpha M)/(N + M)
 //   pppm_volume_gather, pppm_add_volume, pppm_volume_radius  volumetric photon mapping in pppm (below)
 //
-// Participating media (pppm, on the CPU and wavefront drivers; volumetric photon mapping, Jensen &
-// Christensen 1998, with Knaus & Zwicker 2011's global radius): the camera ray samples a free-flight
+// Participating media (pppm and sppm, on the CPU and wavefront drivers; volumetric photon mapping, Jensen &
+// Christensen 1998, with Knaus & Zwicker 2011's global radius in pppm, and in sppm per-pixel statistics of
+// their own for volume visible points, sppm_update with dims 3): the camera ray samples a free-flight
 // distance on each segment in a medium (medium/medium.h, as the path tracer does). A scattering event there ends it at a volume visible
 // point x: NEE with the phase function adds single scattering, and the volume photons within radius r of x
 // (photon/trace.h, stored with power beta T sigma_s / p(t), the direct ones left out as on surfaces) estimate
@@ -247,15 +248,19 @@ CHD void sppm_gather(const VisiblePoint& vp, const PhotonGridView& grid, float r
 }
 
 // Hachisuka & Jensen 2009 Eqs. 5-8 (Hachisuka et al. 2008 Eqs. 6-11) after M > 0 photons with flux sum
-// beta * phi: the new photon count N, the flux tau and the radius R of one visible point.
+// beta * phi: the new photon count N, the flux tau and the radius R of one visible point. `dims` 3 is the
+// same update for a volume visible point (sppm in media, below): the photon density is per volume, so the
+// kernel's volume 4/3 pi R^3 (not its area pi R^2) shrinks by the ratio (N + alpha M) / (N + M) that keeps
+// the density estimate of Hachisuka et al.'s derivation (their Eq. 7 with the ball for the disc), i.e.
+// R^3 by the ratio.
 CHD void sppm_update(double& N, double* tau, float& R, const RGB& beta, const double phi[3], uint32_t M,
-                     float alpha) {
+                     float alpha, int dims = 2) {
   if (M == 0) return;
   double Nn = N + double(alpha) * double(M);
   double ratio = Nn / (N + double(M));
   for (int c = 0; c < 3; ++c) tau[c] = (tau[c] + double(beta[c]) * phi[c]) * ratio;
   N = Nn;
-  R = float(R * std::sqrt(ratio));
+  R = float(R * (dims == 3 ? std::cbrt(ratio) : std::sqrt(ratio)));
 }
 
 // Knaus & Zwicker 2011 Eq. 3 (one pass's estimate with the pass's global radius r), added to the pixel's

@@ -23,10 +23,11 @@
 // are added in another order: images agree with the CPU integrator's to rounding (tests/cpp/
 // test_wavefront.cpp), except with stochastic hashing, where the photon kept in a cell is drawn among them
 // in another order (same distribution).
-// pppm in scenes with participating media (volumetric photon mapping, sppm.h and photon/trace.h): photon
-// paths start in their light's medium (locate_medium), the stored photons are split by a prefix sum into
-// surface photons and volume photons, each in a grid of its own, and volume visible points gather from the
-// second with the volume radius, as photon_render.cpp does.
+// pppm and sppm in scenes with participating media (volumetric photon mapping, sppm.h and photon/trace.h):
+// photon paths start in their light's medium (locate_medium), the stored photons are split by a prefix sum
+// into surface photons and volume photons, each in a grid of its own, and volume visible points gather from
+// the second with the volume radius (pppm's global one, or sppm's per-pixel statistics of volume points), as
+// photon_render.cpp does.
 // Jensen's photon mapping (pm, Jensen 1996) runs here too, without visible points or grid: its first pass
 // traces the photons with the same stages (direct photons kept), builds the global and caustic maps on the
 // host as portable kd-trees (photon/knn_tree.h) and copies them to the backend; every pass then runs pm.h's
@@ -213,6 +214,11 @@ class WavefrontPhoton {
       N_.resize(nk_);
       tau_.resize(3 * size_t(nk_));
       R_.resize(nk_);
+      if (p_.media) {  // sppm in media: the volume visible points' statistics, one set per pixel (K_ is 1)
+        Nv_.resize(n_);
+        tauv_.resize(3 * size_t(n_));
+        Rv_.resize(n_);
+      }
     }
     const uint32_t P = p_.photons;
     paths_.resize(P);
@@ -234,8 +240,12 @@ class WavefrontPhoton {
   struct PixelStats {
     double *direct, *indirect, *N, *tau;
     float* R;
+    double *Nv, *tauv;  // sppm in media: the volume visible points' statistics (per pixel)
+    float* Rv;
   };
-  PixelStats pixel_stats() { return {direct_.data(), indirect_.data(), N_.data(), tau_.data(), R_.data()}; }
+  PixelStats pixel_stats() {
+    return {direct_.data(), indirect_.data(), N_.data(), tau_.data(), R_.data(), Nv_.data(), tauv_.data(), Rv_.data()};
+  }
 
   // No light, no flux, every radius r0 (a member function of its own: nvcc's device lambdas may not live
   // in constructors).
@@ -246,6 +256,8 @@ class WavefrontPhoton {
     const float r0 = p_.radius;
     const uint32_t K = K_;
     const bool pm = p_.pm;
+    const bool volume_stats = !p_.pppm && !p_.pm && p_.media;
+    const float rv0 = p_.volume_radius;
     VisiblePoint* vp = vp_.data();
     b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t j) {
       if (j % K == 0)
@@ -258,6 +270,11 @@ class WavefrontPhoton {
         ps.N[j] = 0.0;
         for (int c = 0; c < 3; ++c) ps.tau[3 * size_t(j) + c] = 0.0;
         ps.R[j] = r0;
+        if (volume_stats) {
+          ps.Nv[j] = 0.0;
+          for (int c = 0; c < 3; ++c) ps.tauv[3 * size_t(j) + c] = 0.0;
+          ps.Rv[j] = rv0;
+        }
       }
     });
   }
@@ -322,7 +339,9 @@ class WavefrontPhoton {
 
     // In media: the volume photons to a grid of their own (stable: both keep the photons' order).
     const Photon* surface = photons_.data();
-    const float rv = p_.media ? pppm_volume_radius(p_.volume_radius, p_.alpha, abs_pass) : 0.f;
+    const float rv = !p_.media ? 0.f
+                     : p_.pppm ? pppm_volume_radius(p_.volume_radius, p_.alpha, abs_pass)
+                               : b_.reduce(Rv_.data(), n_, 0.f, FloatMax());
     if (p_.media) {
       if (split_flags_.size() < count + 1) split_flags_.resize(count + 1);
       if (split_scan_.size() < count + 1) split_scan_.resize(count + 1);
@@ -367,9 +386,10 @@ class WavefrontPhoton {
         if (!vp[i].valid) return;
         double phi[3];
         uint32_t M;
-        if (vp[i].volume) {  // pppm in media (sppm.h)
-          pppm_volume_gather(vp[i], s, vg, rv, phi, M);
-          pppm_add_volume(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, rv);
+        if (vp[i].volume) {  // pppm and sppm in media (sppm.h); K is 1 here
+          pppm_volume_gather(vp[i], s, vg, pppm ? rv : ps.Rv[i], phi, M);
+          if (pppm) pppm_add_volume(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, rv);
+          else sppm_update(ps.Nv[i], &ps.tauv[3 * size_t(i)], ps.Rv[i], vp[i].beta, phi, M, alpha, 3);
           return;
         }
         float radius = pppm ? rmax : ps.R[i];
@@ -699,8 +719,9 @@ class WavefrontPhoton {
 
   // The statistics, copied to the host: direct (3 per pixel), and tau (3), R (1) per visible point for sppm
   // and ppm (points_per_pixel() of them per pixel) or indirect (3 per pixel) for pppm.
+  // sppm in media also fills tau_v (3) and R_v (1) per pixel, its volume visible points' statistics.
   void statistics(std::vector<double>& direct, std::vector<double>& tau, std::vector<float>& R,
-                  std::vector<double>& indirect) const {
+                  std::vector<double>& indirect, std::vector<double>& tau_v, std::vector<float>& R_v) const {
     direct.resize(3 * size_t(n_));
     b_.to_host(direct_, direct.data(), direct.size());
     if (p_.pm) {
@@ -712,6 +733,12 @@ class WavefrontPhoton {
       R.resize(nk_);
       b_.to_host(tau_, tau.data(), tau.size());
       b_.to_host(R_, R.data(), R.size());
+      if (p_.media) {
+        tau_v.resize(3 * size_t(n_));
+        R_v.resize(n_);
+        b_.to_host(tauv_, tau_v.data(), tau_v.size());
+        b_.to_host(Rv_, R_v.data(), R_v.size());
+      }
     }
   }
 
@@ -742,14 +769,14 @@ class WavefrontPhoton {
   Buffer<uint32_t> point_flags_, point_scan_, point_vp_;
   BackendPhotonGrid<B> point_grid_;
   Buffer<VisiblePoint> vp_;
-  Buffer<double> lpass_, direct_, indirect_, N_, tau_;
-  Buffer<float> R_;
+  Buffer<double> lpass_, direct_, indirect_, N_, tau_, Nv_, tauv_;
+  Buffer<float> R_, Rv_;
   Buffer<PhotonPathState> paths_;
   Buffer<Hit> hits_;
   Buffer<Photon> staged_, photons_;
   Buffer<uint32_t> queue_, queue2_, flags_, scan_;
   BackendPhotonGrid<B> grid_;
-  // pppm in media: the pass's photons split into surface and volume photons, the volume photons' grid
+  // pppm and sppm in media: the pass's photons split into surface and volume photons, the volume photons' grid
   Buffer<Photon> surface_, volume_;
   Buffer<uint32_t> split_flags_, split_scan_;
   BackendPhotonGrid<B> volume_grid_;

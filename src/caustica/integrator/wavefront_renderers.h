@@ -62,14 +62,14 @@ class PhotonWavefrontRenderer final : public WavefrontRenderer {
     return wf_.render_pass(pass, cancel, stats);
   }
   std::vector<float> image(int64_t passes) const override {
-    std::vector<double> direct, tau, indirect;
-    std::vector<float> R;
-    wf_.statistics(direct, tau, R, indirect);
+    std::vector<double> direct, tau, indirect, tau_v;
+    std::vector<float> R, R_v;
+    wf_.statistics(direct, tau, R, indirect, tau_v, R_v);
     return photon_image(pixels_, wf_.points_per_pixel(), passes, p_.photons,
                         p_.pm     ? PhotonEstimate::kNone
                         : p_.pppm ? PhotonEstimate::kPerPass
                                   : PhotonEstimate::kProgressive,
-                        direct, tau, R, indirect);
+                        direct, tau, R, indirect, &tau_v, &R_v);
   }
   std::string device_name() const override { return name_; }
   float initial_radius() const override { return p_.radius; }
