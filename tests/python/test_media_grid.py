@@ -381,3 +381,89 @@ def test_numpy_density_in_a_dict():
     kw = dict(spp=2, seed=5, max_depth=-1)
     assert np.array_equal(caustica.render(flat, **kw), caustica.render(arr, **kw))
     assert isinstance(arr["media"]["fog"]["density"]["values"], np.ndarray)  # the caller's dict is unchanged
+
+
+def test_single_scattering_in_a_grid_matches_quadrature():
+    # Equiangular sampling of a point light in a grid medium, combined with free-flight NEE by MIS weights
+    # over a proxy of the free-flight density (integrator/path.h), with ratio tracking's transmittance to the
+    # equiangular point: a camera in an infinite medium whose density varies along z only (a clamped 1D grid
+    # over z in [-3, 1], constant beyond), the light in view, max_depth 2 (single scattering), pixel centres.
+    # Reference per pixel: the single-scattering integral by quadrature, the optical depths from the
+    # antiderivative of the density along z (exact for the piecewise-linear interpolant). 16 x 16 pixels, 8
+    # seeds; per 4 x 4 region and channel within 4 standard errors.
+    sa, ss, g, I = 0.1, [0.3, 0.5, 0.8], 0.5, [5.0, 4.0, 3.0]
+    row = np.array([0.2, 1.8, 0.6, 2.4, 0.1, 1.2, 0.9, 0.4], np.float32)  # density along z (sample 0 at z = -3)
+    c = np.array([0.3, 0.2, -2.0])
+    W = 16
+    medium = {"type": "heterogeneous", "sigma_a": sa, "sigma_s": ss, "g": g, "outside": "clamp",
+              "density": {"resolution": [1, 1, len(row)], "values": row.tolist()},
+              "bounds": [[-1, -1, -3], [1, 1, 1]]}
+    d = {
+        "camera": {"position": [0, 0, 0], "target": [0, 0, -1], "up": [0, 1, 0], "fov": 60, "width": W, "height": W,
+                   "medium": "fog"},
+        "media": {"fog": medium},
+        "materials": {"black": {"type": "diffuse", "reflectance": 0.0}},
+        "shapes": [{"type": "sphere", "center": [0, 0, 50], "radius": 0.1, "material": "black"}],
+        "lights": [{"type": "point", "position": c.tolist(), "intensity": I}],
+    }
+    imgs = np.stack([caustica.render(d, spp=64, seed=s, max_depth=2, jitter=False) for s in range(8)])
+    def reference(row):
+        # The density along z: cell-centred samples over [-3, 1], held beyond the outermost centres; its
+        # antiderivative F on a fine grid (linear beyond it, where the density is constant).
+        n = len(row)
+        centres = -3.0 + (np.arange(n) + 0.5) * 4.0 / n
+        zf = np.linspace(-400.0, 10.0, 800001)
+        dens = np.interp(zf, centres, row)
+        F = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(zf))])
+
+        def depth(za, zb, length):  # optical depth per unit sigma_t along segments from z = za to zb
+            za, zb = np.broadcast_to(za, np.shape(length)), np.broadcast_to(zb, np.shape(length))
+            dz = np.abs(zb - za)
+            flat = dz < 1e-9  # (the camera rays here are never level: dz > 0 except at t = 0)
+            along = np.abs(np.interp(zb, zf, F) - np.interp(za, zf, F)) * length / np.where(flat, 1.0, dz)
+            return np.where(flat, length * np.interp(za, zf, dens), along)
+
+        st = np.array(ss) + sa
+        tan_half = np.tan(np.radians(30))
+        ref = np.zeros((W, W, 3))
+        m = 4000
+        for y in range(W):
+            for x in range(W):
+                u, v = (2 * (x + 0.5) / W - 1) * tan_half, (1 - 2 * (y + 0.5) / W) * tan_half
+                dd = np.array([u, v, -1.0])
+                dd /= np.linalg.norm(dd)
+                # t = delta + D tan(theta): dt / r^2 = dtheta / D (midpoint rule in theta), as test_media.py's.
+                delta = float(np.dot(c, dd))
+                D = float(np.linalg.norm(c - delta * dd))
+                ta, tb = np.arctan2(-delta, D), np.pi / 2
+                th = ta + (np.arange(m) + 0.5) / m * (tb - ta)
+                t = delta + D * np.tan(th)
+                xs = t[:, None] * dd[None, :]
+                wi = c[None, :] - xs
+                r = np.linalg.norm(wi, axis=1)
+                cos = -(wi @ dd) / r
+                phase = (1 - g * g) / (4 * np.pi * (1 + g * g + 2 * g * cos) ** 1.5)
+                tau = depth(0.0, xs[:, 2], t) + depth(xs[:, 2], c[2], r)
+                dx = np.interp(xs[:, 2], zf, dens)
+                f = (phase * dx)[:, None] * np.exp(-np.outer(tau, st)) * (np.array(ss) * np.array(I))[None, :] / D
+                ref[y, x] = f.sum(axis=0) * (tb - ta) / m
+        return ref
+
+    ref = reference(row)
+
+    def worst(ref):
+        dev = imgs - ref[None]
+        z = 0.0
+        for by in range(0, W, 4):
+            for bx in range(0, W, 4):
+                for ch in range(3):
+                    mm, se = mean_and_se(dev[:, by:by + 4, bx:bx + 4, ch])
+                    z = max(z, abs(mm) / se)
+        return z
+
+    assert worst(ref) < 4.0, worst(ref)  # measured 1.8
+    # Negative control: the reference of the grid turned upside down is far off (measured 21 standard errors).
+    assert worst(reference(row[::-1].copy())) > 8.0
+    # And sharp: the image's relative error is a few percent at 64 spp (measured 3.4%).
+    err = np.abs(imgs.mean(axis=0) - ref).mean()
+    assert err < 0.05 * ref.mean(), (err, ref.mean())

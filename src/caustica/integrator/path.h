@@ -167,6 +167,23 @@ CHD float path_equiangular_density(const SceneView& s, const PathParams& pp, Vec
 // free-flight scattering event at t (path_scatter_in_medium), whose density is q(t) = the channels' average
 // of r sigma_t T(t) (the path's free-flight density, medium/medium.h) times the light's probability from
 // x(t). Kulla and Fajardo combine the two strategies the same way (their Sec. 4.1 and 5).
+//
+// In a grid medium (medium/medium_grid.h) the free-flight density of t has no closed form, so both MIS
+// weights use a proxy for it that either strategy can compute without random numbers, avg_c(r_c sigma_t[c](x)
+// exp(-sigma_t[c] D(t))) with D the majorant's optical depth per unit sigma_t (grid_majorant_depth): the
+// weights still sum to 1 for every (light, t), which is all the combination needs to stay unbiased (Veach
+// 1997 Sec. 9.2.2: any weights that sum to 1); the transmittance to x(t) in the equiangular estimate is ratio
+// tracking's (unbiased) estimate.
+CHD float path_grid_freeflight_proxy(const SceneView& s, const Medium& md, const RGB& r_medium, Vec3f o, Vec3f d,
+                                     float t) {
+  const MediumGrid& g = s.medium_grids[md.grid];
+  const float density = grid_density(g, s.grid_values, o + d * t);
+  const float depth = grid_majorant_depth(g, s.grid_values, o, d, t);
+  const RGB st = medium_sigma_t(md);
+  const RGB q = r_medium * st * density * medium_transmittance(st, depth);
+  return (q.x + q.y + q.z) * (1.f / 3.f);
+}
+
 CHD void path_equiangular(const SceneView& s, const PathParams& pp, const PathState& st, const Medium& md, Vec3f o,
                           Vec3f d, float t_max, Vec2f u, ShadowRay& eq) {
   float pmf = 0.f;
@@ -182,11 +199,22 @@ CHD void path_equiangular(const SceneView& s, const PathParams& pp, const PathSt
   const Vec3f x = o + d * t;
   LightSample ls;
   if (!(pe > 0.f) || !sample_light(s, l, x, Vec2f(0.5f, 0.5f), ls)) return;
-  const RGB st_ = medium_sigma_t(md), T = medium_transmittance(st_, t);
-  const RGB p_ff = st_ * T, rp = st.r_medium * p_ff;
-  const float q = (rp.x + rp.y + rp.z) * (1.f / 3.f) * path_light_pmf(s, pp, x, uint32_t(li));
+  RGB T, sigma_s;
+  float q_ff;
+  if (md.grid < 0) {
+    const RGB st_ = medium_sigma_t(md);
+    T = medium_transmittance(st_, t);
+    sigma_s = md.sigma_s;
+    const RGB rp = st.r_medium * st_ * T;
+    q_ff = (rp.x + rp.y + rp.z) * (1.f / 3.f);
+  } else {
+    T = medium_segment_transmittance(s, md, o, d, t);
+    sigma_s = md.sigma_s * grid_density(s.medium_grids[md.grid], s.grid_values, x);
+    q_ff = path_grid_freeflight_proxy(s, md, st.r_medium, o, d, t);
+  }
+  const float q = q_ff * path_light_pmf(s, pp, x, uint32_t(li));
   const float a = pmf * pe, w = a * a / (a * a + q * q);
-  eq.contrib = st.beta * md.sigma_s * T * ls.Li * (hg_phase(dot(-d, ls.wi), md.g) * w / a);
+  eq.contrib = st.beta * sigma_s * T * ls.Li * (hg_phase(dot(-d, ls.wi), md.g) * w / a);
   eq.ray = spawn_ray_to(x, ls.p_l, ls.n_l);
   eq.medium = st.medium;
   eq.active = !is_black(eq.contrib) && isfinite3(eq.contrib);
@@ -249,9 +277,8 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     const Vec3f o = st.ray.o, d = st.ray.d / dlen;
     const float t_max = hit.valid() ? hit.t * dlen : kInf;
     // Equiangular single scattering from point and spot lights along the segment (its own shadow ray).
-    // (Homogeneous media only: the MIS weight needs the free-flight density, which a grid medium's delta
-    // tracking does not give; there NEE at the scattering events samples the point lights.)
-    const bool equiangular = eq && s.num_point_lights > 0 && st.depth < pp.max_depth && md.grid < 0;
+    // (In a grid medium the MIS weights use a proxy for the free-flight density: path_equiangular.)
+    const bool equiangular = eq && s.num_point_lights > 0 && st.depth < pp.max_depth;
     if (equiangular) {
       Vec2f u_eq = st.sampler.next_2d();
       path_equiangular(s, pp, st, md, o, d, t_max, u_eq, *eq);
@@ -264,7 +291,9 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     if (st.hero < 0) st.hero = medium_hero_channel(u_m.x);
     MediumSample ms = medium_sample(s, md, o, d, t_max, st.hero, u_m.y, track_seed);
     const RGB rp = st.r_medium * ms.p;
-    const float q = (rp.x + rp.y + rp.z) * (1.f / 3.f);
+    float q = (rp.x + rp.y + rp.z) * (1.f / 3.f);
+    // A grid medium's event densities are relative (medium_grid.h): the MIS weight takes the proxy instead.
+    if (md.grid >= 0 && equiangular && ms.scattered) q = path_grid_freeflight_proxy(s, md, st.r_medium, o, d, ms.t);
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }
     if (ms.scattered) {
       if (st.depth >= pp.max_depth) { st.active = false; return; }

@@ -218,6 +218,18 @@ CHD bool majorant_next(const MediumGrid& g, const float* values, MajorantWalk& w
   return false;
 }
 
+// D(t) = the integral of the majorant density over the walk up to t (0 <= t): exp(-sigma_t D(t)) is the
+// majorant's transmittance, a lower bound of T(t) known without random numbers (the path tracer's proxy for
+// the free-flight density in its MIS weights against equiangular sampling, integrator/path.h).
+CHD float grid_majorant_depth(const MediumGrid& g, const float* values, Vec3f o, Vec3f d, float t) {
+  MajorantWalk w = majorant_walk(g, o, d, t);
+  MajorantSegment seg;
+  float depth = 0.f;
+  while (majorant_next(g, values, w, seg))
+    if (seg.d > 0.f) depth += seg.d * (seg.t1 - seg.t0);
+  return depth;
+}
+
 // Delta tracking along o + t d (unit d) up to the surface at t_surface (infinity: none), tentative collisions
 // drawn in channel `hero`, every random number from rng. See the header comment.
 template <typename Rng>
