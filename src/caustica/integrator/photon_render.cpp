@@ -64,8 +64,8 @@ float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_
   return d[d.size() / 2];
 }
 
-float pppm_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
-                       uint32_t photon_depth, float r0) {
+float photon_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
+                         uint32_t photon_depth, float r0) {
   const SceneView& v = scene.view();
   // Photon paths start in the medium that encloses the light (locate_medium); the camera's medium must be
   // one that photons can enter the same way.
@@ -136,7 +136,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
     throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
                      "use --integrator path, sppm or pppm");
   if (media_)
-    rv0_ = pppm_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
+    rv0_ = photon_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
                             max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_);
   size_t n = size_t(W_) * H_;
   K_ = kind_ == Kind::kPPM ? kPpmPointsPerPixel : 1;
@@ -281,7 +281,7 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
         double phi[3];
         uint32_t M;
         if (vp.volume) {  // pppm and sppm in media (sppm.h); K_ is 1 here
-          pppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[i], phi, M);
+          sppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[i], phi, M);
           if (kind_ == Kind::kPPPM) pppm_add_volume(&indirect_[3 * i], vp.beta, phi, inv_np, rv);
           else sppm_update(Nv_[i], &tauv_[3 * i], Rv_[i], vp.beta, phi, M, opt_.alpha, 3);
           continue;

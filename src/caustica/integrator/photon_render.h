@@ -45,19 +45,19 @@ namespace caustica {
 // angle) of camera rays through a grid of at most 32 x 32 pixels.
 float automatic_radius(const Scene& scene);
 
-// The default initial radius of the volume photons (pppm and sppm in media): the median, over up to 256 volume
-// photons spread through a pass of `photons` photon paths (seed, pass index kVolumeRadiusPass), of the
+// The default initial radius of the volume photons (pppm and sppm in media): the median, over up to 256
+// volume photons spread through a pass of `photons` photon paths (seed, pass index kVolumeRadiusPass), of the
 // distance to their kVolumeRadiusK-th nearest volume photon, so that a ball of that radius holds about
 // that many photons of a pass where they are typical; 0 when the pass stores no volume photons.
 constexpr int kVolumeRadiusK = 32;
 float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_t seed, uint64_t photons,
                               uint32_t max_depth);
 
-// pppm or sppm in a scene with media, on every driver: checks that the camera's medium is one that photon paths can
-// find (locate_medium: an InputError otherwise) and returns the volume photons' initial radius
+// pppm or sppm in a scene with media, on every driver: checks that the camera's medium is one that photon
+// paths can find (locate_medium: an InputError otherwise) and returns the volume photons' initial radius
 // (opt.volume_radius, else automatic_volume_radius over `photons` paths of photon_depth segments, else r0).
-float pppm_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
-                       uint32_t photon_depth, float r0);
+float photon_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
+                         uint32_t photon_depth, float r0);
 
 class PhotonIntegrator {
  public:
@@ -100,7 +100,7 @@ class PhotonIntegrator {
   uint32_t max_depth_;
   uint64_t photons_per_pass_;
   float r0_;
-  bool media_ = false;  // pppm or sppm in a scene with media: volume photons and volume visible points (sppm.h)
+  bool media_ = false;  // pppm or sppm in a scene with media: volume photons and volume points (sppm.h)
   float rv0_ = 0.f;     // their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
   std::vector<double> Nv_, tauv_;  // sppm in media: each pixel's statistics of its volume visible points
   std::vector<float> Rv_;          // (sppm_update with dims 3), beside N_, tau_, R_ for its surface ones

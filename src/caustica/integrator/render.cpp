@@ -286,7 +286,7 @@ void RenderJob::make_integrator() {
     p.adaptive = opt_.photon_sampling == "adaptive";
     p.media = scene_has_media(v);  // pppm or sppm (validated above)
     if (p.media) {
-      p.volume_radius = pppm_media_setup(*scene_, cpu_accel(), opt_, p.photons,
+      p.volume_radius = photon_media_setup(*scene_, cpu_accel(), opt_, p.photons,
                                          p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius);
       volume_radius_ = p.volume_radius;
     }

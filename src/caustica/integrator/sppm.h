@@ -8,7 +8,8 @@
 //   trace_measurement_points  ppm's fixed points of a pixel (Hachisuka et al. 2008, Sec. 4.1), traced once
 //   sppm_update    the progressive statistics (Hachisuka et al. 2008 Eqs. 6-11, shared per pixel in
 //                  Hachisuka & Jensen 2009 Eqs. 5-8): N += alpha M, R and tau scaled by (N + alpha M)/(N + M)
-//   pppm_volume_gather, pppm_add_volume, pppm_volume_radius  volumetric photon mapping in pppm (below)
+//   sppm_volume_gather, pppm_add_volume, pppm_volume_radius  volumetric photon mapping in pppm and sppm
+//                  (below)
 //
 // Participating media (pppm and sppm, on the CPU and wavefront drivers; volumetric photon mapping, Jensen &
 // Christensen 1998, with Knaus & Zwicker 2011's global radius in pppm, and in sppm per-pixel statistics of
@@ -280,7 +281,7 @@ inline float pppm_radius(float r0, float alpha, int64_t abs_pass) {
 
 // Volumetric photon mapping (header comment): the sum of p(wo, wi) * power over the volume photons of
 // `grid` within `radius` of the volume visible point; M counts them.
-CHD void pppm_volume_gather(const VisiblePoint& vp, const SceneView& s, const PhotonGridView& grid, float radius,
+CHD void sppm_volume_gather(const VisiblePoint& vp, const SceneView& s, const PhotonGridView& grid, float radius,
                             double phi[3], uint32_t& M) {
   const float g = s.media[vp.medium].g;
   phi[0] = phi[1] = phi[2] = 0.0;

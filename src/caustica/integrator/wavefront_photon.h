@@ -387,7 +387,7 @@ class WavefrontPhoton {
         double phi[3];
         uint32_t M;
         if (vp[i].volume) {  // pppm and sppm in media (sppm.h); K is 1 here
-          pppm_volume_gather(vp[i], s, vg, pppm ? rv : ps.Rv[i], phi, M);
+          sppm_volume_gather(vp[i], s, vg, pppm ? rv : ps.Rv[i], phi, M);
           if (pppm) pppm_add_volume(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, rv);
           else sppm_update(ps.Nv[i], &ps.tauv[3 * size_t(i)], ps.Rv[i], vp[i].beta, phi, M, alpha, 3);
           return;

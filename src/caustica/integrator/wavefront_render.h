@@ -91,7 +91,7 @@ struct PhotonWavefrontParams {
   bool light_bvh = false;  // the visible points' light sample chosen by the light BVH (--light-sampler bvh)
   bool adaptive = false;   // sppm, ppm, pppm: --photon-sampling adaptive (Hachisuka & Jensen 2011)
   // pppm in a scene with media (volumetric photon mapping, sppm.h): volume photons in a second grid, their
-  // initial radius (resolved: > 0, pppm_media_setup)
+  // initial radius (resolved: > 0, photon_media_setup)
   bool media = false;
   float volume_radius = 0.f;
   // adaptive: the first sizes of a chain's regions (photons per payload, deposits per chain; 0: four per

@@ -87,7 +87,8 @@ CHD float grid_density_local(const MediumGrid& g, const float* values, Vec3f q) 
   const float lim = 1e7f;
   const float cx = clampf(fx, -lim, lim), cy = clampf(fy, -lim, lim), cz = clampf(fz, -lim, lim);
   if (g.nearest)
-    return grid_sample_at(g, values, int(std::floor(cx + 0.5f)), int(std::floor(cy + 0.5f)), int(std::floor(cz + 0.5f)));
+    return grid_sample_at(g, values, int(std::floor(cx + 0.5f)), int(std::floor(cy + 0.5f)),
+                          int(std::floor(cz + 0.5f)));
   const float x0 = std::floor(cx), y0 = std::floor(cy), z0 = std::floor(cz);
   const int ix = int(x0), iy = int(y0), iz = int(z0);
   const float dx = cx - x0, dy = cy - y0, dz = cz - z0;
@@ -102,10 +103,9 @@ CHD float grid_density(const MediumGrid& g, const float* values, Vec3f p) {
   return grid_density_local(g, values, g.world_to_grid.point(p));
 }
 
-// The part [t0, t1) of the ray o + t d, 0 <= t < t_max, inside the grid's cube (the slab test in grid space,
-// where the affine map keeps t); t0 >= t1 when there is none.
-CHD void grid_cube_overlap(const MediumGrid& g, Vec3f o, Vec3f d, float t_max, float& t0, float& t1) {
-  const Vec3f og = g.world_to_grid.point(o), dg = g.world_to_grid.vector(d);
+// The part [t0, t1) of the ray og + t dg (in grid space), 0 <= t < t_max, inside the unit cube (the slab
+// test); t0 >= t1 when there is none.
+CHD void grid_cube_overlap_local(Vec3f og, Vec3f dg, float t_max, float& t0, float& t1) {
   t0 = 0.f;
   t1 = t_max;
   for (int a = 0; a < 3; ++a) {
@@ -119,6 +119,10 @@ CHD void grid_cube_overlap(const MediumGrid& g, Vec3f o, Vec3f d, float t_max, f
     t0 = maxf(t0, ta);
     t1 = minf(t1, tb);
   }
+}
+// The same for the world-space ray o + t d: the affine map to grid space keeps t.
+CHD void grid_cube_overlap(const MediumGrid& g, Vec3f o, Vec3f d, float t_max, float& t0, float& t1) {
+  grid_cube_overlap_local(g.world_to_grid.point(o), g.world_to_grid.vector(d), t_max, t0, t1);
 }
 
 // The ray's path through the majorant grid, as segments [t0, t1) of constant majorant density d: the cells
@@ -140,7 +144,7 @@ CHD MajorantWalk majorant_walk(const MediumGrid& g, Vec3f o, Vec3f d, float t_ma
   w.t_max = t_max;
   const Vec3f og = g.world_to_grid.point(o), dg = g.world_to_grid.vector(d);
   float t0, t1;
-  grid_cube_overlap(g, o, d, t_max, t0, t1);
+  grid_cube_overlap_local(og, dg, t_max, t0, t1);
   w.tin = t0;
   w.tout = t1;
   const bool inside = t0 < t1;

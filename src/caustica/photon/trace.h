@@ -16,7 +16,7 @@
 // phase function (weight 1) and the same roulette. Null surfaces are crossed without counting a segment; a
 // path leaving a medium boundary enters the medium of the side it leaves on. The density of stored power
 // per unit volume and solid angle is then sigma_s(x) L(x, w) per emitted path, the in-scattered radiance
-// estimate of integrator/sppm.h's pppm_volume_gather.
+// estimate of integrator/sppm.h's sppm_volume_gather.
 #pragma once
 #include "../base/rng.h"
 #include "../light/light_emit.h"

@@ -641,7 +641,9 @@ int parse_density_grid(const Ctx& c, const json& j, const std::string& p) {
   if (!j.contains("density")) c.fail(p, "a heterogeneous medium needs \"density\" (a grid)");
   const json& dj = j["density"];
   const std::string dp = p + "/density";
-  if (!dj.is_object()) c.fail(dp, std::string("expected an object ({\"file\": ...} or {\"resolution\": ..., \"values\": ...}), got ") + type_name(dj));
+  if (!dj.is_object())
+    c.fail(dp, std::string("expected an object ({\"file\": ...} or {\"resolution\": ..., \"values\": ...}), got ") +
+                   type_name(dj));
   check_keys(c, dj, dp, {"file", "resolution", "values"});
   MediumGridDesc g;
   if (dj.contains("file")) {
