@@ -119,22 +119,31 @@ def _camera(camera: Optional[str]) -> str:
 
 
 def _numpy_media(d: dict) -> dict:
-    """A heterogeneous medium's density given as a 3D NumPy array indexed [z, y, x] (docs/scene-format.md#media)
-    becomes the format's flat "values" (x fastest) with its "resolution" [nx, ny, nz] filled in; the dict is
-    copied where it changes."""
+    """A heterogeneous medium's grid ("density", or "albedo" as a grid) given as a NumPy array indexed
+    [z, y, x] (one channel) or [z, y, x, c] (c = 1 or 3 channels; docs/scene-format.md#media) becomes the
+    format's flat "values" (x fastest, channels innermost) with its "resolution" [nx, ny, nz] and "channels"
+    filled in; the dict is copied where it changes."""
     media = d.get("media")
     if not isinstance(media, dict):
         return d
     changed = {}
     for name, m in media.items():
-        dens = m.get("density") if isinstance(m, dict) else None
-        vals = dens.get("values") if isinstance(dens, dict) else None
-        shape = getattr(vals, "shape", None)
-        if shape is None or len(shape) != 3 or not hasattr(vals, "ravel"):
+        if not isinstance(m, dict):
             continue
-        nd = dict(dens, values=vals.ravel().tolist())
-        nd.setdefault("resolution", [int(shape[2]), int(shape[1]), int(shape[0])])
-        changed[name] = dict(m, density=nd)
+        grids = {}
+        for key in ("density", "albedo"):
+            g = m.get(key)
+            vals = g.get("values") if isinstance(g, dict) else None
+            shape = getattr(vals, "shape", None)
+            if shape is None or len(shape) not in (3, 4) or not hasattr(vals, "ravel"):
+                continue
+            ng = dict(g, values=vals.ravel().tolist())
+            ng.setdefault("resolution", [int(shape[2]), int(shape[1]), int(shape[0])])
+            if len(shape) == 4:
+                ng.setdefault("channels", int(shape[3]))
+            grids[key] = ng
+        if grids:
+            changed[name] = dict(m, **grids)
     return dict(d, media=dict(media, **changed)) if changed else d
 
 

@@ -1,10 +1,11 @@
 // Heterogeneous media (medium/medium_grid.h): the grid's lookup convention (Mitsuba 3's gridvolume: cell-
-// centred samples, trilinear, clamped border), its placement by Scene's build (the inverse of to_world), the
-// majorant grid's walk (contiguous segments bounding the density),
+// centred samples, trilinear, clamped border; colour grids channel by channel), its placement by Scene's
+// build (the inverse of to_world), the majorant grid's walk (contiguous segments bounding the density),
 // delta tracking's collision distances against the exact density sigma_t(t) T(t) (chi-square, chi2.h; with
 // a negative control whose majorant is too small), its per-channel unbiasedness with chromatic coefficients
-// through a turned, scaled grid (Monte Carlo means against quadrature, 4 standard errors), and ratio
-// tracking's transmittance (unbiased per channel, every estimate in [0, 1]).
+// through a turned, scaled grid, and with a colour grid and an albedo grid (Monte Carlo means against
+// quadrature, 4 standard errors), and ratio tracking's transmittance (unbiased per channel, every estimate in
+// [0, 1]).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -72,19 +73,19 @@ TEST(MediumGrid, LookupFollowsMitsubasGridvolume) {
   const float xs[] = {0.f, 0.125f, 0.25f, 0.375f, 0.5f, 0.625f, 0.875f, 1.f, 1.1f, -0.1f};
   const float want[] = {0.f, 0.f, 0.5f, 1.f, 1.5f, 2.f, 3.f, 3.f, 3.f, 0.f};
   for (int i = 0; i < 10; ++i)
-    EXPECT_NEAR(grid_density(b.g, b.values.data(), Vec3f(xs[i], 0.5f, 0.5f)), want[i], 1e-6f) << xs[i];
+    EXPECT_NEAR(grid_value(b.g, b.values.data(), Vec3f(xs[i], 0.5f, 0.5f)).x, want[i], 1e-6f) << xs[i];
   EXPECT_FLOAT_EQ(b.g.max_density, 3.f);
   // Outside the unit cube without clamp: no medium (pbrt-v4's grid).
   gd.clamp = false;
   b = build(gd);
-  EXPECT_EQ(grid_density(b.g, b.values.data(), Vec3f(1.1f, 0.5f, 0.5f)), 0.f);
-  EXPECT_EQ(grid_density(b.g, b.values.data(), Vec3f(0.5f, -0.01f, 0.5f)), 0.f);
-  EXPECT_NEAR(grid_density(b.g, b.values.data(), Vec3f(0.5f, 0.5f, 0.5f)), 1.5f, 1e-6f);
+  EXPECT_EQ(grid_value(b.g, b.values.data(), Vec3f(1.1f, 0.5f, 0.5f)).x, 0.f);
+  EXPECT_EQ(grid_value(b.g, b.values.data(), Vec3f(0.5f, -0.01f, 0.5f)).x, 0.f);
+  EXPECT_NEAR(grid_value(b.g, b.values.data(), Vec3f(0.5f, 0.5f, 0.5f)).x, 1.5f, 1e-6f);
   gd.nearest = true;
   b = build(gd);
-  EXPECT_EQ(grid_density(b.g, b.values.data(), Vec3f(0.24f, 0.5f, 0.5f)), 0.f);
-  EXPECT_EQ(grid_density(b.g, b.values.data(), Vec3f(0.26f, 0.5f, 0.5f)), 1.f);
-  EXPECT_EQ(grid_density(b.g, b.values.data(), Vec3f(0.51f, 0.5f, 0.5f)), 2.f);
+  EXPECT_EQ(grid_value(b.g, b.values.data(), Vec3f(0.24f, 0.5f, 0.5f)).x, 0.f);
+  EXPECT_EQ(grid_value(b.g, b.values.data(), Vec3f(0.26f, 0.5f, 0.5f)).x, 1.f);
+  EXPECT_EQ(grid_value(b.g, b.values.data(), Vec3f(0.51f, 0.5f, 0.5f)).x, 2.f);
 }
 
 TEST(MediumGrid, TrilinearInThreeDimensionsAndPlacedByItsTransform) {
@@ -109,7 +110,7 @@ TEST(MediumGrid, TrilinearInThreeDimensionsAndPlacedByItsTransform) {
       for (int x = 0; x < 2; ++x)
         want += v(x, y, z) * (x ? fx : 1 - fx) * (y ? fy : 1 - fy) * (z ? fz : 1 - fz);
   const Vec3f world(1.f + 2.f * q.x, -1.f + 4.f * q.y, 3.f + q.z);
-  EXPECT_NEAR(grid_density(b.g, b.values.data(), world), want, 1e-5f);
+  EXPECT_NEAR(grid_value(b.g, b.values.data(), world).x, want, 1e-5f);
   // The majorant walk along +x through the placed cube's middle from x = 0 covers its overlap, [1, 3].
   MajorantWalk w = majorant_walk(b.g, Vec3f(0.f, 1.f, 3.5f), Vec3f(1.f, 0.f, 0.f), kInf);
   MajorantSegment seg;
@@ -122,6 +123,50 @@ TEST(MediumGrid, TrilinearInThreeDimensionsAndPlacedByItsTransform) {
   EXPECT_NEAR(last, 3.f, 1e-6f);
   w = majorant_walk(b.g, Vec3f(0.f, 5.f, 3.5f), Vec3f(1.f, 0.f, 0.f), kInf);
   EXPECT_FALSE(majorant_next(b.g, b.values.data(), w, seg));
+}
+
+// A colour grid (three channels, interleaved) reads in each channel what a one-channel grid of that channel's
+// samples reads, bit for bit, trilinear and nearest, zero and clamped outside, at random points in and around
+// the cube; its d_max and the majorant walk's densities bound every channel.
+TEST(MediumGrid, ColourGridReadsEachChannelAsItsOwnGrid) {
+  PCG32 rng(41, 42);
+  for (int variant = 0; variant < 4; ++variant) {
+    MediumGridDesc colour;
+    colour.nx = 4;
+    colour.ny = 3;
+    colour.nz = 5;
+    colour.channels = 3;
+    colour.nearest = variant & 1;
+    colour.clamp = variant & 2;
+    for (int i = 0; i < 60 * 3; ++i) colour.values.push_back(3.f * rng.next_float());
+    BuiltGrid bc = build(colour);
+    float mx = 0.f;
+    for (float v : colour.values) mx = std::max(mx, v);
+    EXPECT_FLOAT_EQ(bc.g.max_density, mx);
+    for (int ch = 0; ch < 3; ++ch) {
+      MediumGridDesc one = colour;
+      one.channels = 1;
+      one.values.clear();
+      for (int i = 0; i < 60; ++i) one.values.push_back(colour.values[size_t(i) * 3 + ch]);
+      BuiltGrid b1 = build(one);
+      for (int i = 0; i < 500; ++i) {
+        const Vec3f p(1.4f * rng.next_float() - 0.2f, 1.4f * rng.next_float() - 0.2f, 1.4f * rng.next_float() - 0.2f);
+        ASSERT_EQ(grid_value(bc.g, bc.values.data(), p)[ch], grid_value(b1.g, b1.values.data(), p).x)
+            << "variant " << variant << " channel " << ch;
+      }
+    }
+    for (int i = 0; i < 200; ++i) {
+      const Vec3f o(-0.5f + 2.f * rng.next_float(), -0.5f + 2.f * rng.next_float(), -0.5f);
+      const Vec3f d = normalize(Vec3f(rng.next_float() - 0.5f, rng.next_float() - 0.5f, 1.f));
+      MajorantWalk w = majorant_walk(bc.g, o, d, 3.f);
+      MajorantSegment seg;
+      while (majorant_next(bc.g, bc.values.data(), w, seg))
+        for (int k = 0; k <= 16; ++k) {
+          const RGB v = grid_value(bc.g, bc.values.data(), o + d * lerpf(k / 16.f, seg.t0, seg.t1));
+          ASSERT_LE(max_component(v), seg.d * (1.f + 1e-6f)) << "variant " << variant;
+        }
+    }
+  }
 }
 
 // The majorant walk over random rays through a turned 37 x 20 x 9 grid (coarse cells of several samples, and
@@ -172,7 +217,7 @@ TEST(MediumGrid, MajorantWalkCoversTheRayAndBoundsTheDensity) {
         }
         for (int k = 0; k <= 63; ++k) {
           const float t = seg.t0 + (seg.t1 - seg.t0) * float(k) / 63.f;
-          ASSERT_LE(grid_density(b.g, b.values.data(), o + d * t), seg.d * (1.f + 1e-6f)) << "t " << t;
+          ASSERT_LE(grid_value(b.g, b.values.data(), o + d * t).x, seg.d * (1.f + 1e-6f)) << "t " << t;
           ++points;
         }
       }
@@ -205,6 +250,11 @@ TEST(MediumGrid, BuildRejectsBadGrids) {
   gd = row({1.f});
   gd.to_world.m[2][2] = 0.f;  // singular
   EXPECT_THROW(build(gd), InputError);
+  gd = row({1.f, 2.f});
+  gd.channels = 2;  // 1 or 3
+  EXPECT_THROW(build(gd), InputError);
+  gd.channels = 3;  // 2 samples of 3 channels need 6 values
+  EXPECT_THROW(build(gd), InputError);
 }
 
 namespace {
@@ -223,7 +273,7 @@ struct GreyRow {
     b = build(gd);
   }
   double sigma_t(double t) const {
-    return double(grid_density(b.g, b.values.data(), o + d * float(t))) * double(medium_sigma_t(m).x);
+    return double(grid_value(b.g, b.values.data(), o + d * float(t)).x) * double(medium_sigma_t(m).x);
   }
 };
 
@@ -247,7 +297,7 @@ chi2::Result chi2_of_delta_tracking(const GreyRow& s, float majorant_scale) {
   PCG32 rng(21, 22);
   auto sample = [&]() {
     const int hero = hero_of(rng.next_float());
-    MediumSample ms = grid_sample_distance(s.m, g, values.data(), s.o, s.d, s.ts, hero, rng);
+    MediumSample ms = grid_sample_distance(s.m, &g, values.data(), s.o, s.d, s.ts, hero, rng);
     chi2::Sample2 p;
     p.ok = ms.scattered;
     p.x = ms.t;
@@ -266,7 +316,7 @@ TEST(MediumGrid, DeltaTrackingCollisionsFollowTheDensity) {
   // A grey medium's weights are exact: sigma_s / sigma_t at a collision, 1 at the surface.
   PCG32 rng(5, 6);
   for (int i = 0; i < 20000; ++i) {
-    MediumSample ms = grid_sample_distance(s.m, s.b.g, s.b.values.data(), s.o, s.d, s.ts, 1, rng);
+    MediumSample ms = grid_sample_distance(s.m, &s.b.g, s.b.values.data(), s.o, s.d, s.ts, 1, rng);
     RGB w(1.f), rr(1.f);
     ASSERT_TRUE(medium_update_throughput(ms, w, rr));
     ASSERT_NEAR(w.x, ms.scattered ? 0.7f : 1.f, 1e-5f);
@@ -285,15 +335,21 @@ TEST(MediumGrid, DeltaTrackingWithTooSmallAMajorantFails) {
 // with the hero channel uniform and the weight f / avg(p), E[w 1{surface}] = T_c(t_s), E[w 1{scatter}] =
 // int sigma_s,c T_c dt and E[w 1{scatter} t] = int t sigma_s,c T_c dt per channel (quadrature along the
 // ray), for zero and clamped outsides; and the ratio-tracking transmittance's mean is T_c(t_s), every
-// estimate in [0, 1].
+// estimate in [0, 1]. Again with a colour density grid (a density per channel, some 0) and an albedo grid
+// (3 x 3 x 2 random colours, placed apart: the ray leaves its box, where the albedo is 0 unless clamped):
+// sigma_t,c(x) = d_c(x) sigma_t,c and sigma_s(x) = albedo(x) sigma_t(x) in the quadrature.
 TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
+  for (bool colour : {false, true})
   for (bool clamp : {false, true}) {
+    SCOPED_TRACE(std::string(colour ? "colour grid and albedo grid" : "one-channel grid") +
+                 (clamp ? ", clamped" : ", zero outside"));
     MediumGridDesc gd;
     gd.nx = 5;
     gd.ny = 4;
     gd.nz = 3;
+    gd.channels = colour ? 3 : 1;
     PCG32 vr(7, 8);
-    for (int i = 0; i < 60; ++i) gd.values.push_back(i % 7 == 0 ? 0.f : 2.f * vr.next_float());
+    for (int i = 0; i < 60 * gd.channels; ++i) gd.values.push_back(i % 7 == 0 ? 0.f : 2.f * vr.next_float());
     gd.clamp = clamp;
     // Rotate 30 degrees about z and scale by (1.5, 1, 0.8), then move by (-0.5, 0, 0.2).
     const float c = std::cos(0.5236f), s = std::sin(0.5236f);
@@ -303,42 +359,68 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
       for (int k = 0; k < 3; ++k) gd.to_world.m[i][k] = R[i][k] * sc[k];
     gd.to_world.m[0][3] = -0.5f;
     gd.to_world.m[2][3] = 0.2f;
-    BuiltGrid b = build(gd);
-    const Medium m{RGB(0.2f, 0.6f, 0.1f), RGB(0.5f, 1.0f, 1.8f), 0.f, 0};
+    SceneDesc sd;
+    sd.grids.push_back(gd);
+    Medium m{RGB(0.2f, 0.6f, 0.1f), RGB(0.5f, 1.0f, 1.8f), 0.f, 0};
+    if (colour) {
+      MediumGridDesc ad;
+      ad.nx = ad.ny = 3;
+      ad.nz = 2;
+      ad.channels = 3;
+      for (int i = 0; i < 18 * 3; ++i) ad.values.push_back(vr.next_float());
+      ad.clamp = clamp;
+      // The box [-1, 0.6] x [-0.5, 1.5] x [-0.5, 1.5].
+      ad.to_world.m[0][0] = 1.6f;
+      ad.to_world.m[1][1] = ad.to_world.m[2][2] = 2.f;
+      ad.to_world.m[0][3] = -1.f;
+      ad.to_world.m[1][3] = ad.to_world.m[2][3] = -0.5f;
+      sd.grids.push_back(ad);
+      m.albedo_grid = 1;
+    }
+    std::vector<MediumGrid> grids;
+    std::vector<float> values;
+    build_medium_grids(sd, grids, values);
     const Vec3f o(-1.2f, 0.1f, 0.5f), d = normalize(Vec3f(1.f, 0.45f, -0.1f));
     const float ts = 2.6f;
-    const RGB st = medium_sigma_t(m);
-    auto dens = [&](double t) { return double(grid_density(b.g, b.values.data(), o + d * float(t))); };
-    double e_surf[3], e_scat[3], e_scat_t[3];
+    auto coeff = [&](double t) { return grid_coefficients(m, grids.data(), values.data(), o + d * float(t)); };
+    // e_scat_const: what E[w 1{scatter}] would be with the constant albedo in place of the albedo grid (the
+    // power check below: the estimates must be far from it).
+    double e_surf[3], e_scat[3], e_scat_t[3], e_scat_const[3];
     for (int ch = 0; ch < 3; ++ch) {
       // Running optical depth on a fine grid of t, for T(t) inside the integrals.
       const int n = 100000;
       const double h = ts / n;
-      double tau = 0.0, scat = 0.0, scat_t = 0.0, prev = dens(0.0);
+      GridCoefficients k0 = coeff(0.0);
+      double tau = 0.0, scat = 0.0, scat_t = 0.0, scat_const = 0.0;
+      const double albedo_const = m.sigma_s[ch] / medium_sigma_t(m)[ch];
       for (int i = 1; i <= n; ++i) {
-        const double t = h * i, cur = dens(t);
-        const double tau_next = tau + 0.5 * h * (prev + cur) * st[ch];
+        const double t = h * i;
+        const GridCoefficients k1 = coeff(t);
+        const double tau_next = tau + 0.5 * h * (double(k0.sigma_t[ch]) + double(k1.sigma_t[ch]));
         // Trapezoid on sigma_s(t) T(t) (and times t) over [t - h, t].
-        const double a = m.sigma_s[ch] * prev * std::exp(-tau), bb = m.sigma_s[ch] * cur * std::exp(-tau_next);
+        const double a = k0.sigma_s[ch] * std::exp(-tau), bb = k1.sigma_s[ch] * std::exp(-tau_next);
         scat += 0.5 * h * (a + bb);
         scat_t += 0.5 * h * ((t - h) * a + t * bb);
+        scat_const +=
+            0.5 * h * albedo_const * (k0.sigma_t[ch] * std::exp(-tau) + k1.sigma_t[ch] * std::exp(-tau_next));
         tau = tau_next;
-        prev = cur;
+        k0 = k1;
       }
       e_surf[ch] = std::exp(-tau);
       e_scat[ch] = scat;
       e_scat_t[ch] = scat_t;
+      e_scat_const[ch] = scat_const;
     }
-    PCG32 rng(clamp ? 31 : 32, 33);
+    PCG32 rng(clamp ? 31 : 32, colour ? 34 : 33);
     Moments surf[3], sc_[3], sc_t[3], tr[3];
     float tr_min = 1.f, tr_max = 0.f;
     const long N = 400000;
     for (long i = 0; i < N; ++i) {
       const int hero = hero_of(rng.next_float());
-      MediumSample ms = grid_sample_distance(m, b.g, b.values.data(), o, d, ts, hero, rng);
+      MediumSample ms = grid_sample_distance(m, grids.data(), values.data(), o, d, ts, hero, rng);
       RGB w(1.f), r(1.f);
       ASSERT_TRUE(medium_update_throughput(ms, w, r));
-      const RGB T = grid_transmittance(m, b.g, b.values.data(), o, d, ts, rng);
+      const RGB T = grid_transmittance(m, grids.data(), values.data(), o, d, ts, rng);
       for (int ch = 0; ch < 3; ++ch) {
         surf[ch].add(ms.scattered ? 0.0 : w[ch]);
         sc_[ch].add(ms.scattered ? w[ch] : 0.0);
@@ -354,6 +436,13 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
       EXPECT_NEAR(sc_[ch].mean(), e_scat[ch], 4 * sc_[ch].se() + 1e-6) << "clamp " << clamp << " channel " << ch;
       EXPECT_NEAR(sc_t[ch].mean(), e_scat_t[ch], 4 * sc_t[ch].se() + 1e-6) << "clamp " << clamp << " channel " << ch;
       EXPECT_NEAR(tr[ch].mean(), e_surf[ch], 4 * tr[ch].se() + 1e-6) << "clamp " << clamp << " channel " << ch;
+    }
+    // The albedo grid matters here: ignoring it would be off by more than 10 standard errors in some channel.
+    if (colour) {
+      double worst = 0.0;
+      for (int ch = 0; ch < 3; ++ch)
+        worst = std::max(worst, std::fabs(sc_[ch].mean() - e_scat_const[ch]) / sc_[ch].se());
+      EXPECT_GT(worst, 10.0);
     }
     // Every estimate in [0, 1]: the factors are, and roulette divides by the largest channel, which is then 1.
     EXPECT_GE(tr_min, 0.f);

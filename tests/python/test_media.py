@@ -284,7 +284,8 @@ def test_mitsuba_homogeneous_medium_null_bsdf_and_sensor_medium(tmp_path):
     ('<medium type="heterogeneous" id="x"><volume name="sigma_t" type="gridvolume"/></medium>',
      'a gridvolume needs a filename (a .vol file)'),
     ('<medium type="homogeneous" id="x"><volume name="sigma_t" type="gridvolume"/></medium>',
-     'unsupported volume here (supported: constvolume; a gridvolume only as a heterogeneous medium\'s sigma_t)'),
+     'unsupported volume here (supported: constvolume; a gridvolume only as a heterogeneous medium\'s sigma_t '
+     'or a medium\'s albedo)'),
     ('<medium type="homogeneous" id="x"><phase type="rayleigh"/></medium>',
      'unsupported phase function (supported: isotropic, hg)'),
     ('<medium type="homogeneous" id="x"><rgb name="albedo" value="1.5"/></medium>', 'expected an albedo in [0, 1]'),

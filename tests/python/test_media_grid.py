@@ -293,12 +293,14 @@ def test_json_errors_name_the_path(edit, message):
 @pytest.mark.parametrize("blob_bytes,message", [
     (b"VOX" + bytes(45), "not a Mitsuba volume file"),
     (b"VOL" + bytes([3]) + struct.pack("<5i", 2, 1, 1, 1, 1) + bytes(24) + bytes(4), "encoding 2 (expected 1, float32)"),
-    (b"VOL" + bytes([3]) + struct.pack("<5i", 1, 2, 1, 1, 3) + bytes(24) + bytes(24),
-     "3 channels (expected 1: a density; colour grids are not supported)"),
+    (b"VOL" + bytes([3]) + struct.pack("<5i", 1, 2, 1, 1, 2) + bytes(24) + bytes(16),
+     "2 channels (expected 1, a density, or 3, a colour grid)"),
+    (b"VOL" + bytes([3]) + struct.pack("<5i", 1, 2, 1, 1, 3) + bytes(24) + bytes(8),
+     "expected 72 bytes for 2 x 1 x 1 samples of 3 channels, the file has 56"),
     (b"VOL" + bytes([3]) + struct.pack("<5i", 1, 2, 2, 1, 1) + bytes(24) + bytes(12),
      "expected 64 bytes for 2 x 2 x 1 samples, the file has 60"),
     (b"VOL" + bytes([3]) + struct.pack("<5i", 1, 1, 1, 1, 1) + bytes(24) + struct.pack("<f", -2.0),
-     "sample 0 is -2.000000 (expected finite densities >= 0)"),
+     "sample 0 is -2.000000 (expected finite values >= 0)"),
 ])
 def test_bad_vol_files_are_one_line_errors(tmp_path, blob_bytes, message):
     (tmp_path / "g.vol").write_bytes(blob_bytes)

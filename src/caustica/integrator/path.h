@@ -174,12 +174,11 @@ CHD float path_equiangular_density(const SceneView& s, const PathParams& pp, Vec
 // weights still sum to 1 for every (light, t), which is all the combination needs to stay unbiased (Veach
 // 1997 Sec. 9.2.2: any weights that sum to 1); the transmittance to x(t) in the equiangular estimate is ratio
 // tracking's (unbiased) estimate.
-// `density` is the grid's at x(t).
+// `sigma_t_x` is the medium's sigma_t at x(t).
 CHD float path_grid_freeflight_proxy(const SceneView& s, const Medium& md, const RGB& r_medium, Vec3f o, Vec3f d,
-                                     float t, float density) {
+                                     float t, RGB sigma_t_x) {
   const float depth = grid_majorant_depth(s.medium_grids[md.grid], s.grid_values, o, d, t);
-  const RGB st = medium_sigma_t(md);
-  const RGB q = r_medium * st * density * medium_transmittance(st, depth);
+  const RGB q = r_medium * sigma_t_x * medium_transmittance(medium_sigma_t(md), depth);
   return (q.x + q.y + q.z) * (1.f / 3.f);
 }
 
@@ -207,10 +206,10 @@ CHD void path_equiangular(const SceneView& s, const PathParams& pp, const PathSt
     const RGB rp = st.r_medium * st_ * T;
     q_ff = (rp.x + rp.y + rp.z) * (1.f / 3.f);
   } else {
-    const float density = grid_density(s.medium_grids[md.grid], s.grid_values, x);
+    const GridCoefficients c = grid_coefficients(md, s.medium_grids, s.grid_values, x);
     T = medium_segment_transmittance(s, md, o, d, t);
-    sigma_s = md.sigma_s * density;
-    q_ff = path_grid_freeflight_proxy(s, md, st.r_medium, o, d, t, density);
+    sigma_s = c.sigma_s;
+    q_ff = path_grid_freeflight_proxy(s, md, st.r_medium, o, d, t, c.sigma_t);
   }
   const float q = q_ff * path_light_pmf(s, pp, x, uint32_t(li));
   const float a = pmf * pe, w = a * a / (a * a + q * q);
@@ -294,8 +293,9 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     float q = (rp.x + rp.y + rp.z) * (1.f / 3.f);
     // A grid medium's event densities are relative (medium_grid.h): the MIS weight takes the proxy instead.
     if (md.grid >= 0 && equiangular && ms.scattered)
-      q = path_grid_freeflight_proxy(s, md, st.r_medium, o, d, ms.t,
-                                     grid_density(s.medium_grids[md.grid], s.grid_values, o + d * ms.t));
+      q = path_grid_freeflight_proxy(
+          s, md, st.r_medium, o, d, ms.t,
+          medium_sigma_t(md) * grid_value(s.medium_grids[md.grid], s.grid_values, o + d * ms.t));
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }
     if (ms.scattered) {
       if (st.depth >= pp.max_depth) { st.active = false; return; }

@@ -37,8 +37,11 @@ struct Medium {
   RGB sigma_s{0.f};  // scattering coefficient (likewise)
   float g = 0.f;     // Henyey-Greenstein asymmetry in (-1, 1); 0 = isotropic
   // A heterogeneous medium's density grid (index into SceneView::medium_grids, medium/medium_grid.h): the
-  // coefficients at x are density(x) times the two above. -1: homogeneous.
+  // coefficients at x are density(x) times the two above (per channel with a colour grid). -1: homogeneous.
   int32_t grid = -1;
+  // With a density grid, an albedo grid (an index like `grid`, its samples in [0, 1]) may replace the constant
+  // albedo: sigma_s(x) = albedo(x) sigma_t(x), sigma_t(x) = density(x) (sigma_a + sigma_s). -1: none.
+  int32_t albedo_grid = -1;
 };
 
 // Which media lie on either side of a surface: `interior` behind its geometric normal (where a ray goes

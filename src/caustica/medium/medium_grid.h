@@ -1,6 +1,9 @@
 // Heterogeneous participating media: a medium whose coefficients are a density grid times constant
 // per-unit-density coefficients, sigma_a(x) = d(x) sigma_a and sigma_s(x) = d(x) sigma_s (the form of
 // Mitsuba 3's `heterogeneous` medium with a one-channel sigma_t grid, and of pbrt-v4's `uniformgrid`).
+// A colour grid (three channels, Mitsuba 3's RGB sigma_t gridvolume) holds one density per channel, d_c(x),
+// and sigma_t,c(x) = d_c(x) sigma_t,c; an albedo grid (one or three channels in [0, 1], Mitsuba 3's albedo
+// gridvolume) replaces the constant albedo: sigma_s(x) = albedo(x) sigma_t(x) (Medium::albedo_grid).
 //
 // The grid (MediumGrid): nx x ny x nz samples filling the unit cube of grid space, sample (i, j, k) at the
 // centre of its cell, ((i + 0.5) / nx, (j + 0.5) / ny, (k + 0.5) / nz), interpolated trilinearly (or taken
@@ -10,19 +13,21 @@
 // affine map takes world space to grid space, so a grid can be placed, scaled and turned.
 //
 // Majorants: a coarse grid of at most 16^3 cells over the cube (pbrt-v4's majorant grid), each holding the
-// largest sample a lookup inside it can read, d_maj; a ray walks the cells it crosses (a 3D DDA, Amanatides &
-// Woo 1987, "A Fast Voxel Traversal Algorithm for Ray Tracing"), so empty and thin regions cost few or no
-// tentative collisions. With `clamp`, the ray's parts outside the cube take d_max, the largest sample.
+// largest sample a lookup inside it can read, d_maj (of any channel, in a colour grid); a ray walks the
+// cells it crosses (a 3D DDA, Amanatides & Woo 1987, "A Fast Voxel Traversal Algorithm for Ray Tracing"), so
+// empty and thin regions cost few or no tentative collisions. With `clamp`, the ray's parts outside the cube
+// take d_max, the largest sample.
 //
 // Free-flight sampling by delta tracking with null collisions (Woodcock et al. 1965; the null-scattering
 // formulation of Miller, Georgiev & Jarosz 2019, "A Null-Scattering Path Integral Formulation of Light
 // Transport", as pbrt-v4 uses it in Sec. 14.1.2 and its VolPathIntegrator, Sec. 14.2.2): in each cell the
 // majorant sigma_maj = d_maj (sigma_a + sigma_s) per channel bounds sigma_t(x). Tentative collisions
 // are drawn at the rate of the path's hero channel's majorant (medium/medium.h); at each, a real collision
-// happens with probability sigma_t(x) / sigma_maj = d(x) / d_maj (the same in every channel with
-// sigma_t > 0), else a null collision and the walk goes on. In the terms of medium/medium.h each tentative
-// step of length dt contributes, per channel,
+// happens with probability sigma_t,h(x) / sigma_maj,h = d_h(x) / d_maj in the hero channel h (the same in
+// every channel with sigma_t > 0 unless the grid has colour), else a null collision and the walk goes on.
+// In the terms of medium/medium.h each tentative step of length dt contributes, per channel,
 //   null collision:      f = T_maj(dt) sigma_n(x),  p = T_maj(dt) sigma_n(x),  sigma_n = sigma_maj - sigma_t(x)
+//                        (p_c: channel c's rate sigma_maj,c times its null probability sigma_n,c / sigma_maj,c)
 //   real collision:      f = T_maj(dt) sigma_s(x),  p = T_maj(dt) sigma_t(x)   (a scattering event)
 //   reaching the surface: f = p = T_maj(dt)
 // with T_maj(dt) = exp(-sigma_maj dt), and the event's f and p are the products over its steps, so the
@@ -36,7 +41,7 @@
 //
 // Transmittance of shadow rays by ratio tracking (Novak, Selle & Jarosz 2014, "Residual Ratio Tracking for
 // Estimating Attenuation in Participating Media"; pbrt-v4 Sec. 11.2): tentative collisions at one rate mu =
-// d_maj max_c sigma_t[c] for all channels (per cell), and T_c = prod over them of (1 - sigma_t[c](x_i) / mu), an
+// d_maj max_c sigma_t[c] for all channels (per cell), and T_c = prod over them of (1 - sigma_t,c(x_i) / mu), an
 // unbiased estimate in [0, 1] of each channel's exp(-int sigma_t[c]); Russian roulette once its largest
 // channel falls below 0.1 (continue with that probability, divide by it).
 //
@@ -56,13 +61,14 @@ constexpr uint32_t kMaxGridSteps = 1u << 20;
 
 struct MediumGrid {
   uint32_t nx = 0, ny = 0, nz = 0;
-  uint32_t offset = 0;     // the first sample in SceneView::grid_values; samples x fastest, then y, then z
+  uint32_t channels = 1;   // 1, or 3 (a colour grid: r, g, b per sample)
+  uint32_t offset = 0;     // the first sample in SceneView::grid_values; x fastest, then y, then z, channels innermost
   Affine world_to_grid;    // world space to grid space (the grid fills [0, 1]^3 there)
-  float max_density = 0.f; // d_max: the largest sample (the majorant's density)
+  float max_density = 0.f; // d_max: the largest sample of any channel (the majorant's density)
   uint32_t nearest = 0;    // 1: the nearest sample; 0: trilinear interpolation
   uint32_t clamp = 0;      // outside the cube: 1 the nearest border sample, 0 density 0
-  // The majorant grid (header comment): mx x my x mz cells over the cube, each the largest density in it,
-  // stored in SceneView::grid_values from maj_offset (x fastest).
+  // The majorant grid (header comment): mx x my x mz cells over the cube, each the largest density in it
+  // (of any channel), stored in SceneView::grid_values from maj_offset (x fastest).
   uint32_t mx = 0, my = 0, mz = 0;
   uint32_t maj_offset = 0;
 };
@@ -71,36 +77,68 @@ struct MediumGrid {
 constexpr uint32_t kMajorantRes = 16;
 CHD uint32_t majorant_res(uint32_t n) { return n < kMajorantRes ? n : kMajorantRes; }
 
-CHD float grid_sample_at(const MediumGrid& g, const float* values, int x, int y, int z) {
+// Sample (x, y, z)'s channel ch, the indices clamped to the grid.
+CHD float grid_sample_at(const MediumGrid& g, const float* values, int x, int y, int z, uint32_t ch = 0) {
   x = x < 0 ? 0 : (x >= int(g.nx) ? int(g.nx) - 1 : x);
   y = y < 0 ? 0 : (y >= int(g.ny) ? int(g.ny) - 1 : y);
   z = z < 0 ? 0 : (z >= int(g.nz) ? int(g.nz) - 1 : z);
-  return values[g.offset + (size_t(z) * g.ny + size_t(y)) * g.nx + size_t(x)];
+  return values[g.offset + ((size_t(z) * g.ny + size_t(y)) * g.nx + size_t(x)) * g.channels + ch];
 }
 
-// The density at grid-space point q (the header comment's convention).
-CHD float grid_density_local(const MediumGrid& g, const float* values, Vec3f q) {
-  if (!g.clamp && !(q.x >= 0.f && q.x <= 1.f && q.y >= 0.f && q.y <= 1.f && q.z >= 0.f && q.z <= 1.f)) return 0.f;
-  // Continuous sample coordinates: sample i sits at i.
-  const float fx = q.x * float(g.nx) - 0.5f, fy = q.y * float(g.ny) - 0.5f, fz = q.z * float(g.nz) - 0.5f;
-  // Far outside a clamped grid the coordinates could overflow an int; the border sample is the answer there.
-  const float lim = 1e7f;
-  const float cx = clampf(fx, -lim, lim), cy = clampf(fy, -lim, lim), cz = clampf(fz, -lim, lim);
-  if (g.nearest)
-    return grid_sample_at(g, values, int(std::floor(cx + 0.5f)), int(std::floor(cy + 0.5f)),
-                          int(std::floor(cz + 0.5f)));
-  const float x0 = std::floor(cx), y0 = std::floor(cy), z0 = std::floor(cz);
-  const int ix = int(x0), iy = int(y0), iz = int(z0);
-  const float dx = cx - x0, dy = cy - y0, dz = cz - z0;
-  auto v = [&](int a, int b, int c) { return grid_sample_at(g, values, ix + a, iy + b, iz + c); };
+// Channel ch trilinearly between samples (ix, iy, iz) and (ix + 1, iy + 1, iz + 1) at fractions (dx, dy, dz).
+CHD float grid_trilinear(const MediumGrid& g, const float* values, int ix, int iy, int iz, float dx, float dy,
+                         float dz, uint32_t ch) {
+  auto v = [&](int a, int b, int c) { return grid_sample_at(g, values, ix + a, iy + b, iz + c, ch); };
   const float c00 = lerpf(dx, v(0, 0, 0), v(1, 0, 0)), c10 = lerpf(dx, v(0, 1, 0), v(1, 1, 0));
   const float c01 = lerpf(dx, v(0, 0, 1), v(1, 0, 1)), c11 = lerpf(dx, v(0, 1, 1), v(1, 1, 1));
   return lerpf(dz, lerpf(dy, c00, c10), lerpf(dy, c01, c11));
 }
 
-// The density at world-space point p.
-CHD float grid_density(const MediumGrid& g, const float* values, Vec3f p) {
-  return grid_density_local(g, values, g.world_to_grid.point(p));
+// The grid's value at grid-space point q (the header comment's convention): a colour grid's three channels,
+// a one-channel grid's value in all three.
+CHD RGB grid_value_local(const MediumGrid& g, const float* values, Vec3f q) {
+  if (!g.clamp && !(q.x >= 0.f && q.x <= 1.f && q.y >= 0.f && q.y <= 1.f && q.z >= 0.f && q.z <= 1.f))
+    return RGB(0.f);
+  // Continuous sample coordinates: sample i sits at i.
+  const float fx = q.x * float(g.nx) - 0.5f, fy = q.y * float(g.ny) - 0.5f, fz = q.z * float(g.nz) - 0.5f;
+  // Far outside a clamped grid the coordinates could overflow an int; the border sample is the answer there.
+  const float lim = 1e7f;
+  const float cx = clampf(fx, -lim, lim), cy = clampf(fy, -lim, lim), cz = clampf(fz, -lim, lim);
+  if (g.nearest) {
+    const int x = int(std::floor(cx + 0.5f)), y = int(std::floor(cy + 0.5f)), z = int(std::floor(cz + 0.5f));
+    if (g.channels == 1) return RGB(grid_sample_at(g, values, x, y, z));
+    return RGB(grid_sample_at(g, values, x, y, z, 0), grid_sample_at(g, values, x, y, z, 1),
+               grid_sample_at(g, values, x, y, z, 2));
+  }
+  const float x0 = std::floor(cx), y0 = std::floor(cy), z0 = std::floor(cz);
+  const int ix = int(x0), iy = int(y0), iz = int(z0);
+  const float dx = cx - x0, dy = cy - y0, dz = cz - z0;
+  if (g.channels == 1) return RGB(grid_trilinear(g, values, ix, iy, iz, dx, dy, dz, 0));
+  return RGB(grid_trilinear(g, values, ix, iy, iz, dx, dy, dz, 0), grid_trilinear(g, values, ix, iy, iz, dx, dy, dz, 1),
+             grid_trilinear(g, values, ix, iy, iz, dx, dy, dz, 2));
+}
+
+// The grid's value at world-space point p.
+CHD RGB grid_value(const MediumGrid& g, const float* values, Vec3f p) {
+  return grid_value_local(g, values, g.world_to_grid.point(p));
+}
+
+// The coefficients of grid medium m (m.grid >= 0) at world-space point p: sigma_t(p) = d(p) (sigma_a +
+// sigma_s), and sigma_s(p) = d(p) sigma_s or, with an albedo grid, albedo(p) sigma_t(p). `grids` is the
+// scene's grid list (SceneView::medium_grids), which m's indices name.
+struct GridCoefficients {
+  RGB sigma_t, sigma_s;
+};
+CHD RGB grid_sigma_s(const Medium& m, const MediumGrid* grids, const float* values, Vec3f p, RGB density,
+                     RGB sigma_t_p) {
+  return m.albedo_grid >= 0 ? grid_value(grids[m.albedo_grid], values, p) * sigma_t_p : m.sigma_s * density;
+}
+CHD GridCoefficients grid_coefficients(const Medium& m, const MediumGrid* grids, const float* values, Vec3f p) {
+  const RGB density = grid_value(grids[m.grid], values, p);
+  GridCoefficients c;
+  c.sigma_t = medium_sigma_t(m) * density;
+  c.sigma_s = grid_sigma_s(m, grids, values, p, density, c.sigma_t);
+  return c;
 }
 
 // The part [t0, t1) of the ray og + t dg (in grid space), 0 <= t < t_max, inside the unit cube (the slab
@@ -234,11 +272,13 @@ CHD float grid_majorant_depth(const MediumGrid& g, const float* values, Vec3f o,
   return depth;
 }
 
-// Delta tracking along o + t d (unit d) up to the surface at t_surface (infinity: none), tentative collisions
-// drawn in channel `hero`, every random number from rng. See the header comment.
+// Delta tracking in grid medium m along o + t d (unit d) up to the surface at t_surface (infinity: none),
+// tentative collisions drawn in channel `hero`, every random number from rng. See the header comment.
+// `grids`: the scene's grid list (m.grid and m.albedo_grid index it).
 template <typename Rng>
-CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid& g, const float* values, Vec3f o, Vec3f d,
-                                      float t_surface, int hero, Rng& rng) {
+CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid* grids, const float* values, Vec3f o,
+                                      Vec3f d, float t_surface, int hero, Rng& rng) {
+  const MediumGrid& g = grids[m.grid];
   MediumSample ms;
   ms.f = ms.p = RGB(1.f);
   const RGB sigma_t = medium_sigma_t(m);
@@ -264,18 +304,22 @@ CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid& g, cons
       }
       t += dt;
       const RGB T = medium_transmittance(maj, dt);
-      const float density = grid_density(g, values, o + d * t);
-      const float real = clampf(density / seg.d, 0.f, 1.f);
+      const Vec3f x = o + d * t;
+      const RGB density = grid_value(g, values, x);
+      const float real = clampf(density[hero] / seg.d, 0.f, 1.f);
       if (rng.next_float() < real) {
+        const RGB sigma_t_x = sigma_t * density;
         ms.scattered = true;
         ms.t = t;
-        ms.sigma_s = m.sigma_s * density;
+        ms.sigma_s = grid_sigma_s(m, grids, values, x, density, sigma_t_x);
         ms.Tf = ms.f * T;
         ms.f = ms.Tf * ms.sigma_s;
-        ms.p = ms.p * T * (sigma_t * density);
+        ms.p = ms.p * T * sigma_t_x;
         return ms;
       }
-      const RGB sigma_n = maj * (1.f - real);
+      // Per channel sigma_maj - sigma_t(x) (its density d_maj - d_c(x), at least 0).
+      const RGB sigma_n = sigma_t * RGB(maxf(seg.d - density.x, 0.f), maxf(seg.d - density.y, 0.f),
+                                        maxf(seg.d - density.z, 0.f));
       ms.f *= T * sigma_n;
       ms.p *= T * sigma_n;
     }
@@ -293,10 +337,12 @@ CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid& g, cons
   return ms;  // the surface (or absorbed)
 }
 
-// Ratio tracking of the transmittance along o + t d (unit d), 0 <= t < t_end. See the header comment.
+// Ratio tracking of grid medium m's transmittance along o + t d (unit d), 0 <= t < t_end. See the header
+// comment. `grids`: the scene's grid list.
 template <typename Rng>
-CHD RGB grid_transmittance(const Medium& m, const MediumGrid& g, const float* values, Vec3f o, Vec3f d, float t_end,
-                           Rng& rng) {
+CHD RGB grid_transmittance(const Medium& m, const MediumGrid* grids, const float* values, Vec3f o, Vec3f d,
+                           float t_end, Rng& rng) {
+  const MediumGrid& g = grids[m.grid];
   const RGB sigma_t = medium_sigma_t(m);
   const float st_max = max_component(sigma_t);
   RGB Tr(1.f);
@@ -311,8 +357,8 @@ CHD RGB grid_transmittance(const Medium& m, const MediumGrid& g, const float* va
       if (++steps > kMaxGridSteps) return RGB(0.f);
       t += -std::log1p(-minf(rng.next_float(), kOneMinusEpsilon)) / mu;
       if (!(t < seg.t1)) break;
-      const float density = grid_density(g, values, o + d * t);
-      Tr *= RGB(1.f) - sigma_t * (density / mu);
+      const RGB density = grid_value(g, values, o + d * t);
+      Tr *= RGB(1.f) - sigma_t * density / mu;
       Tr = RGB(maxf(Tr.x, 0.f), maxf(Tr.y, 0.f), maxf(Tr.z, 0.f));
       const float mx = max_component(Tr);
       if (mx < 0.1f) {

@@ -41,7 +41,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline MediumSample medium_sample_grid(co
                                                                              int hero, float u_dist,
                                                                              uint64_t track_seed) {
   PCG32 rng(track_seed, mix64(float_bits(u_dist)));
-  return grid_sample_distance(md, s.medium_grids[md.grid], s.grid_values, o, d, t_surface, hero, rng);
+  return grid_sample_distance(md, s.medium_grids, s.grid_values, o, d, t_surface, hero, rng);
 }
 CHD MediumSample medium_sample(const SceneView& s, const Medium& md, Vec3f o, Vec3f d, float t_surface, int hero,
                                float u_dist, uint64_t track_seed) {
@@ -59,7 +59,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB medium_segment_transmittance_g
                            uint64_t(float_bits(o.z)) << 32 | float_bits(d.x),
                            uint64_t(float_bits(d.y)) << 32 | float_bits(d.z));
   PCG32 rng(h, mix64(h ^ float_bits(len)));
-  return grid_transmittance(md, s.medium_grids[md.grid], s.grid_values, o, d, len, rng);
+  return grid_transmittance(md, s.medium_grids, s.grid_values, o, d, len, rng);
 }
 CHD RGB medium_segment_transmittance(const SceneView& s, const Medium& md, Vec3f o, Vec3f d, float len) {
   if (md.grid < 0) return medium_transmittance(medium_sigma_t(md), len);

@@ -500,17 +500,33 @@ struct Writer {
       for (size_t i = 0; i < d.media.size(); ++i) {
         const Medium& m = d.media[i];
         JV o = JV::object();
-        o.set("type", JV::str(m.grid >= 0 ? "heterogeneous" : "homogeneous"))
-            .set("sigma_a", col(m.sigma_a))
-            .set("sigma_s", col(m.sigma_s));
+        o.set("type", JV::str(m.grid >= 0 ? "heterogeneous" : "homogeneous"));
+        // With an albedo grid the constant coefficients carry only sigma_t (Medium::albedo_grid).
+        if (m.grid >= 0 && m.albedo_grid >= 0) o.set("sigma_t", col(medium_sigma_t(m)));
+        else o.set("sigma_a", col(m.sigma_a)).set("sigma_s", col(m.sigma_s));
         if (m.g != 0.f) o.set("g", JV::flt(m.g));
         if (m.grid >= 0) {
-          if (size_t(m.grid) >= d.grids.size()) throw InputError("export: density grid index out of range");
-          const MediumGridDesc& g = d.grids[m.grid];
+          auto grid_of = [&](int index, const char* what) -> const MediumGridDesc& {
+            if (size_t(index) >= d.grids.size()) throw InputError(std::string("export: ") + what + " grid index out of range");
+            return d.grids[size_t(index)];
+          };
+          const MediumGridDesc& g = grid_of(m.grid, "density");
           o.set("density", JV::object().set("file", JV::str(exported_grid_name(stem, size_t(m.grid)))));
           if (!is_identity(g.to_world)) o.set("transform", matrix(g.to_world));
           if (g.nearest) o.set("filter", JV::str("nearest"));
           if (g.clamp) o.set("outside", JV::str("clamp"));
+          if (m.albedo_grid >= 0) {
+            // The albedo grid's placement and lookup where they differ from the density grid's.
+            const MediumGridDesc& a = grid_of(m.albedo_grid, "albedo");
+            JV ao = JV::object().set("file", JV::str(exported_grid_name(stem, size_t(m.albedo_grid))));
+            bool same = true;
+            for (int r = 0; r < 3; ++r)
+              for (int k = 0; k < 4; ++k) same = same && a.to_world.m[r][k] == g.to_world.m[r][k];
+            if (!same) ao.set("transform", matrix(a.to_world));
+            if (a.nearest != g.nearest) ao.set("filter", JV::str(a.nearest ? "nearest" : "trilinear"));
+            if (a.clamp != g.clamp) ao.set("outside", JV::str(a.clamp ? "clamp" : "zero"));
+            o.set("albedo", ao);
+          }
         }
         media.set(medium_key(int(i)), o);
       }
@@ -653,10 +669,11 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
       for (int ch = 0; ch < 3; ++ch) grey[k * 3 + ch] = t.rgba[k * 4 + 3];
     write_image((dir / exported_alpha_texture_name(stem, i)).string(), grey, t.width, t.height);
   }
-  // The density grids the media use (Mitsuba's .vol format).
+  // The density and albedo grids the media use (Mitsuba's .vol format).
   for (const Medium& m : desc.media)
-    if (m.grid >= 0 && size_t(m.grid) < desc.grids.size())
-      write_vol_grid(desc.grids[m.grid], (dir / exported_grid_name(stem, size_t(m.grid))).string());
+    for (int gi : {m.grid, m.albedo_grid})
+      if (gi >= 0 && size_t(gi) < desc.grids.size())
+        write_vol_grid(desc.grids[gi], (dir / exported_grid_name(stem, size_t(gi))).string());
   std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary);

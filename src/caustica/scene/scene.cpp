@@ -507,16 +507,20 @@ void build_medium_grids(const SceneDesc& desc, std::vector<MediumGrid>& grids, s
     const std::string name = "density grid '" + (gd.name.empty() ? std::to_string(i) : gd.name) + "'";
     if (gd.nx <= 0 || gd.ny <= 0 || gd.nz <= 0)
       throw InputError(name + ": expected a resolution of at least 1 x 1 x 1");
-    const size_t n = size_t(gd.nx) * size_t(gd.ny) * size_t(gd.nz);
+    if (gd.channels != 1 && gd.channels != 3)
+      throw InputError(name + ": " + std::to_string(gd.channels) + " channels (expected 1 or 3)");
+    const size_t cells = size_t(gd.nx) * size_t(gd.ny) * size_t(gd.nz), n = cells * size_t(gd.channels);
     if (gd.values.size() != n)
       throw InputError(name + ": expected " + std::to_string(n) + " samples (" + std::to_string(gd.nx) + " x " +
-                       std::to_string(gd.ny) + " x " + std::to_string(gd.nz) + "), got " +
-                       std::to_string(gd.values.size()));
+                       std::to_string(gd.ny) + " x " + std::to_string(gd.nz) +
+                       (gd.channels > 1 ? " x " + std::to_string(gd.channels) + " channels" : std::string()) +
+                       "), got " + std::to_string(gd.values.size()));
     if (values.size() + n > size_t(UINT32_MAX)) throw InputError(name + ": the grids hold more than 2^32 samples");
     MediumGrid g;
     g.nx = uint32_t(gd.nx);
     g.ny = uint32_t(gd.ny);
     g.nz = uint32_t(gd.nz);
+    g.channels = uint32_t(gd.channels);
     g.offset = uint32_t(values.size());
     g.nearest = gd.nearest ? 1u : 0u;
     g.clamp = gd.clamp ? 1u : 0u;
@@ -529,8 +533,9 @@ void build_medium_grids(const SceneDesc& desc, std::vector<MediumGrid>& grids, s
       g.max_density = std::max(g.max_density, v);
     }
     values.insert(values.end(), gd.values.begin(), gd.values.end());
-    // The majorant grid: per coarse cell, the largest sample that a lookup in it can read (trilinear reads
-    // floor(q n - 1/2) and the next; one more on each side for the rounding of q near a cell's faces).
+    // The majorant grid: per coarse cell, the largest sample (of any channel) that a lookup in it can read
+    // (trilinear reads floor(q n - 1/2) and the next; one more on each side for the rounding of q near a
+    // cell's faces).
     g.mx = majorant_res(g.nx);
     g.my = majorant_res(g.ny);
     g.mz = majorant_res(g.nz);
@@ -550,7 +555,10 @@ void build_medium_grids(const SceneDesc& desc, std::vector<MediumGrid>& grids, s
           for (int z = z0; z <= z1; ++z)
             for (int y = y0; y <= y1; ++y)
               for (int x = x0; x <= x1; ++x)
-                mx = std::max(mx, gd.values[(size_t(z) * gd.ny + size_t(y)) * gd.nx + size_t(x)]);
+                for (int ch = 0; ch < gd.channels; ++ch) {
+                  const size_t cell = (size_t(z) * gd.ny + size_t(y)) * gd.nx + size_t(x);
+                  mx = std::max(mx, gd.values[cell * gd.channels + ch]);
+                }
           values.push_back(mx);
         }
     if (values.size() > size_t(UINT32_MAX)) throw InputError(name + ": the grids hold more than 2^32 samples");
@@ -617,6 +625,14 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     if (!(md.g > -1.f && md.g < 1.f)) throw InputError("medium '" + name + "': g must be in (-1, 1)");
     if (md.grid < -1 || md.grid >= int(desc.grids.size()))
       throw InputError("medium '" + name + "': density grid index out of range");
+    if (md.albedo_grid < -1 || md.albedo_grid >= int(desc.grids.size()))
+      throw InputError("medium '" + name + "': albedo grid index out of range");
+    if (md.albedo_grid >= 0) {
+      if (md.grid < 0) throw InputError("medium '" + name + "': an albedo grid needs a density grid");
+      for (float v : desc.grids[md.albedo_grid].values)
+        if (!(v <= 1.f)) throw InputError("medium '" + name + "': albedo grid sample " + std::to_string(v) +
+                                          " (expected values in [0, 1])");
+    }
   }
   build_medium_grids(desc, s.medium_grids, s.grid_values);
   auto medium_ok = [&](int m) { return m >= -1 && m < int(desc.media.size()); };

@@ -52,7 +52,8 @@ struct TextureDesc {
 struct MediumGridDesc {
   std::string name;  // the file it came from, or a generated name
   int nx = 0, ny = 0, nz = 0;
-  std::vector<float> values;
+  int channels = 1;           // 1, or 3 (a colour grid)
+  std::vector<float> values;  // nx * ny * nz * channels: x fastest, then y, then z, channels innermost
   Affine to_world;
   bool nearest = false;  // nearest sample instead of trilinear interpolation
   bool clamp = false;    // outside the cube: the nearest border sample (Mitsuba 3) instead of 0 (pbrt-v4)
@@ -109,7 +110,7 @@ struct SceneDesc {
   std::vector<ShapeDesc> shapes;
   std::vector<std::string> medium_names;
   std::vector<Medium> media;  // participating media (medium/medium.h)
-  std::vector<MediumGridDesc> grids;  // the density grids of heterogeneous media (Medium::grid)
+  std::vector<MediumGridDesc> grids;  // the density and albedo grids of heterogeneous media (Medium::grid, albedo_grid)
   std::vector<Light> lights;  // point, spot, directional, environment (area lights come from shapes)
   // An environment light with Light::texture >= 0 is an equirectangular map
   // (Mitsuba's envmap convention in its local frame, y up); this rotation

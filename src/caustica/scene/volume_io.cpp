@@ -54,22 +54,25 @@ MediumGridDesc read_vol_grid(const std::string& path, const std::string& referre
   if (nx <= 0 || ny <= 0 || nz <= 0)
     fail("resolution " + std::to_string(nx) + " x " + std::to_string(ny) + " x " + std::to_string(nz) +
          " (expected at least 1 x 1 x 1)");
-  if (channels != 1)
-    fail(std::to_string(channels) + " channels (expected 1: a density; colour grids are not supported)");
-  const uint64_t n = uint64_t(nx) * uint64_t(ny) * uint64_t(nz);
+  if (channels != 1 && channels != 3)
+    fail(std::to_string(channels) + " channels (expected 1, a density, or 3, a colour grid)");
+  const uint64_t n = uint64_t(nx) * uint64_t(ny) * uint64_t(nz) * uint64_t(channels);
   if (n > (uint64_t(1) << 32) || bytes.size() != kHeader + n * 4)
     fail("expected " + std::to_string(kHeader + n * 4) + " bytes for " + std::to_string(nx) + " x " +
-         std::to_string(ny) + " x " + std::to_string(nz) + " samples, the file has " + std::to_string(bytes.size()));
+         std::to_string(ny) + " x " + std::to_string(nz) + " samples" +
+         (channels > 1 ? " of " + std::to_string(channels) + " channels" : std::string()) + ", the file has " +
+         std::to_string(bytes.size()));
   MediumGridDesc g;
   g.name = path;
   g.nx = nx;
   g.ny = ny;
   g.nz = nz;
+  g.channels = channels;
   g.values.resize(size_t(n));
   for (size_t i = 0; i < size_t(n); ++i) {
     const float v = read_f32(b + kHeader + 4 * i);
     if (!(v >= 0.f) || !std::isfinite(v))
-      fail("sample " + std::to_string(i) + " is " + std::to_string(v) + " (expected finite densities >= 0)");
+      fail("sample " + std::to_string(i) + " is " + std::to_string(v) + " (expected finite values >= 0)");
     g.values[i] = v;
   }
   if (bbox_lo) *bbox_lo = Vec3f(read_f32(b + 24), read_f32(b + 28), read_f32(b + 32));
@@ -84,7 +87,7 @@ void write_vol_grid(const MediumGridDesc& g, const std::string& path) {
   put_i32(out, g.nx);
   put_i32(out, g.ny);
   put_i32(out, g.nz);
-  put_i32(out, 1);
+  put_i32(out, g.channels);
   for (float v : {0.f, 0.f, 0.f, 1.f, 1.f, 1.f}) put_f32(out, v);
   for (float v : g.values) put_f32(out, v);
   const std::string tmp = path + ".tmp";

@@ -8,13 +8,13 @@
 
 namespace caustica {
 
-// Reads a one-channel grid (resolution and samples; to_world left as the identity). `bbox_lo`/`bbox_hi`
+// Reads a grid of one or three channels (resolution and samples; to_world left as the identity). `bbox_lo`/`bbox_hi`
 // receive the file's bounding box when not null. Throws InputError naming `referrer` (the scene file and
 // where in it) and the file for a file that cannot be read or is not such a grid.
 MediumGridDesc read_vol_grid(const std::string& path, const std::string& referrer, Vec3f* bbox_lo = nullptr,
                              Vec3f* bbox_hi = nullptr);
 
-// Writes g's samples as a one-channel .vol file (bounding box: the unit cube), atomically (a temporary
+// Writes g's samples (its channels) as a .vol file (bounding box: the unit cube), atomically (a temporary
 // file renamed into place); InputError when it cannot.
 void write_vol_grid(const MediumGridDesc& g, const std::string& path);
 

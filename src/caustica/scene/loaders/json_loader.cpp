@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -633,23 +634,63 @@ std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::str
 
 // ---------------------------------------------------------------- media
 
-// A heterogeneous medium's density grid (docs/scene-format.md#media): "density" is {"file": a Mitsuba .vol
-// file} or {"resolution": [nx, ny, nz], "values": [nx * ny * nz numbers, x fastest]}; "bounds" ([lo, hi]) or
-// "transform" places the grid's unit cube (default: the unit cube itself); "filter" trilinear or nearest;
-// "outside" zero or clamp. Appended to c.d->grids; returns its index.
-int parse_density_grid(const Ctx& c, const json& j, const std::string& p) {
-  if (!j.contains("density")) c.fail(p, "a heterogeneous medium needs \"density\" (a grid)");
-  const json& dj = j["density"];
-  const std::string dp = p + "/density";
+// A grid's placement and lookup keys (docs/scene-format.md#media) in object j at p, applied to g where
+// given: "bounds" ([lo, hi]) or "transform" places the grid's unit cube; "filter" trilinear or nearest;
+// "outside" zero or clamp.
+void parse_grid_placement(const Ctx& c, const json& j, const std::string& p, MediumGridDesc& g) {
+  if (j.contains("bounds") && j.contains("transform")) c.fail(p, "give \"bounds\" or \"transform\", not both");
+  if (j.contains("bounds")) {
+    const json& b = j["bounds"];
+    if (!b.is_array() || b.size() != 2) c.fail(p + "/bounds", "expected [[x0, y0, z0], [x1, y1, z1]]");
+    const Vec3f lo = point3(c, b[0], p + "/bounds/0"), hi = point3(c, b[1], p + "/bounds/1");
+    if (!(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z)) c.fail(p + "/bounds", "expected the second corner above the first on every axis");
+    g.to_world = Affine();
+    for (int i = 0; i < 3; ++i) {
+      g.to_world.m[i][i] = hi[i] - lo[i];
+      g.to_world.m[i][3] = lo[i];
+    }
+  } else if (j.contains("transform")) {
+    g.to_world = parse_transform(c, j["transform"], p + "/transform");
+  }
+  if (j.contains("filter")) {
+    const std::string f = str(c, j["filter"], p + "/filter");
+    if (f == "nearest") g.nearest = true;
+    else if (f == "trilinear") g.nearest = false;
+    else c.fail(p + "/filter", "unknown filter '" + f + "' (allowed: trilinear, nearest)");
+  }
+  if (j.contains("outside")) {
+    const std::string o = str(c, j["outside"], p + "/outside");
+    if (o == "clamp") g.clamp = true;
+    else if (o == "zero") g.clamp = false;
+    else c.fail(p + "/outside", "unknown value '" + o + "' (allowed: zero, clamp)");
+  }
+}
+
+// A heterogeneous medium's grid, key `key` ("density" or "albedo") of medium j at p: {"file": a Mitsuba .vol
+// file} or {"resolution": [nx, ny, nz], "values": [nx * ny * nz * channels numbers, x fastest, channels
+// innermost], "channels": 1 or 3}, its samples in [0, max_value]; placed by the medium's placement keys,
+// which the grid's own override (parse_grid_placement). Appended to c.d->grids; returns its index.
+int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const char* key, float max_value) {
+  const json& dj = j[key];
+  const std::string dp = p + "/" + key;
+  const std::string what = max_value < 1e30f ? "an albedo" : "a density";
   if (!dj.is_object())
     c.fail(dp, std::string("expected an object ({\"file\": ...} or {\"resolution\": ..., \"values\": ...}), got ") +
                    type_name(dj));
-  check_keys(c, dj, dp, {"file", "resolution", "values"});
+  check_keys(c, dj, dp, {"file", "resolution", "values", "channels", "bounds", "transform", "filter", "outside"});
   MediumGridDesc g;
+  auto check_range = [&](float v, const std::string& vp) {
+    if (!(v >= 0.f && v <= max_value))
+      c.fail(vp, "expected " + what + (max_value < 1e30f ? " in [0, 1]" : " >= 0"));
+  };
   if (dj.contains("file")) {
-    if (dj.contains("resolution") || dj.contains("values"))
+    if (dj.contains("resolution") || dj.contains("values") || dj.contains("channels"))
       c.fail(dp, "give \"file\", or \"resolution\" and \"values\", not both");
     g = read_vol_grid(c.resolve(str(c, dj["file"], dp + "/file")), c.source + ": " + dp + "/file");
+    for (size_t i = 0; i < g.values.size(); ++i)
+      if (!(g.values[i] <= max_value))
+        c.fail(dp + "/file", "grid '" + g.name + "': sample " + std::to_string(i) + " is " +
+                                 std::to_string(g.values[i]) + " (expected " + what + " in [0, 1])");
   } else {
     if (!dj.contains("resolution") || !dj.contains("values"))
       c.fail(dp, "expected {\"file\": \"grid.vol\"} or {\"resolution\": [nx, ny, nz], \"values\": [...]}");
@@ -665,50 +706,37 @@ int parse_density_grid(const Ctx& c, const json& j, const std::string& p) {
     g.nx = n[0];
     g.ny = n[1];
     g.nz = n[2];
+    if (dj.contains("channels")) {
+      const json& ch = dj["channels"];
+      if (!ch.is_number_integer() || (ch.get<int64_t>() != 1 && ch.get<int64_t>() != 3))
+        c.fail(dp + "/channels", "expected 1 or 3");
+      g.channels = int(ch.get<int64_t>());
+    }
     const json& v = dj["values"];
-    const size_t count = size_t(n[0]) * size_t(n[1]) * size_t(n[2]);
+    const size_t count = size_t(n[0]) * size_t(n[1]) * size_t(n[2]) * size_t(g.channels);
     if (!v.is_array()) c.fail(dp + "/values", std::string("expected a list of numbers, got ") + type_name(v));
     if (v.size() != count)
       c.fail(dp + "/values", "expected " + std::to_string(count) + " numbers (" + std::to_string(n[0]) + " x " +
-                                 std::to_string(n[1]) + " x " + std::to_string(n[2]) + "), got " + std::to_string(v.size()));
+                                 std::to_string(n[1]) + " x " + std::to_string(n[2]) +
+                                 (g.channels > 1 ? " x " + std::to_string(g.channels) + " channels" : std::string()) +
+                                 "), got " + std::to_string(v.size()));
     g.values.resize(count);
     for (size_t i = 0; i < count; ++i) {
       const std::string vp = dp + "/values/" + std::to_string(i);
       g.values[i] = num(c, v[i], vp);
-      if (!(g.values[i] >= 0.f)) c.fail(vp, "expected a density >= 0");
+      check_range(g.values[i], vp);
     }
     g.name = "grid@" + c.source + ":" + dp;
   }
-  if (j.contains("bounds") && j.contains("transform")) c.fail(p, "give \"bounds\" or \"transform\", not both");
-  if (j.contains("bounds")) {
-    const json& b = j["bounds"];
-    if (!b.is_array() || b.size() != 2) c.fail(p + "/bounds", "expected [[x0, y0, z0], [x1, y1, z1]]");
-    const Vec3f lo = point3(c, b[0], p + "/bounds/0"), hi = point3(c, b[1], p + "/bounds/1");
-    if (!(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z)) c.fail(p + "/bounds", "expected the second corner above the first on every axis");
-    for (int i = 0; i < 3; ++i) {
-      g.to_world.m[i][i] = hi[i] - lo[i];
-      g.to_world.m[i][3] = lo[i];
-    }
-  } else if (j.contains("transform")) {
-    g.to_world = parse_transform(c, j["transform"], p + "/transform");
-  }
-  if (j.contains("filter")) {
-    const std::string f = str(c, j["filter"], p + "/filter");
-    if (f == "nearest") g.nearest = true;
-    else if (f != "trilinear") c.fail(p + "/filter", "unknown filter '" + f + "' (allowed: trilinear, nearest)");
-  }
-  if (j.contains("outside")) {
-    const std::string o = str(c, j["outside"], p + "/outside");
-    if (o == "clamp") g.clamp = true;
-    else if (o != "zero") c.fail(p + "/outside", "unknown value '" + o + "' (allowed: zero, clamp)");
-  }
+  parse_grid_placement(c, j, p, g);
+  parse_grid_placement(c, dj, dp, g);
   c.d->grids.push_back(std::move(g));
   return int(c.d->grids.size()) - 1;
 }
 
 // A medium: sigma_a and sigma_s, or sigma_t and albedo (Mitsuba's parameters), times scale; g the
-// Henyey-Greenstein asymmetry; homogeneous, or heterogeneous with a density grid (parse_density_grid) that
-// multiplies the coefficients.
+// Henyey-Greenstein asymmetry; homogeneous, or heterogeneous with a density grid (parse_medium_grid) that
+// multiplies the coefficients and optionally an albedo grid.
 Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
   if (!j.is_object()) c.fail(p, std::string("expected an object, got ") + type_name(j));
   bool grid = false;
@@ -727,12 +755,17 @@ Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
   const bool ta = j.contains("sigma_t") || j.contains("albedo");
   if (as && ta) c.fail(p, "give sigma_a and sigma_s, or sigma_t and albedo, not both pairs");
   if (!as && !ta) c.fail(p, "expected sigma_a and sigma_s, or sigma_t and albedo");
+  // An albedo grid (a heterogeneous medium's "albedo" given as a grid object): sigma_s(x) = albedo(x)
+  // sigma_t(x), so the constant coefficients only carry sigma_t (Medium::albedo_grid).
+  const bool albedo_grid = j.contains("albedo") && j["albedo"].is_object();
+  if (albedo_grid && !grid)
+    c.fail(p + "/albedo", "an albedo grid needs \"type\": \"heterogeneous\" (give a colour or a number here)");
   if (as) {
     m.sigma_a = j.contains("sigma_a") ? color(c, j["sigma_a"], p + "/sigma_a") : RGB(0.f);
     m.sigma_s = j.contains("sigma_s") ? color(c, j["sigma_s"], p + "/sigma_s") : RGB(0.f);
   } else {
     RGB st = j.contains("sigma_t") ? color(c, j["sigma_t"], p + "/sigma_t") : RGB(1.f);
-    RGB al = j.contains("albedo") ? color(c, j["albedo"], p + "/albedo") : RGB(0.75f);
+    RGB al = albedo_grid ? RGB(1.f) : j.contains("albedo") ? color(c, j["albedo"], p + "/albedo") : RGB(0.75f);
     if (al.x > 1.f || al.y > 1.f || al.z > 1.f) c.fail(p + "/albedo", "expected values in [0, 1]");
     m.sigma_s = st * al;
     m.sigma_a = st - m.sigma_s;
@@ -745,7 +778,11 @@ Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
   }
   if (j.contains("g")) m.g = num(c, j["g"], p + "/g");
   if (!(m.g > -1.f && m.g < 1.f)) c.fail(p + "/g", "expected a number in (-1, 1)");
-  if (grid) m.grid = parse_density_grid(c, j, p);
+  if (grid) {
+    if (!j.contains("density")) c.fail(p, "a heterogeneous medium needs \"density\" (a grid)");
+    m.grid = parse_medium_grid(c, j, p, "density", std::numeric_limits<float>::infinity());
+    if (albedo_grid) m.albedo_grid = parse_medium_grid(c, j, p, "albedo", 1.f);
+  }
   return m;
 }
 

@@ -942,7 +942,8 @@ class Loader {
 
   // ---- media ----
   // A medium's <volume name="sigma_t|albedo">: constvolume (its colour `value`, to *constant) or, with
-  // `grid_ok`, gridvolume (a one-channel .vol file placed by to_world, docs/formats-mitsuba.md; to *grid).
+  // `grid_ok`, gridvolume (a .vol file of one or three channels placed by to_world, docs/formats-mitsuba.md;
+  // to *grid).
   void parse_medium_volume(xml_node v, bool grid_ok, RGB* constant, MediumGridDesc* grid) {
     check_attrs(v, {"type", "id", "name"});
     const std::string vt = attr(v, "type");
@@ -956,7 +957,8 @@ class Loader {
     }
     if (vt != "gridvolume" || !grid_ok)
       fail(v, grid_ok ? "unsupported volume type (supported: gridvolume, constvolume)"
-                      : "unsupported volume here (supported: constvolume; a gridvolume only as a heterogeneous medium's sigma_t)");
+                      : "unsupported volume here (supported: constvolume; a gridvolume only as a heterogeneous "
+                        "medium's sigma_t or a medium's albedo)");
     vp.declare({"filename", "to_world", "filter_type", "wrap_mode", "use_grid_bbox", "raw", "accel"});
     const std::string fname = vp.get_string("filename", "");
     if (fname.empty()) fail(v, "a gridvolume needs a filename (a .vol file)");
@@ -979,15 +981,16 @@ class Loader {
     const std::string wrap = vp.get_string("wrap_mode", "clamp");
     if (wrap != "clamp") fail(vp.get("wrap_mode"), "unsupported wrap_mode (supported: clamp)");
     grid->clamp = true;  // Mitsuba 3 clamps at the border, inside and outside the unit cube
-    vp.get_bool("raw", false);  // one channel: nothing to convert
+    vp.get_bool("raw", false);  // an RGB renderer: colour samples are used as they are
     vp.get_bool("accel", true);
     vp.finish();
   }
 
   // <medium type="homogeneous|heterogeneous">: sigma_t and albedo (Mitsuba's defaults 1 and 0.75) times
-  // scale, and a <phase> (isotropic or hg); heterogeneous with sigma_t a one-channel gridvolume (the grid
-  // times scale is the extinction, medium/medium_grid.h) or a constant. Registered under its id. Returns its
-  // index in d.media.
+  // scale, and a <phase> (isotropic or hg); heterogeneous with sigma_t a gridvolume of one or three channels
+  // (the grid times scale is the extinction, medium/medium_grid.h) or a constant; either with the albedo a
+  // gridvolume (Medium::albedo_grid; with a constant sigma_t the density grid is a clamped 1 x 1 x 1 grid of
+  // 1s). Registered under its id. Returns its index in d.media.
   int parse_medium(xml_node n) {
     if (std::string(n.name()) == "ref") return lookup(n, "medium").index;
     check_attrs(n, {"type", "id", "name"});
@@ -1000,7 +1003,7 @@ class Loader {
     if (hetero) p.declare({"has_spectral_extinction"});
     RGB sigma_t(1.f), albedo(0.75f);
     bool vol_sigma_t = false, vol_albedo = false;
-    MediumGridDesc grid;
+    MediumGridDesc grid, albedo_grid;
     bool has_grid = false;
     for (xml_node v : p.take_objects("volume")) {
       if (!has_attr(v, "name")) fail(v, "a medium's <volume> needs name=\"sigma_t\" or name=\"albedo\"");
@@ -1016,7 +1019,11 @@ class Loader {
       } else if (vn == "albedo") {
         if (vol_albedo || p.has("albedo")) fail(v, "albedo is given twice");
         vol_albedo = true;
-        parse_medium_volume(v, false, &albedo, nullptr);
+        parse_medium_volume(v, true, &albedo, &albedo_grid);
+        for (size_t i = 0; i < albedo_grid.values.size(); ++i)
+          if (!(albedo_grid.values[i] <= 1.f))
+            fail(v, "albedo grid '" + albedo_grid.name + "': sample " + std::to_string(i) + " is " +
+                        std::to_string(albedo_grid.values[i]) + " (expected an albedo in [0, 1])");
       } else {
         fail(v, "unknown volume '" + vn + "' (a medium takes sigma_t and albedo)");
       }
@@ -1033,7 +1040,10 @@ class Loader {
     if (!(scale >= 0.f)) fail(p.get("scale"), "expected a scale >= 0");
     if (!p.get_bool("sample_emitters", true))
       warn(p.get("sample_emitters"), "sample_emitters", "sample_emitters=false ignored (caustica always samples emitters in media)");
-    if (hetero) p.get_bool("has_spectral_extinction", true);  // a one-channel grid: grey extinction either way
+    // A colour sigma_t grid's channels are used as they are (Mitsuba 3's default, true).
+    if (hetero) p.get_bool("has_spectral_extinction", true);
+    const bool has_albedo_grid = !albedo_grid.values.empty();
+    if (has_albedo_grid) albedo = RGB(1.f);  // sigma_s(x) = albedo(x) sigma_t(x): the constants carry sigma_t
     Medium m;
     m.sigma_s = sigma_t * albedo * scale;
     m.sigma_a = sigma_t * scale - m.sigma_s;
@@ -1056,9 +1066,21 @@ class Loader {
     }
     p.finish();
     std::string name = has_attr(n, "id") ? attr(n, "id") : "medium@" + where(n);
+    if (has_albedo_grid && !has_grid) {  // a constant sigma_t: a clamped grid of one sample, 1
+      grid = MediumGridDesc();
+      grid.name = "constant density@" + where(n);
+      grid.nx = grid.ny = grid.nz = 1;
+      grid.values = {1.f};
+      grid.clamp = true;
+      has_grid = true;
+    }
     if (has_grid) {
       d.grids.push_back(std::move(grid));
       m.grid = int(d.grids.size()) - 1;
+    }
+    if (has_albedo_grid) {
+      d.grids.push_back(std::move(albedo_grid));
+      m.albedo_grid = int(d.grids.size()) - 1;
     }
     d.medium_names.push_back(name);
     d.media.push_back(m);
