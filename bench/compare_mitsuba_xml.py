@@ -21,7 +21,9 @@ falls on the floor, and a sphere of opacity 0.5; rendered with Mitsuba's volpath
 blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one), and
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF against caustica's
 metallic-roughness mapping), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
-cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box).
+cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
+three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
+box whose albedo is a gridvolume).
 
 usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
@@ -376,13 +378,69 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
 </scene>
 """)
+    # Colour grids (Mitsuba's three-channel sigma_t gridvolume and albedo gridvolumes): a plume whose
+    # channels differ (red dense low on one side, blue spread higher), its albedo a 4 x 4 x 4 colour grid
+    # (greenish below, reddish above) with a to_world of its own; beside it a homogeneous box whose albedo
+    # is a gridvolume (white on one side, dark blue on the other).
+    red = dens
+    blue = 0.5 * np.roll(dens, n // 4, axis=1) + 0.5
+    green = 0.5 * (red + blue)
+    colour = np.stack([red, green, blue], axis=-1)
+    k = (np.arange(4) + 0.5) / 4
+    az, ay, ax = np.meshgrid(k, k, k, indexing="ij")
+    albedo = np.stack([0.5 + 0.45 * ay, 0.95 - 0.4 * ay, 0.6 + 0.3 * ax], axis=-1)
+    side = np.array([[[[0.95, 0.95, 0.95], [0.1, 0.2, 0.6]]]])
+
+    def write_vol(name, v):
+        nz, ny, nx, ch = v.shape
+        with open(os.path.join(OUT, name), "wb") as f:
+            f.write(b"VOL" + bytes([3]) + np.array([1, nx, ny, nz, ch], "<i4").tobytes()
+                    + np.array([0, 0, 0, 1, 1, 1], "<f4").tobytes() + v.astype("<f4").tobytes())
+
+    write_vol("tinted_sigma_t.vol", colour)
+    write_vol("tinted_albedo.vol", albedo)
+    write_vol("side_albedo.vol", side)
+    with open(os.path.join(OUT, "tinted.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="volpath"><integer name="max_depth" value="16"/></integrator>
+  <medium type="heterogeneous" id="smoke">
+    <volume name="sigma_t" type="gridvolume"><string name="filename" value="tinted_sigma_t.vol"/>
+      <transform name="to_world"><translate value="-0.5, 0, -0.5"/><scale x="2.4" y="1.8" z="2.4"/>
+        <rotate y="1" angle="30"/><translate x="-0.5" y="0.01"/></transform></volume>
+    <volume name="albedo" type="gridvolume"><string name="filename" value="tinted_albedo.vol"/>
+      <transform name="to_world"><translate value="-0.5, 0, -0.5"/><scale x="2" y="1.6" z="2"/>
+        <translate x="-0.6" y="0.1"/></transform></volume>
+    <float name="scale" value="3"/>
+    <phase type="hg"><float name="g" value="0.4"/></phase></medium>
+  <medium type="homogeneous" id="side">
+    <rgb name="sigma_t" value="1, 0.8, 0.6"/><float name="scale" value="2.5"/>
+    <volume name="albedo" type="gridvolume"><string name="filename" value="side_albedo.vol"/>
+      <transform name="to_world"><translate value="1.2, 0.3, -0.4"/><scale x="0.8" y="0.8" z="0.8"/></transform></volume>
+  </medium>
+  {sensor}
+  <shape type="cube"><transform name="to_world"><scale value="0.5"/><translate value="0.5, 0.5, 0.5"/>
+      <translate value="-0.5, 0, -0.5"/><scale x="2.4" y="1.8" z="2.4"/><rotate y="1" angle="30"/>
+      <translate x="-0.5" y="0.01"/></transform>
+    <bsdf type="null"/><ref name="interior" id="smoke"/></shape>
+  <shape type="cube"><transform name="to_world"><scale value="0.5"/><translate value="0.5, 0.5, 0.5"/>
+      <translate value="1.2, 0.3, -0.4"/><scale x="0.8" y="0.8" z="0.8"/></transform>
+    <bsdf type="null"/><ref name="interior" id="side"/></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
             "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml"),
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
-            "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml")}
+            "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
+            "tinted": os.path.join(OUT, "tinted.xml")}
 
 
 def render_caustica(path, res, spp, seed):
