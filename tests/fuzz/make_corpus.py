@@ -28,9 +28,17 @@ def png(w, h, rgb):
 TEX = png(2, 2, [(255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 255)])
 
 
+def vol(nx, ny, nz, channels, values):
+    """A Mitsuba .vol grid (scene/volume_io.h): header, then float32 samples, x fastest, channels innermost."""
+    return (b"VOL" + bytes([3]) + struct.pack("<5i", 1, nx, ny, nz, channels) + struct.pack("<6f", 0, 0, 0, 1, 1, 1)
+            + struct.pack(f"<{len(values)}f", *values))
+
+
 def main():
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "checker.png").write_bytes(TEX)
+    (OUT / "grid.vol").write_bytes(vol(2, 2, 2, 1, [0, 1, 2, 0.5, 1, 3, 0.25, 0]))
+    (OUT / "albedo.vol").write_bytes(vol(2, 1, 1, 3, [0.9, 0.8, 0.7, 0.3, 0.6, 0.95]))
 
     # caustica JSON
     scene = {
@@ -38,7 +46,13 @@ def main():
         "camera": {"position": [0, 1, 5], "target": [0, 1, 0], "up": [0, 1, 0], "fov": 40, "width": 16, "height": 12,
                    "medium": "fog"},
         "media": {"fog": {"sigma_a": 0.01, "sigma_s": 0.05, "g": 0.3},
-                  "milk": {"sigma_t": [1, 2, 3], "albedo": 0.9, "scale": 2}},
+                  "milk": {"sigma_t": [1, 2, 3], "albedo": 0.9, "scale": 2},
+                  "smoke": {"type": "heterogeneous", "sigma_t": 2, "albedo": 0.9, "g": 0.2,
+                            "density": {"resolution": [2, 2, 2], "values": [0, 1, 2, 0.5, 1, 3, 0.25, 0]},
+                            "bounds": [[-1, 0, -1], [1, 2, 1]], "filter": "nearest", "outside": "clamp"},
+                  "tinted": {"type": "heterogeneous", "sigma_t": [1, 1.5, 2],
+                             "density": {"resolution": [1, 2, 1], "channels": 3, "values": [0, 1, 2, 0.5, 0.25, 1]},
+                             "albedo": {"file": "albedo.vol", "transform": {"scale": 2}}}},
         "filter": "tent",
         "max_depth": 6,
         "materials": {
@@ -166,6 +180,12 @@ def main():
   <integrator type="volpath"><integer name="max_depth" value="6"/></integrator>
   <medium type="homogeneous" id="fog"><rgb name="sigma_t" value="0.1, 0.2, 0.3"/><float name="albedo" value="0.8"/>
     <phase type="hg"><float name="g" value="0.5"/></phase></medium>
+  <medium type="heterogeneous" id="smoke"><float name="scale" value="2"/><rgb name="albedo" value="0.9, 0.8, 0.7"/>
+    <volume name="sigma_t" type="gridvolume"><string name="filename" value="grid.vol"/>
+      <transform name="to_world"><scale value="2"/><translate x="-1" y="0" z="-1"/></transform></volume></medium>
+  <medium type="homogeneous" id="tinted"><float name="sigma_t" value="0.5"/>
+    <volume name="albedo" type="gridvolume"><string name="filename" value="albedo.vol"/>
+      <string name="filter_type" value="nearest"/></volume></medium>
   <sensor type="perspective">
     <ref id="fog"/>
     <float name="fov" value="40"/>
