@@ -429,8 +429,8 @@ def cmd_info(a) -> int:
     print(f"projection:  {d['projection']}" + ("" if d["shutter"] is None else
           f", moving camera (motion blur, shutter {d['shutter'][0]:g} to {d['shutter'][1]:g})"))
     for key in ("shapes", "meshes", "triangles", "spheres", "materials", "lights", "area_lights", "textures", "media"):
-        print(f"{key + ':':12s} {d[key]}" + (f" ({d['heterogeneous_media']} heterogeneous)"
-                                              if key == "media" and d["heterogeneous_media"] else ""))
+        kinds = [f"{d[k + '_media']} {k}" for k in ("heterogeneous", "emissive") if key == "media" and d[k + "_media"]]
+        print(f"{key + ':':12s} {d[key]}" + (f" ({', '.join(kinds)})" if kinds else ""))
     print(f"bounds:      {fmt(lo)} .. {fmt(hi)}")
     defaults = dict(scene.integrator_defaults)
     if defaults:

@@ -337,7 +337,9 @@ TEST(MediumGrid, DeltaTrackingWithTooSmallAMajorantFails) {
 // ray), for zero and clamped outsides; and the ratio-tracking transmittance's mean is T_c(t_s), every
 // estimate in [0, 1]. Again with a colour density grid (a density per channel, some 0) and an albedo grid
 // (3 x 3 x 2 random colours, placed apart: the ray leaves its box, where the albedo is 0 unless clamped):
-// sigma_t,c(x) = d_c(x) sigma_t,c and sigma_s(x) = albedo(x) sigma_t(x) in the quadrature.
+// sigma_t,c(x) = d_c(x) sigma_t,c and sigma_s(x) = albedo(x) sigma_t(x) in the quadrature. The medium emits
+// (a constant Le, or Le times a colour emission grid): the emission the events score has the mean
+// int T_c sigma_a,c Le_c dt (medium/medium.h's collision estimator).
 TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
   for (bool colour : {false, true})
   for (bool clamp : {false, true}) {
@@ -376,6 +378,17 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
       ad.to_world.m[1][3] = ad.to_world.m[2][3] = -0.5f;
       sd.grids.push_back(ad);
       m.albedo_grid = 1;
+      // Emission: Le times a 2 x 2 x 2 colour grid over the density grid's own box.
+      MediumGridDesc ed;
+      ed.nx = ed.ny = ed.nz = 2;
+      ed.channels = 3;
+      for (int i = 0; i < 8 * 3; ++i) ed.values.push_back(3.f * vr.next_float());
+      ed.to_world = gd.to_world;
+      sd.grids.push_back(ed);
+      m.Le = RGB(0.7f, 1.3f, 2.f);
+      m.emission_grid = 2;
+    } else {
+      m.Le = RGB(1.5f, 0.f, 0.4f);  // constant emission; none in green
     }
     std::vector<MediumGrid> grids;
     std::vector<float> values;
@@ -384,14 +397,21 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
     const float ts = 2.6f;
     auto coeff = [&](double t) { return grid_coefficients(m, grids.data(), values.data(), o + d * float(t)); };
     // e_scat_const: what E[w 1{scatter}] would be with the constant albedo in place of the albedo grid (the
-    // power check below: the estimates must be far from it).
-    double e_surf[3], e_scat[3], e_scat_t[3], e_scat_const[3];
+    // power check below: the estimates must be far from it). e_emit: int T sigma_a Le dt, the emission the
+    // events score (medium_event_emission).
+    double e_surf[3], e_scat[3], e_scat_t[3], e_scat_const[3], e_emit[3];
     for (int ch = 0; ch < 3; ++ch) {
       // Running optical depth on a fine grid of t, for T(t) inside the integrals.
       const int n = 100000;
       const double h = ts / n;
       GridCoefficients k0 = coeff(0.0);
-      double tau = 0.0, scat = 0.0, scat_t = 0.0, scat_const = 0.0;
+      double tau = 0.0, scat = 0.0, scat_t = 0.0, scat_const = 0.0, emit = 0.0;
+      auto source = [&](double t, const GridCoefficients& k) {  // sigma_a(t) Le(t) in channel ch
+        const Vec3f x = o + d * float(t);
+        const double le = m.Le[ch] * (m.emission_grid >= 0 ? grid_value(grids[2], values.data(), x)[ch] : 1.f);
+        return (double(k.sigma_t[ch]) - double(k.sigma_s[ch])) * le;
+      };
+      double src0 = source(0.0, k0);
       const double albedo_const = m.sigma_s[ch] / medium_sigma_t(m)[ch];
       for (int i = 1; i <= n; ++i) {
         const double t = h * i;
@@ -401,6 +421,9 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
         const double a = k0.sigma_s[ch] * std::exp(-tau), bb = k1.sigma_s[ch] * std::exp(-tau_next);
         scat += 0.5 * h * (a + bb);
         scat_t += 0.5 * h * ((t - h) * a + t * bb);
+        const double src1 = source(t, k1);
+        emit += 0.5 * h * (src0 * std::exp(-tau) + src1 * std::exp(-tau_next));
+        src0 = src1;
         scat_const +=
             0.5 * h * albedo_const * (k0.sigma_t[ch] * std::exp(-tau) + k1.sigma_t[ch] * std::exp(-tau_next));
         tau = tau_next;
@@ -410,15 +433,17 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
       e_scat[ch] = scat;
       e_scat_t[ch] = scat_t;
       e_scat_const[ch] = scat_const;
+      e_emit[ch] = emit;
     }
     PCG32 rng(clamp ? 31 : 32, colour ? 34 : 33);
-    Moments surf[3], sc_[3], sc_t[3], tr[3];
+    Moments surf[3], sc_[3], sc_t[3], tr[3], em[3];
     float tr_min = 1.f, tr_max = 0.f;
     const long N = 400000;
     for (long i = 0; i < N; ++i) {
       const int hero = hero_of(rng.next_float());
       MediumSample ms = grid_sample_distance(m, grids.data(), values.data(), o, d, ts, hero, rng);
       RGB w(1.f), r(1.f);
+      const RGB e = medium_event_emission(ms, w, r);
       ASSERT_TRUE(medium_update_throughput(ms, w, r));
       const RGB T = grid_transmittance(m, grids.data(), values.data(), o, d, ts, rng);
       for (int ch = 0; ch < 3; ++ch) {
@@ -426,6 +451,7 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
         sc_[ch].add(ms.scattered ? w[ch] : 0.0);
         sc_t[ch].add(ms.scattered ? w[ch] * ms.t : 0.0);
         tr[ch].add(T[ch]);
+        em[ch].add(e[ch]);
         tr_min = std::min(tr_min, T[ch]);
         tr_max = std::max(tr_max, T[ch]);
       }
@@ -436,6 +462,7 @@ TEST(MediumGrid, TrackingIsUnbiasedPerChannel) {
       EXPECT_NEAR(sc_[ch].mean(), e_scat[ch], 4 * sc_[ch].se() + 1e-6) << "clamp " << clamp << " channel " << ch;
       EXPECT_NEAR(sc_t[ch].mean(), e_scat_t[ch], 4 * sc_t[ch].se() + 1e-6) << "clamp " << clamp << " channel " << ch;
       EXPECT_NEAR(tr[ch].mean(), e_surf[ch], 4 * tr[ch].se() + 1e-6) << "clamp " << clamp << " channel " << ch;
+      EXPECT_NEAR(em[ch].mean(), e_emit[ch], 4 * em[ch].se() + 1e-6) << "clamp " << clamp << " channel " << ch;
     }
     // The albedo grid matters here: ignoring it would be off by more than 10 standard errors in some channel.
     if (colour) {

@@ -198,7 +198,7 @@ def test_cli_refuses_media_with_exit_code_2(tmp_path):
     (lambda d: d["media"]["m"].update(g=1.0), "/media/m/g: expected a number in (-1, 1)"),
     (lambda d: d["media"]["m"].update(type="grid"), "/media/m/type: unknown medium type 'grid' (allowed: homogeneous, heterogeneous)"),
     (lambda d: d["media"]["m"].update(type="heterogeneous"), "/media/m: a heterogeneous medium needs \"density\" (a grid)"),
-    (lambda d: d["media"]["m"].update(density={"file": "x.vol"}), "/media/m/density: unknown key (allowed: type, sigma_a, sigma_s, sigma_t, albedo, scale, g)"),
+    (lambda d: d["media"]["m"].update(density={"file": "x.vol"}), "/media/m/density: unknown key (allowed: type, sigma_a, sigma_s, sigma_t, albedo, scale, g, emission)"),
     (lambda d: d["media"]["m"].update(sigma_a=-1.0), "/media/m/sigma_a: expected non-negative colour values"),
     (lambda d: d["materials"]["boundary"].update(eta=1.5), "/materials/boundary/eta: unknown key (allowed: type)"),
 ])

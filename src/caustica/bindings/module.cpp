@@ -94,9 +94,13 @@ nb::dict describe(const SceneDesc& d) {
   r["area_lights"] = st.area_lights;
   r["textures"] = st.textures;
   r["media"] = d.media.size();
-  size_t grid_media = 0;
-  for (const Medium& m : d.media) grid_media += m.grid >= 0;
+  size_t grid_media = 0, emissive_media = 0;
+  for (const Medium& m : d.media) {
+    grid_media += m.grid >= 0;
+    emissive_media += medium_emits(m);
+  }
   r["heterogeneous_media"] = grid_media;
+  r["emissive_media"] = emissive_media;
   nb::list lo, hi;
   for (int i = 0; i < 3; ++i) {
     lo.append(st.lo[i]);

@@ -296,6 +296,8 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
       q = path_grid_freeflight_proxy(
           s, md, st.r_medium, o, d, ms.t,
           medium_sigma_t(md) * grid_value(s.medium_grids[md.grid], s.grid_values, o + d * ms.t));
+    // An emissive medium's emission at the event (medium/medium.h), with the throughput before it.
+    st.L += medium_event_emission(ms, st.beta, st.r_medium);
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }
     if (ms.scattered) {
       if (st.depth >= pp.max_depth) { st.active = false; return; }

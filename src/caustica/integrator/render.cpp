@@ -203,6 +203,11 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     if (!media_photons)
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
                        what + "; use --integrator path, sppm or pppm");
+    for (size_t i = 0; i < scene_->desc().media.size(); ++i)
+      if (medium_emits(scene_->desc().media[i]))
+        throw InputError("integrator '" + opt_.integrator + "' does not render emissive media (medium '" +
+                         (i < scene_->desc().medium_names.size() ? scene_->desc().medium_names[i] : std::to_string(i)) +
+                         "' emits); use --integrator path");
     if (opt_.photon_sampling != "uniform")
       throw InputError("--photon-sampling adaptive does not trace photons through participating media" + what +
                        "; use --photon-sampling uniform");

@@ -25,6 +25,14 @@
 //   p(cos) = (1 - g^2) / (4 pi (1 + g^2 + 2 g cos)^{3/2}),  cos = dot(wo, wi),
 // sampled exactly by inverting its CDF in cos (pbrt-v4 Eq. 11.17 in its form for wo), so the sampling weight
 // p / pdf is 1.
+//
+// Emission (pbrt-v4 Sec. 11.1.2; the emission term of its source function, Sec. 11.1.4): an emissive medium adds
+// sigma_a(x) Le(x) per unit length to the radiance along a ray, attenuated by T like everything else, so the
+// integral above gains int_0^t_s T(t) sigma_a Le dt. The path tracer estimates it at each scattering event
+// (a collision estimator: at the sampled t it adds f / avg(r p) with f = T(t) sigma_a Le and p the event's
+// densities, the same weight the event's sigma_s factor gets, so it is unbiased in every channel for the
+// reason the scattering is). pbrt-v4's VolPathIntegrator also scores emission at null collisions; here a grid
+// medium scores it at real collisions only (more variance in thin emitters, the same expectation).
 #pragma once
 #include <cstdint>
 #include "../base/host_device.h"
@@ -42,7 +50,13 @@ struct Medium {
   // With a density grid, an albedo grid (an index like `grid`, its samples in [0, 1]) may replace the constant
   // albedo: sigma_s(x) = albedo(x) sigma_t(x), sigma_t(x) = density(x) (sigma_a + sigma_s). -1: none.
   int32_t albedo_grid = -1;
+  // Emitted radiance: the medium adds sigma_a(x) Le(x) per unit length (header comment), Le(x) = Le, or with
+  // an emission grid (an index like `grid`, one or three channels >= 0) Le times the grid's value at x.
+  RGB Le{0.f};
+  int32_t emission_grid = -1;
 };
+
+CHD bool medium_emits(const Medium& m) { return m.Le.x > 0.f || m.Le.y > 0.f || m.Le.z > 0.f; }
 
 // Which media lie on either side of a surface: `interior` behind its geometric normal (where a ray goes
 // with dot(d, ng) < 0), `exterior` in front; -1 = vacuum. A surface with no interface (both kNoMedium
@@ -82,6 +96,9 @@ struct MediumSample {
   // medium_update_throughput), so p is not an absolute density there.
   RGB Tf{0.f};
   RGB sigma_s{0.f};
+  // When scattered in an emissive medium: sigma_a(x) Le(x) at the event (its emission is Tf times this,
+  // weighted like the event's sigma_s factor; header comment), else 0.
+  RGB sigma_a_Le{0.f};
 };
 
 // Free-flight sampling along a ray through `m` whose next surface is t_surface away (infinity: none), the
@@ -98,12 +115,22 @@ CHD MediumSample sample_medium_distance(const Medium& m, float t_surface, int he
     ms.p = st * T;
     ms.Tf = T;
     ms.sigma_s = m.sigma_s;
+    ms.sigma_a_Le = m.sigma_a * m.Le;
     return ms;
   }
   RGB T = medium_transmittance(st, t_surface);
   ms.f = T;
   ms.p = T;
   return ms;
+}
+
+// The emission of a scattering event `ms` for a path with throughput beta and density ratios r before the
+// event (header comment): beta Tf sigma_a Le / avg(r p); 0 when the medium does not emit.
+CHD RGB medium_event_emission(const MediumSample& ms, const RGB& beta, const RGB& r) {
+  if (!ms.scattered || is_black(ms.sigma_a_Le)) return RGB(0.f);
+  const RGB rp = r * ms.p;
+  const float a = (rp.x + rp.y + rp.z) * (1.f / 3.f);
+  return a > 0.f ? beta * ms.Tf * ms.sigma_a_Le / a : RGB(0.f);
 }
 
 // Folds one medium event into a path's throughput beta and its density ratios r (average 1): beta becomes

@@ -312,6 +312,11 @@ CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid* grids, 
         ms.scattered = true;
         ms.t = t;
         ms.sigma_s = grid_sigma_s(m, grids, values, x, density, sigma_t_x);
+        if (medium_emits(m)) {
+          const RGB Le = m.emission_grid >= 0 ? m.Le * grid_value(grids[m.emission_grid], values, x) : m.Le;
+          const RGB sa = sigma_t_x - ms.sigma_s;
+          ms.sigma_a_Le = RGB(maxf(sa.x, 0.f), maxf(sa.y, 0.f), maxf(sa.z, 0.f)) * Le;
+        }
         ms.Tf = ms.f * T;
         ms.f = ms.Tf * ms.sigma_s;
         ms.p = ms.p * T * sigma_t_x;

@@ -505,6 +505,7 @@ struct Writer {
         if (m.grid >= 0 && m.albedo_grid >= 0) o.set("sigma_t", col(medium_sigma_t(m)));
         else o.set("sigma_a", col(m.sigma_a)).set("sigma_s", col(m.sigma_s));
         if (m.g != 0.f) o.set("g", JV::flt(m.g));
+        if (medium_emits(m) && !(m.grid >= 0 && m.emission_grid >= 0)) o.set("emission", col(m.Le));
         if (m.grid >= 0) {
           auto grid_of = [&](int index, const char* what) -> const MediumGridDesc& {
             if (size_t(index) >= d.grids.size()) throw InputError(std::string("export: ") + what + " grid index out of range");
@@ -515,17 +516,25 @@ struct Writer {
           if (!is_identity(g.to_world)) o.set("transform", matrix(g.to_world));
           if (g.nearest) o.set("filter", JV::str("nearest"));
           if (g.clamp) o.set("outside", JV::str("clamp"));
-          if (m.albedo_grid >= 0) {
-            // The albedo grid's placement and lookup where they differ from the density grid's.
-            const MediumGridDesc& a = grid_of(m.albedo_grid, "albedo");
-            JV ao = JV::object().set("file", JV::str(exported_grid_name(stem, size_t(m.albedo_grid))));
+          // An albedo or emission grid: its file, and its placement and lookup where they differ from the
+          // density grid's.
+          auto other_grid = [&](int index, const char* key) {
+            const MediumGridDesc& a = grid_of(index, key);
+            JV ao = JV::object().set("file", JV::str(exported_grid_name(stem, size_t(index))));
             bool same = true;
             for (int r = 0; r < 3; ++r)
               for (int k = 0; k < 4; ++k) same = same && a.to_world.m[r][k] == g.to_world.m[r][k];
             if (!same) ao.set("transform", matrix(a.to_world));
             if (a.nearest != g.nearest) ao.set("filter", JV::str(a.nearest ? "nearest" : "trilinear"));
             if (a.clamp != g.clamp) ao.set("outside", JV::str(a.clamp ? "clamp" : "zero"));
-            o.set("albedo", ao);
+            o.set(key, ao);
+          };
+          if (m.albedo_grid >= 0) other_grid(m.albedo_grid, "albedo");
+          if (m.emission_grid >= 0) {
+            // The grid holds Le(x) / Le; export folds a non-unit Le into its samples.
+            if (!(m.Le.x == 1.f && m.Le.y == 1.f && m.Le.z == 1.f))
+              throw InputError("export: an emission grid with a scale other than 1 is not representable in JSON");
+            other_grid(m.emission_grid, "emission");
           }
         }
         media.set(medium_key(int(i)), o);
@@ -671,7 +680,7 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
   }
   // The density and albedo grids the media use (Mitsuba's .vol format).
   for (const Medium& m : desc.media)
-    for (int gi : {m.grid, m.albedo_grid})
+    for (int gi : {m.grid, m.albedo_grid, m.emission_grid})
       if (gi >= 0 && size_t(gi) < desc.grids.size())
         write_vol_grid(desc.grids[gi], (dir / exported_grid_name(stem, size_t(gi))).string());
   std::string tmp = path + ".tmp";

@@ -627,6 +627,11 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       throw InputError("medium '" + name + "': density grid index out of range");
     if (md.albedo_grid < -1 || md.albedo_grid >= int(desc.grids.size()))
       throw InputError("medium '" + name + "': albedo grid index out of range");
+    if (!ok(md.Le)) throw InputError("medium '" + name + "': its emission must be finite and >= 0");
+    if (md.emission_grid < -1 || md.emission_grid >= int(desc.grids.size()))
+      throw InputError("medium '" + name + "': emission grid index out of range");
+    if (md.emission_grid >= 0 && md.grid < 0)
+      throw InputError("medium '" + name + "': an emission grid needs a density grid");
     if (md.albedo_grid >= 0) {
       if (md.grid < 0) throw InputError("medium '" + name + "': an albedo grid needs a density grid");
       for (float v : desc.grids[md.albedo_grid].values)

@@ -666,14 +666,14 @@ void parse_grid_placement(const Ctx& c, const json& j, const std::string& p, Med
   }
 }
 
-// A heterogeneous medium's grid, key `key` ("density" or "albedo") of medium j at p: {"file": a Mitsuba .vol
+// A heterogeneous medium's grid, key `key` ("density", "albedo" or "emission") of medium j at p: {"file": a Mitsuba .vol
 // file} or {"resolution": [nx, ny, nz], "values": [nx * ny * nz * channels numbers, x fastest, channels
 // innermost], "channels": 1 or 3}, its samples in [0, max_value]; placed by the medium's placement keys,
 // which the grid's own override (parse_grid_placement). Appended to c.d->grids; returns its index.
 int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const char* key, float max_value) {
   const json& dj = j[key];
   const std::string dp = p + "/" + key;
-  const std::string what = max_value < 1e30f ? "an albedo" : "a density";
+  const std::string what = max_value < 1e30f ? "an albedo" : std::string(key) == "emission" ? "a radiance" : "a density";
   if (!dj.is_object())
     c.fail(dp, std::string("expected an object ({\"file\": ...} or {\"resolution\": ..., \"values\": ...}), got ") +
                    type_name(dj));
@@ -746,10 +746,10 @@ Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
     else if (t != "homogeneous") c.fail(p + "/type", "unknown medium type '" + t + "' (allowed: homogeneous, heterogeneous)");
   }
   if (grid)
-    check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g", "density", "bounds",
-                         "transform", "filter", "outside"});
+    check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g", "emission", "density",
+                         "bounds", "transform", "filter", "outside"});
   else
-    check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g"});
+    check_keys(c, j, p, {"type", "sigma_a", "sigma_s", "sigma_t", "albedo", "scale", "g", "emission"});
   Medium m;
   const bool as = j.contains("sigma_a") || j.contains("sigma_s");
   const bool ta = j.contains("sigma_t") || j.contains("albedo");
@@ -776,12 +776,19 @@ Medium parse_medium(const Ctx& c, const json& j, const std::string& p) {
     m.sigma_a *= sc;
     m.sigma_s *= sc;
   }
+  // Emission: a colour (radiance; the medium adds sigma_a Le per unit length), or for a heterogeneous medium a
+  // grid of it (one or three channels >= 0).
+  const bool emission_grid = j.contains("emission") && j["emission"].is_object();
+  if (emission_grid && !grid)
+    c.fail(p + "/emission", "an emission grid needs \"type\": \"heterogeneous\" (give a colour or a number here)");
+  if (j.contains("emission")) m.Le = emission_grid ? RGB(1.f) : color(c, j["emission"], p + "/emission");
   if (j.contains("g")) m.g = num(c, j["g"], p + "/g");
   if (!(m.g > -1.f && m.g < 1.f)) c.fail(p + "/g", "expected a number in (-1, 1)");
   if (grid) {
     if (!j.contains("density")) c.fail(p, "a heterogeneous medium needs \"density\" (a grid)");
     m.grid = parse_medium_grid(c, j, p, "density", std::numeric_limits<float>::infinity());
     if (albedo_grid) m.albedo_grid = parse_medium_grid(c, j, p, "albedo", 1.f);
+    if (emission_grid) m.emission_grid = parse_medium_grid(c, j, p, "emission", std::numeric_limits<float>::infinity());
   }
   return m;
 }

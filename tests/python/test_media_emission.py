@@ -1,0 +1,154 @@
+"""Emissive participating media (medium/medium.h, Medium::Le and emission_grid): the path tracer's collision
+estimator of the emission sigma_a Le.
+
+Analytic answers: a camera at the centre of a null sphere of radius R filled with an absorbing emitter under a
+constant environment (every pixel is Le (1 - e^{-sigma_a R}) + L_env e^{-sigma_a R}, any max_depth); the
+furnace with emission (a scattering, absorbing medium emitting the environment's radiance: L_env everywhere),
+homogeneous and as a colour grid with an emission grid; an orthographic view through an absorbing grid whose
+density and emission vary along the view (1D quadrature). Also: pppm and sppm refuse emissive media, threads
+and the CPU wavefront give the same image, export, the schema, describe/info and the errors."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import caustica
+from test_media import LE, R, assert_pixel_means, medium_sphere
+from test_media_grid import ROW, grid_medium, random_grid, slab
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+@pytest.mark.parametrize("max_depth", [1, -1])
+@pytest.mark.parametrize("wavefront", [False, True])
+def test_absorbing_emitter(max_depth, wavefront):
+    # Radiance emitted along the view and the environment behind, both through the absorber; a pure absorber
+    # has no scattered light, so max_depth 1 (the camera segment only) gives the same. Were the emission scored
+    # with sigma_t instead of sigma_a (or at every event without its weight) the red channel would be off by
+    # far more than the 4 standard errors of the 576-pixel mean.
+    sa = np.array([0.2, 0.5, 1.0])
+    le = np.array([3.0, 0.0, 1.5])
+    medium = {"sigma_a": sa.tolist(), "sigma_s": 0.0, "emission": le.tolist()}
+    img = caustica.render(medium_sphere(medium), spp=64, seed=1, max_depth=max_depth, wavefront=wavefront)
+    T = np.exp(-sa * R)
+    assert_pixel_means(img, le * (1 - T) + np.array(LE) * T)
+
+
+@pytest.mark.parametrize("kind", ["homogeneous", "colour grid with an emission grid"])
+def test_furnace_with_emission(kind):
+    # A medium that emits the environment's radiance L_env and scatters (albedo < 1, chromatic, g 0.4) is in
+    # equilibrium with it: sigma_a L_env emitted + sigma_s L_env scattered in = sigma_t L_env lost, so every
+    # pixel is L_env. The grid version: a random colour density, an albedo grid, and Le times an emission grid
+    # equal to L_env everywhere. 4 standard errors of the 576-pixel mean.
+    if kind == "homogeneous":
+        medium = {"sigma_a": [0.3, 0.1, 0.6], "sigma_s": [0.5, 1.0, 0.4], "g": 0.4, "emission": LE}
+    else:
+        d = np.random.default_rng(7).uniform(0.0, 2.0, size=(5, 5, 5, 3)).astype(np.float32)
+        medium = grid_medium(d[..., 0], sigma_t=[0.8, 1.1, 1.0], g=0.4)
+        medium["density"] = {"resolution": [5, 5, 5], "channels": 3, "values": d.ravel().tolist()}
+        medium["albedo"] = {"resolution": [2, 1, 1], "channels": 3, "values": [0.9, 0.2, 0.5, 0.3, 0.7, 0.95]}
+        medium["emission"] = {"resolution": [1, 1, 1], "channels": 3, "values": LE, "outside": "clamp"}
+    img = caustica.render(medium_sphere(medium), spp=64, seed=2, max_depth=-1)
+    assert_pixel_means(img, LE)
+
+
+def test_emission_grid_along_the_view_matches_quadrature():
+    # The orthographic slab of test_media_grid.py (a pure absorber whose density varies along x over the cube
+    # [-1, 1]^3, the environment behind it) emitting a colour emission grid that varies along x too,
+    # Le(x) = E(x) le: each pixel is int sigma_a d(x) Le(x) exp(-sigma_a int_{-1}^x d) dx +
+    # L_env exp(-sigma_a int d), the interpolants cell-centred and held to the faces. 4 standard errors of the
+    # 256-pixel mean.
+    sa = np.array([0.3, 0.6, 1.0])
+    le = np.array([2.0, 1.0, 0.5])
+    erow = np.array([0.0, 1.0, 3.0, 2.0, 0.5])
+    s = slab(ROW, sa.tolist())
+    s["media"]["m"]["emission"] = {"resolution": [len(erow), 1, 1], "channels": 3,
+                                   "values": (erow[:, None] * le).ravel().tolist()}
+    img = caustica.render(s, spp=64, seed=3, max_depth=-1)
+    x = np.linspace(-1.0, 1.0, 200001)
+
+    def interp(row):
+        n = len(row)
+        return np.interp(x, -1.0 + (np.arange(n) + 0.5) * 2.0 / n, row)
+
+    d, e = interp(np.asarray(ROW, np.float64)), interp(erow)
+    tau = np.concatenate([[0.0], np.cumsum(0.5 * (d[1:] + d[:-1]) * np.diff(x))])  # int_{-1}^x d
+    expected = []
+    for c in range(3):
+        f = sa[c] * d * le[c] * e * np.exp(-sa[c] * tau)
+        expected.append(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(x)) + LE[c] * np.exp(-sa[c] * tau[-1]))
+    assert_pixel_means(img, np.array(expected))
+
+
+def test_photon_mappers_refuse_emissive_media():
+    s = medium_sphere({"sigma_a": 0.2, "sigma_s": 0.5, "emission": 1.0})
+    for integrator in ("pppm", "sppm"):
+        with pytest.raises(caustica.InputError) as e:
+            caustica.render(s, integrator=integrator, spp=1, photons=100)
+        assert f"integrator '{integrator}' does not render emissive media (medium 'm' emits); use --integrator path" \
+            in str(e.value)
+
+
+def test_threads_wavefront_export_and_describe(tmp_path):
+    d = random_grid(6, seed=9)
+    medium = grid_medium(d, sigma_a=0.3, sigma_s=0.6, g=0.2)
+    medium["emission"] = {"resolution": [2, 2, 1], "channels": 3, "values": [1, 0, 0, 0, 2, 0, 0, 0, 3, 1, 1, 1],
+                          "transform": {"scale": 3, "translate": [-1.5, -1.5, -1.5]}}
+    s = medium_sphere(medium, width=16)
+    s["media"]["h"] = {"sigma_a": 0.1, "sigma_s": 0.0, "emission": [0.5, 0.25, 0.0]}
+    kw = dict(spp=4, seed=6, max_depth=-1)
+    one = caustica.render(s, threads=1, **kw)
+    assert one.mean() > 0
+    assert np.array_equal(one, caustica.render(s, threads=2, **kw))
+    assert np.array_equal(one, caustica.render(s, wavefront=True, **kw))
+    d_ = caustica.describe(s)
+    assert d_["media"] == 2 and d_["emissive_media"] == 2 and d_["heterogeneous_media"] == 1
+    caustica.export_scene(s, str(tmp_path / "e.json"))
+    out = json.loads((tmp_path / "e.json").read_text())
+    assert out["media"]["m"]["emission"]["file"] == "e.grid1.vol" and "transform" in out["media"]["m"]["emission"]
+    np.testing.assert_allclose(out["media"]["h"]["emission"], [0.5, 0.25, 0.0])
+    np.testing.assert_allclose(caustica.render(str(tmp_path / "e.json"), **kw), one, rtol=1e-5, atol=1e-7)
+    import jsonschema
+    schema = json.load(open(os.path.join(ROOT, "docs", "scene.schema.json")))
+    v = jsonschema.Draft202012Validator(schema)
+    v.validate(s)
+    v.validate(out)
+    with pytest.raises(jsonschema.ValidationError):
+        v.validate(dict(s, media={"h": {"sigma_a": 0.1, "emission": {"resolution": [1, 1, 1], "values": [1]}}}))
+    (tmp_path / "s.json").write_text(json.dumps(s))
+    r = subprocess.run([sys.executable, "-m", "caustica", "info", str(tmp_path / "s.json")], capture_output=True,
+                       text=True)
+    assert r.returncode == 0 and "media:       2 (1 heterogeneous, 2 emissive)" in r.stdout, r.stdout
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda m: m.update(emission=-1.0), "/media/m/emission"),
+    (lambda m: m.update(emission={"resolution": [1, 1, 2], "values": [0.5, -1.0]}),
+     "/media/m/emission/values/1: expected a radiance >= 0"),
+    (lambda m: (m.clear(), m.update(sigma_a=1.0, emission={"resolution": [1, 1, 1], "values": [0.5]})),
+     "/media/m/emission: an emission grid needs \"type\": \"heterogeneous\""),
+])
+def test_json_errors_name_the_path(edit, message):
+    medium = grid_medium(random_grid(4), sigma_t=1.0)
+    edit(medium)
+    with pytest.raises(caustica.SceneError) as e:
+        caustica.load_dict(medium_sphere(medium))
+    assert message in str(e.value)
+
+
+CUDA, WHY = caustica.cuda_status()
+
+
+@pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
+def test_cuda_matches_the_cpu():
+    # On a GPU: the furnace with emission (a colour grid, an albedo grid, an emission grid) renders L_env as
+    # on the CPU, and the absorbing emitter matches its analytic value.
+    sa = np.array([0.2, 0.5, 1.0])
+    le = np.array([3.0, 0.0, 1.5])
+    img = caustica.render(medium_sphere({"sigma_a": sa.tolist(), "sigma_s": 0.0, "emission": le.tolist()}),
+                          spp=64, seed=1, max_depth=-1, device="cuda")
+    T = np.exp(-sa * R)
+    assert_pixel_means(img, le * (1 - T) + np.array(LE) * T)
