@@ -52,7 +52,9 @@ def main():
                             "bounds": [[-1, 0, -1], [1, 2, 1]], "filter": "nearest", "outside": "clamp"},
                   "tinted": {"type": "heterogeneous", "sigma_t": [1, 1.5, 2],
                              "density": {"resolution": [1, 2, 1], "channels": 3, "values": [0, 1, 2, 0.5, 0.25, 1]},
-                             "albedo": {"file": "albedo.vol", "transform": {"scale": 2}}}},
+                             "albedo": {"file": "albedo.vol", "transform": {"scale": 2}},
+                             "emission": {"resolution": [1, 1, 2], "values": [0, 4], "filter": "nearest"}},
+                  "glow": {"sigma_a": [0.5, 0.2, 0.1], "sigma_s": 0.1, "emission": [2, 1, 0.5]}},
         "filter": "tent",
         "max_depth": 6,
         "materials": {
