@@ -14,6 +14,7 @@
 #include "json_text.h"
 #include "../../integrator/render.h"
 #include "mesh_loaders.h"
+#include "../vdb_io.h"
 #include "../volume_io.h"
 
 namespace caustica {
@@ -634,10 +635,11 @@ std::vector<MeshPart> load_mesh_file_parts(Ctx& c, const json& j, const std::str
 
 // ---------------------------------------------------------------- media
 
-// A grid's placement and lookup keys (docs/scene-format.md#media) in object j at p, applied to g where
-// given: "bounds" ([lo, hi]) or "transform" places the grid's unit cube; "filter" trilinear or nearest;
-// "outside" zero or clamp.
-void parse_grid_placement(const Ctx& c, const json& j, const std::string& p, MediumGridDesc& g) {
+// A grid's placement keys (docs/scene-format.md#media) in object j at p, applied to g where given: "bounds"
+// ([lo, hi]) places the grid's unit cube onto that box; "transform" places the unit cube in the world or, for
+// a grid from an OpenVDB file (`vdb`, whose to_world is already the file's own placement), moves the file's
+// world space into the scene.
+void parse_grid_box(const Ctx& c, const json& j, const std::string& p, MediumGridDesc& g, bool vdb) {
   if (j.contains("bounds") && j.contains("transform")) c.fail(p, "give \"bounds\" or \"transform\", not both");
   if (j.contains("bounds")) {
     const json& b = j["bounds"];
@@ -650,8 +652,14 @@ void parse_grid_placement(const Ctx& c, const json& j, const std::string& p, Med
       g.to_world.m[i][3] = lo[i];
     }
   } else if (j.contains("transform")) {
-    g.to_world = parse_transform(c, j["transform"], p + "/transform");
+    const Affine t = parse_transform(c, j["transform"], p + "/transform");
+    g.to_world = vdb ? mul(t, g.to_world) : t;
   }
+}
+
+// A grid's lookup keys in object j at p, applied to g where given: "filter" trilinear or nearest; "outside"
+// zero or clamp.
+void parse_grid_lookup(const Ctx& c, const json& j, const std::string& p, MediumGridDesc& g) {
   if (j.contains("filter")) {
     const std::string f = str(c, j["filter"], p + "/filter");
     if (f == "nearest") g.nearest = true;
@@ -666,10 +674,11 @@ void parse_grid_placement(const Ctx& c, const json& j, const std::string& p, Med
   }
 }
 
-// A heterogeneous medium's grid, key `key` ("density", "albedo" or "emission") of medium j at p: {"file": a Mitsuba .vol
-// file} or {"resolution": [nx, ny, nz], "values": [nx * ny * nz * channels numbers, x fastest, channels
-// innermost], "channels": 1 or 3}, its samples in [0, max_value]; placed by the medium's placement keys,
-// which the grid's own override (parse_grid_placement). Appended to c.d->grids; returns its index.
+// A heterogeneous medium's grid, key `key` ("density", "albedo" or "emission") of medium j at p: {"file": a
+// Mitsuba .vol file, or an OpenVDB .vdb file with "grid": the grid's name (default: the key)} or
+// {"resolution": [nx, ny, nz], "values": [nx * ny * nz * channels numbers, x fastest, channels innermost],
+// "channels": 1 or 3}, its samples in [0, max_value]; placed by the medium's placement keys, which the
+// grid's own override (parse_grid_box, parse_grid_lookup). Appended to c.d->grids; returns its index.
 int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const char* key, float max_value) {
   const json& dj = j[key];
   const std::string dp = p + "/" + key;
@@ -677,16 +686,27 @@ int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const c
   if (!dj.is_object())
     c.fail(dp, std::string("expected an object ({\"file\": ...} or {\"resolution\": ..., \"values\": ...}), got ") +
                    type_name(dj));
-  check_keys(c, dj, dp, {"file", "resolution", "values", "channels", "bounds", "transform", "filter", "outside"});
+  check_keys(c, dj, dp, {"file", "grid", "resolution", "values", "channels", "bounds", "transform", "filter",
+                         "outside"});
   MediumGridDesc g;
   auto check_range = [&](float v, const std::string& vp) {
     if (!(v >= 0.f && v <= max_value))
       c.fail(vp, "expected " + what + (max_value < 1e30f ? " in [0, 1]" : " >= 0"));
   };
+  bool vdb = false;
   if (dj.contains("file")) {
     if (dj.contains("resolution") || dj.contains("values") || dj.contains("channels"))
       c.fail(dp, "give \"file\", or \"resolution\" and \"values\", not both");
-    g = read_vol_grid(c.resolve(str(c, dj["file"], dp + "/file")), c.source + ": " + dp + "/file");
+    const std::string file = str(c, dj["file"], dp + "/file");
+    std::string ext = fs::path(file).extension().string();
+    for (char& ch : ext) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+    vdb = ext == ".vdb";
+    if (dj.contains("grid") && !vdb) c.fail(dp + "/grid", "applies to an OpenVDB file (.vdb)");
+    const std::string referrer = c.source + ": " + dp + "/file";
+    if (vdb)
+      g = read_vdb_grid(c.resolve(file), referrer, dj.contains("grid") ? str(c, dj["grid"], dp + "/grid") : key);
+    else
+      g = read_vol_grid(c.resolve(file), referrer);
     for (size_t i = 0; i < g.values.size(); ++i)
       if (!(g.values[i] <= max_value))
         c.fail(dp + "/file", "grid '" + g.name + "': sample " + std::to_string(i) + " is " +
@@ -694,6 +714,7 @@ int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const c
   } else {
     if (!dj.contains("resolution") || !dj.contains("values"))
       c.fail(dp, "expected {\"file\": \"grid.vol\"} or {\"resolution\": [nx, ny, nz], \"values\": [...]}");
+    if (dj.contains("grid")) c.fail(dp + "/grid", "applies to an OpenVDB file (.vdb)");
     const json& r = dj["resolution"];
     if (!r.is_array() || r.size() != 3) c.fail(dp + "/resolution", "expected [nx, ny, nz]");
     int n[3];
@@ -728,8 +749,11 @@ int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const c
     }
     g.name = "grid@" + c.source + ":" + dp;
   }
-  parse_grid_placement(c, j, p, g);
-  parse_grid_placement(c, dj, dp, g);
+  // The grid's own bounds/transform replace the medium's; filter and outside override it one by one.
+  if (dj.contains("bounds") || dj.contains("transform")) parse_grid_box(c, dj, dp, g, vdb);
+  else parse_grid_box(c, j, p, g, vdb);
+  parse_grid_lookup(c, j, p, g);
+  parse_grid_lookup(c, dj, dp, g);
   c.d->grids.push_back(std::move(g));
   return int(c.d->grids.size()) - 1;
 }
