@@ -344,6 +344,14 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
 </scene>
 """)
+    # The media scenes' stage: a diffuse floor, an area light and the sky.
+    stage = """  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+"""
     # A heterogeneous medium (Mitsuba's heterogeneous with a gridvolume sigma_t): a lopsided smoke plume (dense
     # low on one side, a rippled haze above) in a null box turned about y, over a diffuse floor, lit by an area
     # light and the sky. The grid is written in Mitsuba's .vol format beside the XML.
@@ -370,13 +378,7 @@ def write_scenes(res):
       <translate value="-0.5, 0, -0.5"/><scale x="2.4" y="1.8" z="2.4"/><rotate y="1" angle="30"/>
       <translate y="0.01"/></transform>
     <bsdf type="null"/><ref name="interior" id="smoke"/></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
-      <translate x="-3" y="1" z="1"/></transform>
-    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
-  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
-</scene>
+{stage}</scene>
 """)
     # Colour grids (Mitsuba's three-channel sigma_t gridvolume and albedo gridvolumes): a plume whose
     # channels differ (red dense low on one side, blue spread higher), its albedo a 4 x 4 x 4 colour grid
@@ -425,13 +427,7 @@ def write_scenes(res):
   <shape type="cube"><transform name="to_world"><scale value="0.5"/><translate value="0.5, 0.5, 0.5"/>
       <translate value="1.2, 0.3, -0.4"/><scale x="0.8" y="0.8" z="0.8"/></transform>
     <bsdf type="null"/><ref name="interior" id="side"/></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
-      <translate x="-3" y="1" z="1"/></transform>
-    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
-  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
-</scene>
+{stage}</scene>
 """)
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),

@@ -73,6 +73,17 @@ void write_grids(const std::string& path) {
   f.close();
 }
 
+// write_grids' file in dir as smoke.vdb, and its grid `name` read back with OpenVDB.
+template <typename GridT>
+typename GridT::Ptr written_grid(const VdbDir& dir, const std::string& name) {
+  write_grids(dir.file("smoke.vdb"));
+  openvdb::io::File f(dir.file("smoke.vdb"));
+  f.open();
+  auto grid = openvdb::gridPtrCast<GridT>(f.readGrid(name));
+  f.close();
+  return grid;
+}
+
 // The medium's density grid from a JSON medium whose "density" is `grid` (and the medium's extra keys).
 struct Loaded {
   MediumGrid g;
@@ -113,11 +124,7 @@ void for_points(const openvdb::math::Transform& xf, F&& f, int n = 4000) {
 
 TEST(Vdb, FloatGridMatchesOpenVdbsBoxSampler) {
   VdbDir dir;
-  write_grids(dir.file("smoke.vdb"));
-  openvdb::io::File f(dir.file("smoke.vdb"));
-  f.open();
-  auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid("density"));
-  f.close();
+  auto grid = written_grid<openvdb::FloatGrid>(dir, "density");
   Loaded l = load(dir, R"({"file": "smoke.vdb"})");
   EXPECT_EQ(l.g.channels, 1u);
   EXPECT_EQ(l.g.nx, 9u + 2u);  // the active box and one voxel of background on each side
@@ -132,11 +139,7 @@ TEST(Vdb, FloatGridMatchesOpenVdbsBoxSampler) {
 
 TEST(Vdb, Vec3GridIsAColourGrid) {
   VdbDir dir;
-  write_grids(dir.file("smoke.vdb"));
-  openvdb::io::File f(dir.file("smoke.vdb"));
-  f.open();
-  auto grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(f.readGrid("Cd"));
-  f.close();
+  auto grid = written_grid<openvdb::Vec3SGrid>(dir, "Cd");
   Loaded l = load(dir, R"({"file": "smoke.vdb", "grid": "Cd"})");
   EXPECT_EQ(l.g.channels, 3u);
   double worst = 0.0;
@@ -150,11 +153,7 @@ TEST(Vdb, Vec3GridIsAColourGrid) {
 
 TEST(Vdb, TheMediumsTransformMovesTheFilesWorldAndBoundsPlaceTheBox) {
   VdbDir dir;
-  write_grids(dir.file("smoke.vdb"));
-  openvdb::io::File f(dir.file("smoke.vdb"));
-  f.open();
-  auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid("density"));
-  f.close();
+  auto grid = written_grid<openvdb::FloatGrid>(dir, "density");
   // "transform" composes: scene point = 2 * file point + (0, 3, 0); so the file's point q is at 2 q + (0, 3, 0).
   Loaded l = load(dir, R"({"file": "smoke.vdb"})", R"(, "transform": {"scale": 2, "translate": [0, 3, 0]})");
   double worst = 0.0;

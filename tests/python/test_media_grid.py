@@ -38,6 +38,41 @@ def grid_medium(values, bounds=((-2, -2, -2), (2, 2, 2)), **coeffs):
     return m
 
 
+def load_error(medium):
+    """The one-line SceneError that loading test_media.medium_sphere(medium) raises."""
+    with pytest.raises(caustica.SceneError) as e:
+        caustica.load_dict(medium_sphere(medium))
+    return str(e.value)
+
+
+def cli_render_error(tmp_path, scene):
+    """Renders `scene` (a dict, written as s.json) with the CLI, which must fail with exit code 2, one line on
+    stderr, no traceback and no image; returns the line."""
+    (tmp_path / "s.json").write_text(json.dumps(scene))
+    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(tmp_path / "s.json"), "--spp", "1",
+                        "-o", str(tmp_path / "o.exr")], capture_output=True, text=True)
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "\n" not in line and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "o.exr").exists()
+    return line
+
+
+# A Mitsuba scene around a medium `{medium}` (its id "smoke"): a null cube filled with it under a constant sky,
+# seen from (0, 0, 5) at 16 x 16.
+MITSUBA_BOX = """<scene version="3.0.0">
+  <integrator type="volpath"><integer name="max_depth" value="-1"/></integrator>
+  <sensor type="perspective">
+    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <float name="fov" value="40"/>
+    <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+  </sensor>
+  <emitter type="constant"><rgb name="radiance" value="1, 0.5, 2"/></emitter>
+  {medium}
+  <shape type="cube"><bsdf type="null"/><ref name="interior" id="smoke"/></shape>
+</scene>
+"""
+
+
 def write_vol(path, values):
     """Mitsuba's .vol layout (volume_io.h): header, then float32 samples x fastest."""
     nz, ny, nx = values.shape
@@ -220,15 +255,7 @@ def test_mitsuba_heterogeneous_gridvolume(tmp_path):
     values = np.full((8, 8, 8), 0.2, np.float32)
     values[:, 4:, :4] = 3.0
     write_vol(tmp_path / "smoke.vol", values)
-    xml = f"""<scene version="3.0.0">
-  <integrator type="volpath"><integer name="max_depth" value="-1"/></integrator>
-  <sensor type="perspective">
-    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <float name="fov" value="40"/>
-    <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
-  </sensor>
-  <emitter type="constant"><rgb name="radiance" value="1, 0.5, 2"/></emitter>
-  <medium type="heterogeneous" id="smoke">
+    xml = MITSUBA_BOX.format(medium="""<medium type="heterogeneous" id="smoke">
     <volume name="sigma_t" type="gridvolume">
       <string name="filename" value="smoke.vol"/>
       <transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform>
@@ -236,10 +263,7 @@ def test_mitsuba_heterogeneous_gridvolume(tmp_path):
     <rgb name="albedo" value="0.9, 0.8, 0.7"/>
     <float name="scale" value="1.5"/>
     <phase type="hg"><float name="g" value="0.3"/></phase>
-  </medium>
-  <shape type="cube"><bsdf type="null"/><ref name="interior" id="smoke"/></shape>
-</scene>
-"""
+  </medium>""")
     (tmp_path / "smoke.xml").write_text(xml)
     caustica.export_scene(str(tmp_path / "smoke.xml"), str(tmp_path / "x.json"))
     m = json.loads((tmp_path / "x.json").read_text())["media"]["smoke"]
@@ -285,9 +309,7 @@ def test_mitsuba_heterogeneous_gridvolume(tmp_path):
 def test_json_errors_name_the_path(edit, message):
     medium = grid_medium(random_grid(4), sigma_a=0.1, sigma_s=0.5)
     edit(medium)
-    with pytest.raises(caustica.SceneError) as e:
-        caustica.load_dict(medium_sphere(medium))
-    assert message in str(e.value)
+    assert message in load_error(medium)
 
 
 @pytest.mark.parametrize("blob_bytes,message", [
@@ -305,14 +327,8 @@ def test_json_errors_name_the_path(edit, message):
 def test_bad_vol_files_are_one_line_errors(tmp_path, blob_bytes, message):
     (tmp_path / "g.vol").write_bytes(blob_bytes)
     medium = {"type": "heterogeneous", "sigma_t": 1.0, "density": {"file": "g.vol"}}
-    (tmp_path / "s.json").write_text(json.dumps(medium_sphere(medium)))
-    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(tmp_path / "s.json"), "--spp", "1",
-                        "-o", str(tmp_path / "o.exr")], capture_output=True, text=True)
-    assert r.returncode == 2
-    line = r.stderr.strip()
-    assert "\n" not in line and "Traceback" not in r.stderr
+    line = cli_render_error(tmp_path, medium_sphere(medium))
     assert "s.json: /media/m/density/file: density grid '" in line and message in line, line
-    assert not (tmp_path / "o.exr").exists()
 
 
 def test_schema_takes_grid_media(tmp_path):

@@ -12,16 +12,13 @@ the errors."""
 import json
 import os
 import struct
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 import caustica
-from conftest import mean_and_se
 from test_media import LE, assert_pixel_means, medium_sphere
-from test_media_grid import ROW, blob, grid_medium, random_grid, slab
+from test_media_grid import MITSUBA_BOX, ROW, blob, cli_render_error, grid_medium, load_error, random_grid, slab
 from test_media_photons import fog_box, region_means
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -208,18 +205,6 @@ def test_export_keeps_channels_and_the_albedo_grids_placement(tmp_path):
                                rtol=1e-5, atol=1e-7)
 
 
-MITSUBA = """<scene version="3.0.0">
-  <integrator type="volpath"><integer name="max_depth" value="-1"/></integrator>
-  <sensor type="perspective">
-    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <float name="fov" value="40"/>
-    <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
-  </sensor>
-  <emitter type="constant"><rgb name="radiance" value="1, 0.5, 2"/></emitter>
-  {medium}
-  <shape type="cube"><bsdf type="null"/><ref name="interior" id="smoke"/></shape>
-</scene>
-"""
 
 
 def test_mitsuba_colour_sigma_t_and_albedo_gridvolumes(tmp_path):
@@ -239,7 +224,7 @@ def test_mitsuba_colour_sigma_t_and_albedo_gridvolumes(tmp_path):
     <float name="scale" value="2"/>
     <boolean name="has_spectral_extinction" value="true"/>
   </medium>"""
-    (tmp_path / "s.xml").write_text(MITSUBA.format(medium=medium))
+    (tmp_path / "s.xml").write_text(MITSUBA_BOX.format(medium=medium))
     caustica.export_scene(str(tmp_path / "s.xml"), str(tmp_path / "x.json"))
     m = json.loads((tmp_path / "x.json").read_text())["media"]["smoke"]
     np.testing.assert_allclose(m["sigma_t"], [2, 2, 2])
@@ -266,7 +251,7 @@ def test_mitsuba_homogeneous_medium_with_an_albedo_gridvolume(tmp_path):
     <volume name="albedo" type="gridvolume"><string name="filename" value="a.vol"/>
       <transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform></volume>
   </medium>"""
-    (tmp_path / "s.xml").write_text(MITSUBA.format(medium=medium))
+    (tmp_path / "s.xml").write_text(MITSUBA_BOX.format(medium=medium))
     assert caustica.describe(str(tmp_path / "s.xml"))["heterogeneous_media"] == 1
     js = {
         "camera": {"position": [0, 0, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 40, "width": 16,
@@ -306,24 +291,18 @@ def test_mitsuba_homogeneous_medium_with_an_albedo_gridvolume(tmp_path):
 def test_json_errors_name_the_path(edit, message):
     medium = grid_medium(random_grid(4), sigma_t=1.0)
     edit(medium)
-    with pytest.raises(caustica.SceneError) as e:
-        caustica.load_dict(medium_sphere(medium))
-    assert message in str(e.value)
+    assert message in load_error(medium)
 
 
 def test_albedo_file_above_one_is_a_one_line_error(tmp_path):
     write_vol(tmp_path / "a.vol", np.array([0.5, 1.25], np.float32).reshape(1, 1, 2))
     medium = {"type": "heterogeneous", "sigma_t": 1.0, "density": {"resolution": [1, 1, 1], "values": [1.0]},
               "albedo": {"file": "a.vol"}}
-    (tmp_path / "s.json").write_text(json.dumps(medium_sphere(medium)))
-    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(tmp_path / "s.json"), "--spp", "1",
-                        "-o", str(tmp_path / "o.exr")], capture_output=True, text=True)
-    assert r.returncode == 2 and "Traceback" not in r.stderr
-    line = r.stderr.strip()
-    assert "\n" not in line and "s.json: /media/m/albedo/file:" in line, line
+    line = cli_render_error(tmp_path, medium_sphere(medium))
+    assert "s.json: /media/m/albedo/file:" in line, line
     assert "sample 1 is 1.250000 (expected an albedo in [0, 1])" in line, line
     # The same file in Mitsuba XML: the line names the XML file and the volume.
-    xml = MITSUBA.format(medium="""<medium type="heterogeneous" id="smoke">
+    xml = MITSUBA_BOX.format(medium="""<medium type="heterogeneous" id="smoke">
     <volume name="albedo" type="gridvolume"><string name="filename" value="a.vol"/></volume></medium>""")
     (tmp_path / "s.xml").write_text(xml)
     with pytest.raises(caustica.SceneError) as e:

@@ -7,12 +7,11 @@ vec3 grid "Cd" serves as an albedo grid. A file that is not a VDB is a one-line 
 import json
 import os
 import struct
-import subprocess
-import sys
 
 import numpy as np
 
 import caustica
+from test_media_grid import cli_render_error
 from test_media_photons import fog_box
 
 DATA = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data", "media")
@@ -83,16 +82,8 @@ def test_medium_transform_moves_the_files_world_and_cd_is_an_albedo_grid(tmp_pat
 
 def test_a_file_that_is_not_a_vdb_is_a_one_line_error(tmp_path):
     (tmp_path / "junk.vdb").write_bytes(b"not a vdb file")
-    (tmp_path / "s.json").write_text(json.dumps(plume_scene({"file": "junk.vdb"})))
-    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(tmp_path / "s.json"), "--spp", "1",
-                        "-o", str(tmp_path / "o.exr")], capture_output=True, text=True)
-    assert r.returncode == 2 and "Traceback" not in r.stderr
-    line = r.stderr.strip()
-    assert "\n" not in line and "s.json: /media/fog/density/file: OpenVDB file '" in line, line
+    line = cli_render_error(tmp_path, plume_scene({"file": "junk.vdb"}))
+    assert "s.json: /media/fog/density/file: OpenVDB file '" in line, line
     assert "junk.vdb': cannot read it" in line, line
-    assert not (tmp_path / "o.exr").exists()
-    (tmp_path / "s.json").write_text(json.dumps(plume_scene({"file": os.path.join(DATA, "plume.vdb"),
-                                                             "grid": "heat"})))
-    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(tmp_path / "s.json"), "--spp", "1",
-                        "-o", str(tmp_path / "o.exr")], capture_output=True, text=True)
-    assert r.returncode == 2 and "no grid named 'heat' (the file has: " in r.stderr, r.stderr
+    line = cli_render_error(tmp_path, plume_scene({"file": os.path.join(DATA, "plume.vdb"), "grid": "heat"}))
+    assert "no grid named 'heat' (the file has: " in line, line
