@@ -14,6 +14,7 @@
 #include "json_text.h"
 #include "../../integrator/render.h"
 #include "mesh_loaders.h"
+#include "../blackbody.h"
 #include "../vdb_io.h"
 #include "../volume_io.h"
 
@@ -674,6 +675,31 @@ void parse_grid_lookup(const Ctx& c, const json& j, const std::string& p, Medium
   }
 }
 
+// An emission grid of temperatures made a colour emission grid (scene/blackbody.h): each sample v becomes
+// scale * blackbody_rgb((v - temperature_offset) * temperature_scale), the keys of object j at p (defaults 1,
+// 0 and 1; pbrt-v4's Lescale, temperaturecutoff and temperaturescale).
+void apply_blackbody(const Ctx& c, const json& j, const std::string& p, MediumGridDesc& g) {
+  if (!j.is_object()) c.fail(p, std::string("expected an object, got ") + type_name(j));
+  check_keys(c, j, p, {"scale", "temperature_offset", "temperature_scale"});
+  auto number = [&](const char* k, float dflt) {
+    const float v = j.contains(k) ? num(c, j[k], p + "/" + k) : dflt;
+    if (!std::isfinite(v)) c.fail(p + "/" + k, "expected a finite number");
+    return v;
+  };
+  const float scale = number("scale", 1.f), offset = number("temperature_offset", 0.f);
+  const float tscale = number("temperature_scale", 1.f);
+  if (!(scale >= 0.f)) c.fail(p + "/scale", "expected a number >= 0");
+  if (!(tscale > 0.f)) c.fail(p + "/temperature_scale", "expected a number > 0");
+  if (g.channels != 1) c.fail(p, "expected a grid of one channel (temperatures)");
+  std::vector<float> rgb(g.values.size() * 3);
+  for (size_t i = 0; i < g.values.size(); ++i) {
+    const RGB e = blackbody_rgb(double(g.values[i] - offset) * double(tscale)) * scale;
+    for (int k = 0; k < 3; ++k) rgb[i * 3 + size_t(k)] = e[k];
+  }
+  g.values = std::move(rgb);
+  g.channels = 3;
+}
+
 // A heterogeneous medium's grid, key `key` ("density", "albedo" or "emission") of medium j at p: {"file": a
 // Mitsuba .vol file, or an OpenVDB .vdb file with "grid": the grid's name (default: the key)} or
 // {"resolution": [nx, ny, nz], "values": [nx * ny * nz * channels numbers, x fastest, channels innermost],
@@ -686,8 +712,12 @@ int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const c
   if (!dj.is_object())
     c.fail(dp, std::string("expected an object ({\"file\": ...} or {\"resolution\": ..., \"values\": ...}), got ") +
                    type_name(dj));
-  check_keys(c, dj, dp, {"file", "grid", "resolution", "values", "channels", "bounds", "transform", "filter",
-                         "outside"});
+  if (std::string(key) == "emission")
+    check_keys(c, dj, dp, {"file", "grid", "resolution", "values", "channels", "bounds", "transform", "filter",
+                           "outside", "blackbody"});
+  else
+    check_keys(c, dj, dp, {"file", "grid", "resolution", "values", "channels", "bounds", "transform", "filter",
+                           "outside"});
   MediumGridDesc g;
   auto check_range = [&](float v, const std::string& vp) {
     if (!(v >= 0.f && v <= max_value))
@@ -749,6 +779,7 @@ int parse_medium_grid(const Ctx& c, const json& j, const std::string& p, const c
     }
     g.name = "grid@" + c.source + ":" + dp;
   }
+  if (dj.contains("blackbody")) apply_blackbody(c, dj["blackbody"], dp + "/blackbody", g);
   // The grid's own bounds/transform replace the medium's; filter and outside override it one by one.
   if (dj.contains("bounds") || dj.contains("transform")) parse_grid_box(c, dj, dp, g, vdb);
   else parse_grid_box(c, j, p, g, vdb);
