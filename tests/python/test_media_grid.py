@@ -210,18 +210,22 @@ def test_threads_and_wavefront_give_the_same_image():
 CUDA, WHY = caustica.cuda_status()
 
 
-@pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
-def test_cuda_matches_the_cpu():
-    # On a GPU: the path tracer and pppm in the smoke blob, per 8 x 8 region, against the CPU over 4 seeds:
-    # the same streams, so the difference is rounding and the paths it diverts; its spread gives the standard
-    # error, plus 0.1% of the value for the rounding itself.
-    s = smoke_box()
-    for kw in (dict(spp=64), dict(integrator="pppm", spp=16, photons=20000)):
-        cpu = np.array([region_means(caustica.render(s, seed=k, max_depth=-1, **kw)) for k in range(4)])
-        gpu = np.array([region_means(caustica.render(s, seed=k, max_depth=-1, device="cuda", **kw))
+def assert_cuda_matches_cpu(scene, runs):
+    """On a GPU: each render_job keyword set of `runs` on `scene`, per 8 x 8 region, against the CPU over 4
+    seeds: the same streams, so the difference is rounding and the paths it diverts; its spread gives the
+    standard error (5 of them), plus 0.1% of the value for the rounding itself."""
+    for kw in runs:
+        cpu = np.array([region_means(caustica.render(scene, seed=k, max_depth=-1, **kw)) for k in range(4)])
+        gpu = np.array([region_means(caustica.render(scene, seed=k, max_depth=-1, device="cuda", **kw))
                         for k in range(4)])
         d = gpu - cpu
         assert (np.abs(d.mean(axis=0)) < 5 * d.std(axis=0, ddof=1) / 2 + 1e-3 * np.abs(cpu.mean(axis=0))).all()
+
+
+@pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
+def test_cuda_matches_the_cpu():
+    # The path tracer and pppm in the smoke blob.
+    assert_cuda_matches_cpu(smoke_box(), (dict(spp=64), dict(integrator="pppm", spp=16, photons=20000)))
 
 
 def test_vol_file_equals_inline_values_and_export_round_trips(tmp_path):

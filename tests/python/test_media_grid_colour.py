@@ -18,7 +18,8 @@ import pytest
 
 import caustica
 from test_media import LE, assert_pixel_means, medium_sphere
-from test_media_grid import MITSUBA_BOX, ROW, blob, cli_render_error, grid_medium, load_error, random_grid, slab
+from test_media_grid import (CUDA, MITSUBA_BOX, ROW, WHY, assert_cuda_matches_cpu, blob, cli_render_error,
+                             grid_medium, load_error, random_grid, slab)
 from test_media_photons import fog_box, region_means
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -334,18 +335,7 @@ def test_threads_and_wavefront_give_the_same_image():
     assert np.array_equal(one, caustica.render(s, spp=4, seed=6, max_depth=-1, wavefront=True))
 
 
-CUDA, WHY = caustica.cuda_status()
-
-
 @pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
 def test_cuda_matches_the_cpu():
-    # On a GPU: the path tracer and sppm in the split smoke (colour grid, albedo grid), per 8 x 8 region,
-    # against the CPU over 4 seeds: the same streams, so the difference is rounding and the paths it diverts;
-    # its spread gives the standard error, plus 0.1% of the value for the rounding itself.
-    s = split_smoke(False)
-    for kw in (dict(spp=64), dict(integrator="sppm", spp=16, photons=20000)):
-        cpu = np.array([region_means(caustica.render(s, seed=k, max_depth=-1, **kw)) for k in range(4)])
-        gpu = np.array([region_means(caustica.render(s, seed=k, max_depth=-1, device="cuda", **kw))
-                        for k in range(4)])
-        d = gpu - cpu
-        assert (np.abs(d.mean(axis=0)) < 5 * d.std(axis=0, ddof=1) / 2 + 1e-3 * np.abs(cpu.mean(axis=0))).all()
+    # The path tracer and sppm in the split smoke (colour grid, albedo grid), per region against the CPU.
+    assert_cuda_matches_cpu(split_smoke(False), (dict(spp=64), dict(integrator="sppm", spp=16, photons=20000)))

@@ -84,6 +84,8 @@ CHD float max_component(Vec3f a) { return maxf(a.x, maxf(a.y, a.z)); }
 CHD float min_component(Vec3f a) { return minf(a.x, minf(a.y, a.z)); }
 CHD float average(Vec3f a) { return (a.x + a.y + a.z) * (1.f / 3.f); }
 CHD bool is_black(Vec3f a) { return a.x == 0.f && a.y == 0.f && a.z == 0.f; }
+// Each component at least 0 (rounding below 0 set to 0).
+CHD Vec3f max0(Vec3f a) { return {a.x > 0.f ? a.x : 0.f, a.y > 0.f ? a.y : 0.f, a.z > 0.f ? a.z : 0.f}; }
 CHD Vec3f vsqrt(Vec3f a) { return {safe_sqrt(a.x), safe_sqrt(a.y), safe_sqrt(a.z)}; }
 CHD Vec3f vexp(Vec3f a) { return {std::exp(a.x), std::exp(a.y), std::exp(a.z)}; }
 // Rec. 709 luminance (the weights SmallVCM and pbrt use).

@@ -314,8 +314,7 @@ CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid* grids, 
         ms.sigma_s = grid_sigma_s(m, grids, values, x, density, sigma_t_x);
         if (medium_emits(m)) {
           const RGB Le = m.emission_grid >= 0 ? m.Le * grid_value(grids[m.emission_grid], values, x) : m.Le;
-          const RGB sa = sigma_t_x - ms.sigma_s;
-          ms.sigma_a_Le = RGB(maxf(sa.x, 0.f), maxf(sa.y, 0.f), maxf(sa.z, 0.f)) * Le;
+          ms.sigma_a_Le = max0(sigma_t_x - ms.sigma_s) * Le;
         }
         ms.Tf = ms.f * T;
         ms.f = ms.Tf * ms.sigma_s;
@@ -323,8 +322,7 @@ CHD MediumSample grid_sample_distance(const Medium& m, const MediumGrid* grids, 
         return ms;
       }
       // Per channel sigma_maj - sigma_t(x) (its density d_maj - d_c(x), at least 0).
-      const RGB sigma_n = sigma_t * RGB(maxf(seg.d - density.x, 0.f), maxf(seg.d - density.y, 0.f),
-                                        maxf(seg.d - density.z, 0.f));
+      const RGB sigma_n = sigma_t * max0(RGB(seg.d) - density);
       ms.f *= T * sigma_n;
       ms.p *= T * sigma_n;
     }
@@ -364,7 +362,7 @@ CHD RGB grid_transmittance(const Medium& m, const MediumGrid* grids, const float
       if (!(t < seg.t1)) break;
       const RGB density = grid_value(g, values, o + d * t);
       Tr *= RGB(1.f) - sigma_t * density / mu;
-      Tr = RGB(maxf(Tr.x, 0.f), maxf(Tr.y, 0.f), maxf(Tr.z, 0.f));
+      Tr = max0(Tr);
       const float mx = max_component(Tr);
       if (mx < 0.1f) {
         if (!(rng.next_float() < mx)) return RGB(0.f);

@@ -1047,7 +1047,7 @@ class Loader {
     Medium m;
     m.sigma_s = sigma_t * albedo * scale;
     m.sigma_a = sigma_t * scale - m.sigma_s;
-    m.sigma_a = RGB(maxf(m.sigma_a.x, 0.f), maxf(m.sigma_a.y, 0.f), maxf(m.sigma_a.z, 0.f));
+    m.sigma_a = max0(m.sigma_a);
     std::vector<xml_node> phases = p.take_objects("phase");
     if (phases.size() > 1) fail(phases[1], "a medium takes one phase function");
     if (!phases.empty()) {
