@@ -1,17 +1,18 @@
 #!/usr/bin/env python3
-"""Equal-time comparison of the volumetric path tracer and volumetric photon mapping (pppm, sppm) in fog.
+"""Equal-time comparison of the volumetric path tracer, volumetric photon mapping (pppm, sppm) and light
+tracing and bidirectional path tracing with medium vertices (light, bdpt) in fog.
 
 Two scenes of tests/python/test_media_photons.py (a point light in a box of fog over a grey floor): `fog-lamp`
-(no glass: both integrators render every path, the reference is the path tracer at high spp) and `fog-lens`
+(no glass: every integrator renders every path, the reference is the path tracer at high spp) and `fog-lens`
 (a glass ball under the light focuses it into the fog: a volumetric caustic through L S S V E paths, which
-the path tracer cannot sample from a point light; the reference is a long pppm render, itself consistent but
-biased at any finite pass count, so the pppm figures on that scene are optimistic by that residual), and
+the path tracer cannot sample from a point light; the reference is a long bdpt render, unbiased; with
+--lens-ref pppm a long pppm render as before, consistent but biased at any finite pass count), and
 `smoke-lamp` (test_media_grid.py's smoke box: the fog a heterogeneous blob; reference: the path tracer). Each
 integrator renders each scene for the given seconds (whole passes until the budget is spent) and the script
 reports relMSE against the reference.
 
-usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16] [--integrators path pppm sppm]
-       [--scenes fog-lamp fog-lens smoke-lamp] [--rows]
+usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16]
+       [--integrators path pppm sppm bdpt light] [--scenes fog-lamp fog-lens smoke-lamp] [--lens-ref bdpt] [--rows]
 """
 import argparse
 import datetime
@@ -32,6 +33,8 @@ def main():
     ap.add_argument("--photons", type=int, default=50000, help="pppm photon paths per pass")
     ap.add_argument("--ref-spp", type=int, default=8192, help="fog-lamp reference: path tracer spp")
     ap.add_argument("--ref-passes", type=int, default=1024, help="fog-lens reference: pppm passes")
+    ap.add_argument("--lens-ref", choices=["bdpt", "pppm"], default="bdpt",
+                    help="fog-lens reference: bdpt at --ref-spp passes (unbiased) or pppm at --ref-passes")
     ap.add_argument("--integrators", nargs="+", default=["path", "pppm", "sppm"])
     ap.add_argument("--scenes", nargs="+", default=["fog-lamp", "fog-lens", "smoke-lamp"])
     ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
@@ -47,17 +50,18 @@ def main():
     scenes = {n: make[n]() for n in a.scenes}
 
     def reference(name):
-        if name == "fog-lens":
+        if name == "fog-lens" and a.lens_ref == "pppm":
             return caustica.render(scenes[name], integrator="pppm", spp=a.ref_passes, photons=4 * a.photons,
                                    seed=1000, max_depth=-1)
-        return caustica.render(scenes[name], spp=a.ref_spp, seed=1000, max_depth=-1)
+        return caustica.render(scenes[name], integrator=a.lens_ref if name == "fog-lens" else "path",
+                               spp=a.ref_spp, seed=1000, max_depth=-1)
 
-    refs = {n: (("pppm" if n == "fog-lens" else "path"), reference(n)) for n in scenes}
+    refs = {n: ((a.lens_ref if n == "fog-lens" else "path"), reference(n)) for n in scenes}
     rows = []
     for name, sc in scenes.items():
         for integrator in a.integrators:
             for t in a.times:
-                kw = dict(photons=a.photons) if integrator != "path" else {}
+                kw = dict(photons=a.photons) if integrator in ("pppm", "sppm") else {}
                 r = caustica.render_job(sc, integrator=integrator, time=t, seed=7, max_depth=-1, **kw)
                 e = relmse(r.image, refs[name][1])
                 rows.append((name, integrator, t, r.stats["passes"], r.stats["seconds"], e))
@@ -70,9 +74,11 @@ def main():
               f"(`bench/bench_media_photons.py`)\n")
         print(f"Machine: {prov['machine']}. Command: `.venv/bin/python bench/bench_media_photons.py --res {a.res} "
               f"--times {' '.join(f'{t:g}' for t in a.times)} --integrators {' '.join(a.integrators)} --scenes "
-              f"{' '.join(a.scenes)} --rows`; {a.res}x{a.res}, {a.photons} photon paths per pass; references: "
-              f"fog-lamp and smoke-lamp path {a.ref_spp} spp, fog-lens pppm {a.ref_passes} passes of "
-              f"{4 * a.photons} photons (seed 1000).\n")
+              f"{' '.join(a.scenes)} --lens-ref {a.lens_ref} --rows`; {a.res}x{a.res}, {a.photons} photon paths per pass "
+              f"(pppm, sppm; light and bdpt one light subpath per pixel); references: fog-lamp and smoke-lamp "
+              f"path {a.ref_spp} spp, fog-lens "
+              + (f"pppm {a.ref_passes} passes of {4 * a.photons} photons" if a.lens_ref == "pppm"
+                 else f"bdpt {a.ref_spp} passes") + " (seed 1000).\n")
         print("| scene | integrator | seconds | passes | relMSE |")
         print("|---|---|---|---|---|")
         for name, integrator, t, passes, secs, e in rows:

@@ -194,21 +194,22 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
-  // Participating media and null surfaces: the path tracer, and pppm and sppm (volumetric photon mapping,
-  // integrator/sppm.h), on every driver.
+  // Participating media and null surfaces: the path tracer, pppm and sppm (volumetric photon mapping,
+  // integrator/sppm.h), and light and bdpt (integrator/vcm.h), on every driver.
   const bool media_photons = opt_.integrator == "pppm" || opt_.integrator == "sppm";
+  const bool media_bidir = opt_.integrator == "light" || opt_.integrator == "bdpt";
   if (scene_has_media(scene_->view()) && opt_.integrator != "path") {
     const SceneView& v = scene_->view();
     const std::string what = " (" + std::to_string(v.num_media) + " media in scene '" + scene_->desc().name + "')";
-    if (!media_photons)
+    if (!media_photons && !media_bidir)
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
-                       what + "; use --integrator path, sppm or pppm");
+                       what + "; use --integrator path, bdpt, light, sppm or pppm");
     for (size_t i = 0; i < scene_->desc().media.size(); ++i)
       if (medium_emits(scene_->desc().media[i]))
         throw InputError("integrator '" + opt_.integrator + "' does not render emissive media (medium '" +
                          (i < scene_->desc().medium_names.size() ? scene_->desc().medium_names[i] : std::to_string(i)) +
                          "' emits); use --integrator path");
-    if (opt_.photon_sampling != "uniform")
+    if (media_photons && opt_.photon_sampling != "uniform")
       throw InputError("--photon-sampling adaptive does not trace photons through participating media" + what +
                        "; use --photon-sampling uniform");
   }

@@ -91,19 +91,19 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
           vcm_camera_nee(s, p, st, sr);
           if (sr.active) {
             ++nrays;
-            vcm_shadow(st, sr, accel.occluded(sr.ray));
+            vcm_shadow(st, sr, vcm_visibility(s, accel, sr.ray, sr.medium));
           }
           if (st.vertex_valid)
             for (uint32_t k = start[pix % nl]; k < start[pix % nl + 1]; ++k) {
               vcm_camera_connect(s, p, st, verts[k], sr);
               if (sr.active) {
                 ++nrays;
-                vcm_shadow(st, sr, accel.occluded(sr.ray));
+                vcm_shadow(st, sr, vcm_visibility(s, accel, sr.ray, sr.medium));
               }
             }
           have_prev = st.vertex_valid;
           if (have_prev) prev = st;
-          vcm_camera_continue(p, st);
+          vcm_camera_continue(s, p, st);
         }
         if (isfinite3(st.L)) pass_L[pix] = st.L;
       }

@@ -42,6 +42,20 @@
 // point, each with h(d) and its own MIS weight using p(d) as the camera's
 // raster density (box and tent: p = h; gaussian: p is the untruncated shape).
 //
+// Participating media (`light` and `bdpt`; the drivers refuse them for the merging modes). Both subpaths
+// sample free-flight distances in the medium their ray is in with the path tracer's estimator (medium/medium.h:
+// a hero channel per subpath, spectral MIS over the subpath; delta tracking in grid media), so a subpath's
+// throughput is unbiased per channel however its hero was drawn, and a connection of two independent subpaths
+// is too. A scattering event is a vertex like a surface's with the Henyey-Greenstein phase function in the place
+// of the BSDF and no cosine: in the MIS quantities its |cos| is 1 (the geometry term has a cosine at surface points only;
+// pbrt-v3's BDPT, Sec. 16.3, converts a medium vertex's density to area by 1/d^2 alone). Like that BDPT, the
+// MIS densities leave out the free-flight and transmittance factors of the segments: every strategy's weight for a path is computed from the same densities, so the
+// weights still sum to one and each strategy's estimate stays unbiased; only the weights' quality suffers
+// where transmittance varies strongly. Connections, next-event estimation and light-tracing splats carry the
+// transmittance of their segment (ratio tracking in grid media, medium_scene.h's shadow_transmittance), through
+// null surfaces, which subpaths also cross without a vertex (the segment's length for the 1/d^2 conversion runs
+// from the last vertex). Russian roulette at a medium vertex continues with the event's albedo.
+//
 // Modes (as SmallVCM's algorithms): kLight uses only t = 1 (light tracing, no
 // MIS) plus camera rays through specular chains for L S* E; kBpt all
 // connections; kBpm all merges (plus emission on purely specular camera
@@ -51,6 +65,7 @@
 #include "../light/light_emit.h"
 #include "../light/light_sample.h"
 #include "../material/bsdf.h"
+#include "../medium/medium_scene.h"
 #include "../photon/hash_grid.h"
 #include "../scene/shading.h"
 
@@ -439,11 +454,13 @@ CHD float vcm_direct_pdf_a(const SceneView& s, const Light& l, Vec3f ref, Vec3f 
 // ---------------------------------------------------------------------------
 // Per-path state and light vertices.
 struct VcmLightVertex {
-  SurfaceHit sh;  // before surface_material (the material is rebuilt at use)
+  SurfaceHit sh;  // before surface_material (the material is rebuilt at use); a medium vertex: only sh.p
   Vec3f wi;       // world direction towards the previous vertex
   RGB beta{0.f};  // throughput arriving at the vertex
   uint32_t length = 0;  // segments from the light
   VcmMis mis;
+  int32_t medium = -1;     // a medium vertex's medium
+  bool in_medium = false;  // a scattering event in a medium (no surface)
 };
 
 // What a merge reads of a light vertex (36 bytes against VcmLightVertex's 100):
@@ -491,7 +508,110 @@ struct VcmPathState {
   Vec3f wo_world, wo;    // towards the previous vertex
   Vec3f p_front;
   bool vertex_valid = false;
+  // Participating media (header comment): the medium `ray` travels in (-1: vacuum), the subpath's hero channel
+  // (-1: none drawn yet) and distance densities per channel scaled to average 1 (medium/medium.h), the null
+  // surfaces crossed since the last vertex and the distance travelled through them (seg_t), whether the vertex
+  // just reached is a scattering event in the medium (then sh.p is its point) and the throughput before that
+  // event (its Russian roulette), and whether the last hit stage only crossed a null surface (`ray` goes on).
+  int32_t medium = -1;
+  int32_t hero = -1;
+  RGB r_medium{1.f};
+  uint32_t null_crossings = 0;
+  float seg_t = 0.f;
+  bool in_medium = false;
+  bool crossing = false;
+  RGB beta_in{0.f};
 };
+
+// ---------------------------------------------------------------------------
+// Vertices in media (header comment).
+
+// A vertex's scattering towards w: f (with the shading-normal adjoint for importance), its |cos| (1 in a
+// medium), and the forward (wo -> w) and reverse densities per solid angle.
+struct VcmVertexEval {
+  RGB f{0.f};
+  float cos = 1.f, pdf_fwd = 0.f, pdf_rev = 0.f;
+};
+
+CHD VcmVertexEval vcm_eval_surface(const Material& m, const Frame& fr, const SurfaceHit& sh, Vec3f wo_world, Vec3f wo,
+                                   Vec3f w, TransportMode mode) {
+  VcmVertexEval e;
+  const Vec3f wl = fr.to_local(w);
+  e.f = bsdf_eval(m, wo, wl, mode);
+  if (mode == TransportMode::kImportance) e.f *= shading_normal_adjoint(sh, wo_world, w);
+  e.cos = std::fabs(wl.z);
+  e.pdf_fwd = bsdf_pdf(m, wo, wl);
+  e.pdf_rev = bsdf_pdf(m, wl, wo);
+  return e;
+}
+
+// The Henyey-Greenstein phase function is symmetric: both densities are its value.
+CHD VcmVertexEval vcm_eval_medium(float g, Vec3f wo_world, Vec3f w) {
+  VcmVertexEval e;
+  const float ph = hg_phase(dot(wo_world, w), g);
+  e.f = RGB(ph);
+  e.pdf_fwd = e.pdf_rev = ph;
+  return e;
+}
+
+// The vertex st just reached, seen towards w (mode: the subpath's transport mode).
+CHD VcmVertexEval vcm_eval_state(const SceneView& s, const VcmPathState& st, Vec3f w, TransportMode mode) {
+  if (st.in_medium) return vcm_eval_medium(s.media[st.medium].g, st.wo_world, w);
+  return vcm_eval_surface(st.m, st.frame, st.sh, st.wo_world, st.wo, w, mode);
+}
+
+// The point a ray from st's vertex towards w starts at, and the medium it starts in (a surface with a medium
+// interface: the medium of the side it leaves on).
+CHD Vec3f vcm_origin_towards(const VcmPathState& st, Vec3f w) {
+  if (st.in_medium) return st.sh.p;
+  return dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
+}
+CHD int32_t vcm_medium_towards(const SceneView& s, const VcmPathState& st, Vec3f w) {
+  if (st.in_medium || !s.prim_medium) return st.medium;
+  return medium_after_crossing(prim_medium_interface(s, st.sh.prim), w, st.sh.ng, st.medium);
+}
+
+// The medium a light subpath starts in (medium_scene.h's locate_medium; vacuum in scenes without media).
+template <typename Intersect>
+CHD void vcm_light_locate(const SceneView& s, VcmPathState& st, Intersect&& intersect) {
+  if (st.active && scene_has_media(s)) st.medium = locate_medium(s, intersect, st.ray);
+}
+
+// Free-flight sampling on the segment st.ray traced to `hit` through st.medium (medium/medium.h, delta tracking
+// in a grid medium from a stream of its own): true for a scattering event, which st becomes as a medium vertex
+// (sh.p, wo_world, in_medium; the segment's length from the last vertex in *dist); false when the segment
+// reaches the surface (st.beta then holds its transmittance factor) or the path ends (st.active false).
+CHD bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit, float& dist) {
+  const Medium& md = s.media[st.medium];
+  const float dlen = length(st.ray.d);
+  const Vec3f d = st.ray.d / dlen;
+  const uint64_t track_seed = md.grid >= 0 ? st.sampler.stream_seed() : 0;
+  const Vec2f u = st.sampler.next_2d();
+  if (st.hero < 0) st.hero = medium_hero_channel(u.x);
+  const MediumSample ms = medium_sample(s, md, st.ray.o, d, hit.valid() ? hit.t * dlen : kInf, st.hero, u.y,
+                                        track_seed);
+  const RGB before = st.beta;
+  if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta) || !isfinite3(st.beta)) {
+    st.active = false;
+    return false;
+  }
+  if (!ms.scattered) return false;
+  st.in_medium = true;
+  st.beta_in = before;
+  st.sh = SurfaceHit();
+  st.sh.p = st.ray.o + d * ms.t;
+  st.wo_world = -d;
+  st.p_front = st.sh.p;
+  dist = st.seg_t + ms.t;
+  return true;
+}
+
+// A null surface at st.sh: the subpath goes on through it without a vertex (st.crossing).
+CHD void vcm_cross_null(const SceneView& s, VcmPathState& st, float t) {
+  st.crossing = true;
+  st.seg_t += t * length(st.ray.d);
+  if (!cross_null_surface(s, st.sh, st.ray, st.medium, st.null_crossings)) st.active = false;
+}
 
 // The light subpath of index `index` in pass p.pass: its random stream is independent of the camera's.
 CHD void vcm_light_start(const SceneView& s, const VcmParams& p, uint32_t index, VcmPathState& st) {
@@ -527,18 +647,32 @@ CHD void vcm_light_start(const SceneView& s, const VcmParams& p, uint32_t index,
 // The light subpath reached `hit`: MIS update, the vertex (if not delta).
 CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st, const Hit& hit, VcmLightVertex& v) {
   st.vertex_valid = false;
-  if (!hit.valid()) {
-    st.active = false;
-    return false;
+  st.crossing = false;
+  st.in_medium = false;
+  float dist = 0.f;
+  if (st.medium >= 0 && vcm_medium_segment(s, st, hit, dist)) {
+    // A scattering event in the medium: a vertex with the phase function (|cos| 1).
+  } else {
+    if (!st.active || !hit.valid()) {
+      st.active = false;
+      return false;
+    }
+    st.sh = make_surface_hit(s, st.ray, hit);
+    if (is_null_surface(s, st.sh)) {
+      vcm_cross_null(s, st, hit.t);
+      return false;
+    }
+    dist = st.seg_t + hit.t;
+    st.beta *= segment_transmittance(s, st.ray.d, hit.t, st.sh);
+    st.wo_world = -st.ray.d;
+    st.m = surface_material(s, st.sh);
+    st.frame = shading_frame(s, st.sh, st.m);
+    st.wo = st.frame.to_local(st.wo_world);
   }
   st.length += 1;
-  st.sh = make_surface_hit(s, st.ray, hit);
-  st.beta *= segment_transmittance(s, st.ray.d, hit.t, st.sh);
-  st.wo_world = -st.ray.d;
-  st.m = surface_material(s, st.sh);
-  st.frame = shading_frame(s, st.sh, st.m);
-  st.wo = st.frame.to_local(st.wo_world);
-  float cos_in = std::fabs(st.wo.z);
+  st.seg_t = 0.f;
+  st.null_crossings = 0;
+  float cos_in = st.in_medium ? 1.f : std::fabs(st.wo.z);
   if (st.length == 1 && st.receiver_pdf) {
     // The NEE density of the emission point seen from this receiver (area lights: per area; point and spot
     // lights: 1, the light itself; times the NEE pick); dVCM = mis(p_direct / p_emit).
@@ -548,15 +682,19 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
                vcm_nee_pick(s, p, st.sh.p, uint32_t(st.light), st.pick);
     st.mis.dVCM = vcm_mis(p, pa / st.emission_pdf_w);
   }
-  vcm_after_segment(p, st.mis, hit.t, cos_in, st.length > 1 || !st.infinite);
-  st.p_front = offset_ray_origin(st.sh.p, st.sh.ng, st.wo_world);
-  if (material_is_delta(st.m)) return false;
+  vcm_after_segment(p, st.mis, dist, cos_in, st.length > 1 || !st.infinite);
+  if (!st.in_medium) {
+    st.p_front = offset_ray_origin(st.sh.p, st.sh.ng, st.wo_world);
+    if (material_is_delta(st.m)) return false;
+  }
   st.vertex_valid = true;
   v.sh = st.sh;
   v.wi = st.wo_world;
   v.beta = st.beta;
   v.length = st.length;
   v.mis = vcm_mis_commit(p, st.mis);  // the vertex ends subpaths here: upg's pending term holds
+  v.medium = st.medium;
+  v.in_medium = st.in_medium;
   return true;
 }
 
@@ -569,6 +707,7 @@ struct VcmSplat {
   float K = 0.f; // camera area density per unit raster density
   float Q = 0.f; // vm_factor + dVCM + dVC mis(p_rev)
   uint32_t length = 0;  // segments of the light subpath (the strategy s = length + 1, t = 1)
+  int32_t medium = -1;  // the medium the visibility ray starts in (vcm_visibility)
   bool active = false;
 };
 
@@ -589,20 +728,19 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   Vec3f d = pl - st.sh.p;
   float d2 = length_sq(d);
   Vec3f w = d / std::sqrt(d2);
-  Vec3f wl = st.frame.to_local(w);
-  RGB f = bsdf_eval(st.m, st.wo, wl, TransportMode::kImportance);
-  if (is_black(f)) return;
-  float cos_y = std::fabs(wl.z);
+  const VcmVertexEval e = vcm_eval_state(s, st, w, TransportMode::kImportance);
+  if (is_black(e.f)) return;
+  float cos_y = e.cos;
   float K = c.orthographic ? cos_y / camera_pixel_area(c)
                            : cos_y / (d2 * camera_pixel_area(c) * cos_theta * cos_theta * cos_theta);
-  sp.C = st.beta * f * (K * shading_normal_adjoint(st.sh, st.wo_world, w) / p.n_light);
+  sp.C = st.beta * e.f * (K / p.n_light);
   sp.K = K;
   VcmMis lm = vcm_mis_commit(p, st.mis);
-  sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p) + lm.dVCM + lm.dVC * vcm_mis(p, bsdf_pdf(st.m, wl, st.wo));
+  sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p) + lm.dVCM + lm.dVC * vcm_mis(p, e.pdf_rev);
   sp.raster = raster;
   sp.length = st.length;
-  Vec3f o = dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
-  sp.ray = spawn_ray_to(o, pl, Vec3f(0.f));
+  sp.ray = spawn_ray_to(vcm_origin_towards(st, w), pl, Vec3f(0.f));
+  sp.medium = vcm_medium_towards(s, st, w);
   sp.active = isfinite3(sp.C) && !is_black(sp.C);
 }
 
@@ -640,8 +778,31 @@ CHD float vcm_rr_eta2(const BSDFSample& bs, TransportMode mode) {
   return mode == TransportMode::kRadiance ? bs.eta * bs.eta : 1.f;
 }
 
+// The next direction from a medium vertex by the phase function (weight 1), Russian roulette with the event's
+// albedo (the throughput over the one before the event).
+CHD bool vcm_scatter_medium(const SceneView& s, const VcmParams& p, VcmPathState& st) {
+  st.sampler.next_1d();  // the BSDF's lobe number, unused: both kinds of vertex take the same count
+  const Vec2f u = st.sampler.next_2d();
+  const float u_rr = st.sampler.next_1d();
+  float pdf;
+  const Vec3f wi = hg_sample(st.wo_world, s.media[st.medium].g, u, &pdf);
+  vcm_after_scatter(p, st.mis, 1.f, pdf, pdf, false, true, false);
+  st.vm_ok = false;
+  st.specular = false;
+  if (st.length >= p.rr_depth) {
+    const float q = minf(1.f, max_component(st.beta) / maxf(max_component(st.beta_in), 1e-30f));
+    if (!(u_rr < q)) return st.active = false;
+    st.beta /= q;
+  }
+  st.ray = Ray{st.sh.p, wi, kInf};
+  st.prev_p = st.sh.p;
+  st.prev_x = st.sh.p;
+  return true;
+}
+
 // Samples the next direction (both subpaths); false ends the path.
-CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
+CHD bool vcm_scatter(const SceneView& s, const VcmParams& p, VcmPathState& st, TransportMode mode) {
+  if (st.in_medium) return vcm_scatter_medium(s, p, st);
   float uc = st.sampler.next_1d();
   Vec2f u = st.sampler.next_2d();
   float u_rr = st.sampler.next_1d();
@@ -670,17 +831,18 @@ CHD bool vcm_scatter(const VcmParams& p, VcmPathState& st, TransportMode mode) {
   st.ray.tmax = kInf;
   st.prev_p = st.ray.o;
   st.prev_x = st.sh.p;
+  st.medium = vcm_medium_towards(s, st, wi_world);
   return true;
 }
 
-CHD void vcm_light_continue(const VcmParams& p, VcmPathState& st) {
-  if (!st.active) return;
+CHD void vcm_light_continue(const SceneView& s, const VcmParams& p, VcmPathState& st) {
+  if (!st.active || st.crossing) return;  // after a null surface the ray goes on as it was
   // A vertex after L segments is used by paths of at least L + 1 segments; the next one by L + 2.
   if (p.max_depth != 0xffffffffu && st.length + 2 > p.max_depth) {
     st.active = false;
     return;
   }
-  vcm_scatter(p, st, TransportMode::kImportance);
+  vcm_scatter(s, p, st, TransportMode::kImportance);
 }
 
 // ---------------------------------------------------------------------------
@@ -698,6 +860,7 @@ CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, u
   const Camera& c = s.camera.moving ? (moved = s.camera.at(st.sampler.next_1d())) : s.camera;
   st.ray = c.generate_ray(Vec2f(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y), lens);
   st.prev_p = st.ray.o;
+  st.medium = s.camera_medium;
   float h = 1.f, pr = 1.f;
   if (s.filter != FilterType::kBox) {
     h = vcm_filter_h1(s.filter, fs.offset.x) * vcm_filter_h1(s.filter, fs.offset.y);
@@ -725,6 +888,23 @@ CHD float vcm_camera_emission_weight(const VcmParams& p, const VcmPathState& st,
 // st.vertex_valid when the vertex can be connected/merged.
 CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st, const Hit& hit) {
   st.vertex_valid = false;
+  st.crossing = false;
+  st.in_medium = false;
+  float dist = 0.f;
+  if (st.medium >= 0 && vcm_medium_segment(s, st, hit, dist)) {
+    // A scattering event in the medium: a vertex with the phase function (|cos| 1), no emission.
+    st.length += 1;
+    st.seg_t = 0.f;
+    st.null_crossings = 0;
+    vcm_after_segment(p, st.mis, dist, 1.f, st.length > 1 || !s.camera.orthographic);
+    if (st.length >= p.max_depth) {
+      st.active = false;
+      return;
+    }
+    st.vertex_valid = true;
+    return;
+  }
+  if (!st.active) return;
   st.length += 1;
   if (!hit.valid()) {
     if (s.environment_light >= 0) {
@@ -743,11 +923,19 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
     return;
   }
   st.sh = make_surface_hit(s, st.ray, hit);
+  if (is_null_surface(s, st.sh)) {
+    st.length -= 1;
+    vcm_cross_null(s, st, hit.t);
+    return;
+  }
+  dist = st.seg_t + hit.t;
+  st.seg_t = 0.f;
+  st.null_crossings = 0;
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, st.sh);
   st.wo_world = -st.ray.d;
   Vec3f ns = st.sh.ns;
   // The orthographic camera's first segment: its density stays per area (camera_pixel_area's comment).
-  vcm_after_segment(p, st.mis, hit.t, absdot(ns, st.wo_world), st.length > 1 || !s.camera.orthographic);
+  vcm_after_segment(p, st.mis, dist, absdot(ns, st.wo_world), st.length > 1 || !s.camera.orthographic);
   if (st.sh.light >= 0) {
     const Light& l = s.lights[st.sh.light];
     RGB Le = area_radiance(s, l, st.sh.ng, st.wo_world, st.sh.uv);
@@ -774,16 +962,13 @@ struct VcmShadow {
   Ray ray;
   RGB contrib{0.f};
   float weight = 0.f;  // the MIS weight in contrib
+  int32_t medium = -1;  // the medium the ray starts in (vcm_visibility)
   bool active = false;
 };
 
 // The merge term at camera vertex st (see vcm_weight_nee).
 CHD float vcm_cam_vm(const VcmParams& p, const VcmPathState& st) {
   return p.mode == VcmMode::kUpg && !st.vm_ok ? 0.f : p.vm_factor;
-}
-
-CHD Vec3f vcm_origin_towards(const VcmPathState& st, Vec3f w) {
-  return dot(w, st.sh.ng) * dot(st.wo_world, st.sh.ng) > 0.f ? st.p_front : offset_ray_origin(st.sh.p, st.sh.ng, w);
 }
 
 // Next-event estimation from the camera vertex (s = 1).
@@ -800,10 +985,10 @@ CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st
   const Light& l = s.lights[li];
   LightSample ls;
   if (!sample_light(s, l, st.p_front, u2, ls)) return;
-  Vec3f wi = st.frame.to_local(ls.wi);
-  RGB f = bsdf_eval(st.m, st.wo, wi);
+  const VcmVertexEval e = vcm_eval_state(s, st, ls.wi, TransportMode::kRadiance);
+  const RGB f = e.f;
   if (is_black(f)) return;
-  float cos_to_light = std::fabs(wi.z);
+  float cos_to_light = e.cos;
   // Report Sec. 5.1's conventions: point lights have direct_pdf_w = d^2 (area
   // density 1 converted), their "radiance" the intensity.
   float direct_pdf_w = ls.pdf, cos_at_light = 1.f;
@@ -812,14 +997,15 @@ CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st
   // The light subpath's density of this light vertex relative to NEE's: its power pick over NEE's pick (1 by
   // power; vcm_weight_nee divides emission by direct density without the picks).
   float emission_pdf_w = vcm_emission_pdf(s, l, ls.n_l, -ls.wi) * (s.light_sampler.pmf[li] / pick);
-  float dir_pdf = ls.delta ? 0.f : bsdf_pdf(st.m, st.wo, wi);
-  float rev_pdf = bsdf_pdf(st.m, wi, st.wo);
+  float dir_pdf = ls.delta ? 0.f : e.pdf_fwd;
+  float rev_pdf = e.pdf_rev;
   float w = vcm_weight_nee(p, st.mis, pick, direct_pdf_w, emission_pdf_w, cos_at_light, cos_to_light, dir_pdf, rev_pdf,
                            vcm_cam_vm(p, st));
   sr.contrib = st.beta * f * ls.Li * (cos_to_light * w / (pick * ls.pdf));
   Vec3f o = vcm_origin_towards(st, ls.wi);
   if (std::isfinite(ls.dist)) sr.ray = spawn_ray_to(o, ls.p_l, ls.n_l);
   else sr.ray = Ray{o, ls.wi, kInf};
+  sr.medium = vcm_medium_towards(s, st, ls.wi);
   sr.active = isfinite3(sr.contrib) && !is_black(sr.contrib);
 }
 
@@ -833,27 +1019,33 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   if (!(d2 > 0.f)) return;
   float dist = std::sqrt(d2);
   Vec3f w = d / dist;
-  Vec3f wc = st.frame.to_local(w);
-  RGB fc = bsdf_eval(st.m, st.wo, wc);
-  if (is_black(fc)) return;
-  SurfaceHit vsh = v.sh;
-  Material vm = surface_material(s, vsh);
-  const Frame vf = shading_frame(s, vsh, vm);
-  Vec3f vwo = vf.to_local(v.wi), vwl = vf.to_local(-w);
-  RGB fl = bsdf_eval(vm, vwo, vwl, TransportMode::kImportance) * shading_normal_adjoint(vsh, v.wi, -w);
-  if (is_black(fl)) return;
-  float cos_c = std::fabs(wc.z), cos_l = std::fabs(vwl.z);
+  const VcmVertexEval ec = vcm_eval_state(s, st, w, TransportMode::kRadiance);
+  if (is_black(ec.f)) return;
+  VcmVertexEval el;
+  if (v.in_medium) {
+    el = vcm_eval_medium(s.media[v.medium].g, v.wi, -w);
+  } else {
+    SurfaceHit vsh = v.sh;  // surface_material may bend its shading normal
+    const Material vm = surface_material(s, vsh);
+    const Frame vf = shading_frame(s, vsh, vm);
+    el = vcm_eval_surface(vm, vf, vsh, v.wi, vf.to_local(v.wi), -w, TransportMode::kImportance);
+  }
+  if (is_black(el.f)) return;
+  float cos_c = ec.cos, cos_l = el.cos;
   float G = cos_c * cos_l / d2;
-  float cam_dir_a = bsdf_pdf(st.m, st.wo, wc) * cos_l / d2;
-  float cam_rev_w = bsdf_pdf(st.m, wc, st.wo);
-  float light_dir_a = bsdf_pdf(vm, vwo, vwl) * cos_c / d2;
-  float light_rev_w = bsdf_pdf(vm, vwl, vwo);
-  float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, cam_rev_w, light_dir_a, light_rev_w, vcm_cam_vm(p, st));
-  sr.contrib = st.beta * fc * fl * v.beta * (G * mw);
+  float cam_dir_a = ec.pdf_fwd * cos_l / d2;
+  float light_dir_a = el.pdf_fwd * cos_c / d2;
+  float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, ec.pdf_rev, light_dir_a, el.pdf_rev, vcm_cam_vm(p, st));
+  sr.contrib = st.beta * ec.f * el.f * v.beta * (G * mw);
   sr.weight = mw;
   Vec3f o = vcm_origin_towards(st, w);
-  Vec3f target = offset_ray_origin(vsh.p, vsh.ng, -w);
-  sr.ray = Ray{o, target - o, 1.f - 1e-4f};
+  if (v.in_medium) {
+    sr.ray = Ray{o, v.sh.p - o, 1.f};
+  } else {
+    Vec3f target = offset_ray_origin(v.sh.p, v.sh.ng, -w);
+    sr.ray = Ray{o, target - o, 1.f - 1e-4f};
+  }
+  sr.medium = vcm_medium_towards(s, st, w);
   sr.active = isfinite3(sr.contrib) && !is_black(sr.contrib);
 }
 
@@ -880,17 +1072,25 @@ CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& 
   st.L += st.beta * sum * p.vm_norm;
 }
 
-CHD void vcm_camera_continue(const VcmParams& p, VcmPathState& st) {
-  if (!st.active) return;
+CHD void vcm_camera_continue(const SceneView& s, const VcmParams& p, VcmPathState& st) {
+  if (!st.active || st.crossing) return;  // after a null surface the ray goes on as it was
   if (p.mode == VcmMode::kLight && st.vertex_valid) {  // light tracing covers the rest
     st.active = false;
     return;
   }
-  vcm_scatter(p, st, TransportMode::kRadiance);
+  vcm_scatter(s, p, st, TransportMode::kRadiance);
 }
 
-CHD void vcm_shadow(VcmPathState& st, const VcmShadow& sr, bool occluded) {
-  if (sr.active && !occluded) st.L += sr.contrib;
+// The fraction of a connection's, a next-event estimate's or a splat's contribution that arrives: 0 or 1 from
+// one occlusion query in scenes without media, else the transmittance through media and null surfaces.
+template <typename Tracer>
+CHD RGB vcm_visibility(const SceneView& s, const Tracer& tracer, const Ray& ray, int32_t medium) {
+  return shadow_transmittance(s, tracer, ray, medium);
+}
+
+// Adds a shadow ray's contribution times the visibility Tr (vcm_visibility).
+CHD void vcm_shadow(VcmPathState& st, const VcmShadow& sr, const RGB& Tr) {
+  if (sr.active && !is_black(Tr)) st.L += sr.contrib * Tr;
 }
 
 }  // namespace caustica

@@ -105,6 +105,7 @@ bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const CpuAccel
       for (uint32_t i = c * chunk; i < end; ++i) {
         VcmPathState st;
         vcm_light_start(s, p, i, st);
+        vcm_light_locate(s, st, [&](const Ray& ray, Hit& h) { accel.intersect(ray, h); });
         uint32_t count = 0;
         while (st.active) {
           Hit hit;
@@ -120,9 +121,13 @@ bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const CpuAccel
           vcm_light_to_camera(s, p, st, sp);
           if (sp.active) {
             ++nrays;
-            if (!accel.occluded(sp.ray)) csplats[c].push_back(sp);
+            const RGB tr = vcm_visibility(s, accel, sp.ray, sp.medium);
+            if (!is_black(tr)) {
+              sp.C *= tr;
+              csplats[c].push_back(sp);
+            }
           }
-          vcm_light_continue(p, st);
+          vcm_light_continue(s, p, st);
         }
         ccount[c].push_back(count);
       }
@@ -223,18 +228,19 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
           vcm_camera_nee(s, p, st, sr);
           if (sr.active) {
             ++nrays;
-            bool occ = accel.occluded(sr.ray);
-            vcm_shadow(st, sr, occ);
-            if (rec && !occ) record(connection_slot(1, st.length + 1), pix, sr.contrib);
+            const RGB tr = vcm_visibility(s, accel, sr.ray, sr.medium);
+            vcm_shadow(st, sr, tr);
+            if (rec && !is_black(tr)) record(connection_slot(1, st.length + 1), pix, sr.contrib * tr);
           }
           if (st.vertex_valid && p.use_vc())
             for (uint32_t k = start[pix % nl]; k < start[pix % nl + 1]; ++k) {
               vcm_camera_connect(s, p, st, verts[k], sr);
               if (sr.active) {
                 ++nrays;
-                bool occ = accel.occluded(sr.ray);
-                vcm_shadow(st, sr, occ);
-                if (rec && !occ) record(connection_slot(verts[k].length + 1, st.length + 1), pix, sr.contrib);
+                const RGB tr = vcm_visibility(s, accel, sr.ray, sr.medium);
+                vcm_shadow(st, sr, tr);
+                if (rec && !is_black(tr))
+                  record(connection_slot(verts[k].length + 1, st.length + 1), pix, sr.contrib * tr);
               }
             }
           if (st.vertex_valid && p.merges()) {
@@ -242,7 +248,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
             vcm_camera_merge(s, p, st, gv, merge_verts.data());
             if (rec) record(merge_slot(st.length + 1), pix, st.L - before);
           }
-          vcm_camera_continue(p, st);
+          vcm_camera_continue(s, p, st);
         }
         if (isfinite3(st.L)) pass_L[pix] = st.L;
       }

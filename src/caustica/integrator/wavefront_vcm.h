@@ -100,6 +100,7 @@ class WavefrontVcm {
       uint32_t* queue = queue_.data();
       b_.parallel_for(nl, CAUSTICA_KERNEL(uint32_t i) {
         vcm_light_start(s, p, i, paths[i]);
+        vcm_light_locate(s, paths[i], TracerIntersect<decltype(tracer)>{tracer});
         queue[i] = i;
       });
     }
@@ -123,9 +124,11 @@ class WavefrontVcm {
             vcm_light_to_camera(s, p, st, ss[k]);
             if (ss[k].active) {
               ray = 1;
-              splat = tracer.occluded(ss[k].ray) ? 0u : 1u;
+              const RGB tr = vcm_visibility(s, tracer, ss[k].ray, ss[k].medium);
+              ss[k].C *= tr;
+              splat = is_black(tr) ? 0u : 1u;
             }
-            vcm_light_continue(p, st);
+            vcm_light_continue(s, p, st);
           }
         }
         flags[k] = stored;
@@ -221,7 +224,7 @@ class WavefrontVcm {
             vcm_camera_nee(s, p, st, sr);
             if (sr.active) {
               ++r;
-              vcm_shadow(st, sr, tracer.occluded(sr.ray));
+              vcm_shadow(st, sr, vcm_visibility(s, tracer, sr.ray, sr.medium));
             }
             if (st.vertex_valid && p.use_vc()) {
               const uint32_t l = st.pixel % nl;
@@ -229,7 +232,7 @@ class WavefrontVcm {
                 vcm_camera_connect(s, p, st, verts[j], sr);
                 if (sr.active) {
                   ++r;
-                  vcm_shadow(st, sr, tracer.occluded(sr.ray));
+                  vcm_shadow(st, sr, vcm_visibility(s, tracer, sr.ray, sr.medium));
                 }
               }
             }
@@ -238,7 +241,7 @@ class WavefrontVcm {
               have_prev[i] = st.vertex_valid ? 1u : 0u;
               if (st.vertex_valid) prev[i] = st;
             }
-            vcm_camera_continue(p, st);
+            vcm_camera_continue(s, p, st);
           }
         }
         rays[k] = r;

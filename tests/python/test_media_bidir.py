@@ -1,0 +1,183 @@
+"""Light tracing and bidirectional path tracing in participating media (integrator/vcm.h, medium vertices).
+
+Furnaces with analytic answers (test_media.py's null sphere of medium under a constant environment: albedo 1
+gives Le everywhere), cross-checks against the volumetric path tracer on scenes both render (a point light in
+homogeneous fog and in a heterogeneous smoke blob, the camera inside the medium and outside it), and a
+volumetric caustic (a point light focused by a glass sphere into fog) that the path tracer cannot render and
+light tracing and bdpt agree on. bdpt's light subpaths splat into pixels other than their camera path's, so
+pixels are not quite independent: standard errors come from the image means of several seeds, or per region
+from two independent halves with the box filter (a splat reaches one pixel)."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import caustica
+from conftest import mean_and_se
+from test_media import LE, medium_sphere
+from test_media_grid import CUDA, WHY, assert_cuda_matches_cpu, grid_medium, random_grid, smoke_box
+from test_media_photons import fog_box, region_means
+
+
+def seed_means(scene, seeds, **opts):
+    """Per-channel image means, one row per seed."""
+    return np.array([caustica.render(scene, seed=s, **opts).reshape(-1, 3).mean(axis=0) for s in seeds])
+
+
+@pytest.mark.parametrize("medium", [
+    {"sigma_a": 0.0, "sigma_s": [0.8, 1.0, 1.25], "g": 0.5},
+    {"sigma_a": 0.0, "sigma_s": [0.8, 1.0, 1.25], "g": -0.3},
+    "grid",
+], ids=["g0.5", "g-0.3", "grid"])
+def test_scattering_furnace(medium):
+    # Albedo 1, sigma_s differing per channel (each subpath's hero channel and spectral MIS), the camera inside
+    # the medium: bdpt sees Le in every pixel - every strategy's medium vertices, their connections through the
+    # null boundary (transmittance to the environment) and the light subpaths from the environment, which start
+    # outside the sphere and enter it. The grid case: a random 8^3 density grid with empty cells (delta
+    # tracking in both subpaths, ratio tracking on every connection). 8 seeds, 5 standard errors of their mean.
+    if medium == "grid":
+        values = random_grid()
+        values[::3, ::2, 1::4] = 0.0
+        medium = grid_medium(values, sigma_a=0.0, sigma_s=[0.8, 1.0, 1.25], g=0.3)
+    means = seed_means(medium_sphere(medium, width=16), range(8), integrator="bdpt", spp=8, max_depth=-1)
+    for c in range(3):
+        m, se = mean_and_se(means[:, c])
+        assert 0.0 < se < 0.02 * LE[c]
+        assert abs(m - LE[c]) < 5 * se, (c, m, LE[c], se)
+
+
+def test_absorber_is_beer_lambert():
+    # A pure absorber: only the environment seen through it, by the camera's escaping paths (free-flight
+    # sampling in the absorber: a path that samples an event in it ends, the others carry T / P(no event)).
+    # Le exp(-sigma_a R): 8 seeds, 5 standard errors of their mean.
+    sa = np.array([0.2, 0.5, 1.0])
+    means = seed_means(medium_sphere({"sigma_a": sa.tolist(), "sigma_s": 0.0}, width=16), range(8),
+                       integrator="bdpt", spp=8, max_depth=-1)
+    expected = np.array(LE) * np.exp(-sa * 2.0)
+    for c in range(3):
+        m, se = mean_and_se(means[:, c])
+        assert abs(m - expected[c]) < 5 * se, (c, m, expected[c], se)
+
+
+def outside(scene):
+    """`scene` (a fog box of test_media_photons) seen from outside the fog, with the box filter."""
+    scene["camera"] = {"position": [0, 0.3, 6.0], "target": [0, -0.3, 0], "up": [0, 1, 0], "fov": 45,
+                       "width": 32, "height": 32}
+    scene["film"] = {"filter": "box"}
+    return scene
+
+
+def halves(scene, integrator, spp, seeds):
+    """Region means (4 x 4) of the mean of two independent renders and their standard errors from the
+    renders' difference (half of it has the mean's noise; its spread over a region's pixels)."""
+    a, b = (caustica.render(scene, integrator=integrator, spp=spp, seed=s, max_depth=-1).astype(np.float64)
+            for s in seeds)
+    H = a.shape[0] // 4
+    se = (0.5 * (a - b)).reshape(4, H, 4, H, 3).std(axis=(1, 3), ddof=1) / H
+    return region_means(0.5 * (a + b)), se
+
+
+def z_scores(x, y):
+    (a, sa), (b, sb) = x, y
+    return (a - b) / np.sqrt(sa ** 2 + sb ** 2)
+
+
+def with_box_filter(scene):
+    scene["film"] = {"filter": "box"}
+    return scene
+
+
+@pytest.mark.parametrize("scene", ["fog", "smoke", "fog-outside", "coloured-smoke"])
+def test_cross_check_against_the_path_tracer(scene):
+    # A point light in fog (homogeneous, sigma_s 0.3, g 0.3) or in a smoke blob (a 16^3 grid; the coloured one
+    # scatters sigma_s 0.3 / 0.4 / 0.6 per density) over a diffuse floor, seen from inside the medium (camera
+    # paths start in it) or from outside (through the box's null boundary). bdpt and the path tracer agree
+    # per 8 x 8 region within 5 standard errors of their difference; so does light tracing where the camera
+    # is outside the fog. (From inside, light tracing's splats of vertices near the lens grow as 1/d^2: its
+    # variance is infinite and its finite-sample means run low, measured -6%; bdpt's MIS gives those
+    # vertices to the camera's strategies.) A region 10% off is far outside the bound (checked below).
+    s = {"fog": lambda: fog_box(), "smoke": lambda: smoke_box(),
+         "fog-outside": lambda: outside(fog_box()),
+         "coloured-smoke": lambda: smoke_box()}[scene]()
+    if scene == "coloured-smoke":
+        s["media"]["fog"]["sigma_s"] = [0.3, 0.4, 0.6]
+    with_box_filter(s)
+    ref = halves(s, "path", 1024, (11, 12))
+    bd = halves(s, "bdpt", 256, (13, 14))
+    z = z_scores(bd, ref)
+    assert np.abs(z).max() < 5.0, (np.abs(z).max(), bd[0][..., 1], ref[0][..., 1])
+    assert np.abs(z_scores((0.9 * bd[0], bd[1]), ref)).max() > 5.0  # the check can fail
+    if scene == "fog-outside":
+        lt = halves(s, "light", 512, (15, 16))
+        z = z_scores(lt, ref)
+        assert np.abs(z).max() < 5.0, (np.abs(z).max(), lt[0][..., 1], ref[0][..., 1])
+
+
+def test_volumetric_caustic():
+    # A glass sphere below the point light focuses it into the fog (L S+ V E paths): the path tracer cannot
+    # sample them (from a medium vertex its NEE is blocked by the glass and phase-sampled rays never hit a
+    # point light), light tracing and bdpt can. Seen from outside the fog: bdpt and light tracing agree per
+    # region within 5 standard errors, except the regions that see the sphere itself (light tracing cannot
+    # connect through glass to the camera, so it renders what lies behind the sphere only where a camera path
+    # reaches the light through specular surfaces alone), and in the regions below the sphere bdpt is brighter
+    # than the path tracer by many standard errors: the volumetric caustic.
+    s = outside(fog_box("glass"))
+    bd = halves(s, "bdpt", 256, (21, 22))
+    lt = halves(s, "light", 512, (23, 24))
+    pt = halves(s, "path", 512, (25, 26))
+    sphere = np.zeros((4, 4), bool)
+    sphere[0:2, 1:3] = True  # the regions the sphere covers (rows from the top)
+    z = z_scores(bd, lt)[~sphere]
+    assert np.abs(z).max() < 5.0, (np.abs(z).max(), bd[0][..., 1], lt[0][..., 1])
+    caustic = z_scores(bd, pt)[2:, 1:3]
+    assert caustic.max() > 10.0, caustic[..., 1]
+
+
+def test_threads_and_wavefront_give_the_same_image():
+    # The wavefront driver runs the same stage functions (the transmittance of every connection and splat
+    # included) with the same streams: bit for bit, as the thread count.
+    for s in (fog_box(width=16), smoke_box(width=16)):
+        for integrator in ("light", "bdpt"):
+            kw = dict(integrator=integrator, spp=3, seed=6, max_depth=-1)
+            one = caustica.render(s, threads=1, **kw)
+            assert np.array_equal(one, caustica.render(s, threads=2, **kw))
+            assert np.array_equal(one, caustica.render(s, wavefront=True, **kw))
+
+
+def test_strategy_images_sum_to_the_image():
+    # bdpt's per-strategy images (k segments, s light vertices) in fog: every contribution is recorded once.
+    s = fog_box(width=16)
+    # (Float sums of the same terms in another order: 1e-5 relative to the brightest pixel.) NEE from a medium
+    # vertex (k2_s1_t2), light tracing from one (k2_s2_t1) and connections (k3_s2_t2) all contribute.
+    r = caustica.render_job(s, integrator="bdpt", spp=2, seed=3, max_depth=4, strategy_images=True)
+    total = sum(r.strategies.values())
+    assert np.abs(total - r.image).max() <= 1e-5 * float(r.image.max())
+    for k in ("k2_s1_t2", "k2_s2_t1", "k3_s2_t2"):
+        assert r.strategies[k].mean() > 0, k
+
+
+@pytest.mark.parametrize("integrator", ["bdpt", "light"])
+def test_emissive_media_are_refused(integrator):
+    scene = medium_sphere({"sigma_a": 0.5, "sigma_s": 0.5, "emission": [1, 1, 1]}, width=8)
+    with pytest.raises(caustica.InputError) as e:
+        caustica.render(scene, integrator=integrator, spp=1)
+    assert str(e.value) == (f"integrator '{integrator}' does not render emissive media (medium 'm' emits); "
+                            "use --integrator path")
+
+
+def test_cli_renders_fog_with_bdpt(tmp_path):
+    f = tmp_path / "fog.json"
+    f.write_text(json.dumps(fog_box(width=8)))
+    out = tmp_path / "out.pfm"
+    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(f), "--integrator", "bdpt", "--spp", "2",
+                        "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert out.exists()
+
+
+@pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
+def test_cuda_matches_the_cpu():
+    # light and bdpt in the smoke blob on the GPU (the same stage functions) against the CPU, per region.
+    assert_cuda_matches_cpu(smoke_box(), (dict(integrator="bdpt", spp=16), dict(integrator="light", spp=16)))
