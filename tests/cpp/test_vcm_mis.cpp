@@ -5,7 +5,9 @@
 // delta interior vertices; each strategy's weight is computed exactly as the
 // integrator does, from the subpath states built by the integrator's own update
 // functions (vcm_light_start_mis / vcm_camera_start_mis / vcm_after_segment /
-// vcm_after_scatter) and the pdfs at the two joined vertices.
+// vcm_after_scatter) and the pdfs at the two joined vertices. Interior vertices
+// may also be medium vertices (a Henyey-Greenstein phase function, no normal:
+// |cos| 1, and no merging there, vcm.h's header comment).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -21,7 +23,11 @@ namespace {
 struct V {
   Vec3f p, n;
   bool delta = false;
+  bool medium = false;  // a scattering event in a medium (phase function kG)
 };
+
+constexpr float kG = 0.6f;
+bool g_medium_vm = false;  // true: a merge term at medium vertices too (for the sensitivity test)
 
 float g_rev_scale = 1.f;  // perturbation for the sensitivity test
 bool g_upg_rules = true;  // false: upg's merge terms as vcm's (for the sensitivity test)
@@ -39,12 +45,24 @@ struct TestPath {
 
 Vec3f random_unit(PCG32& r) { return square_to_uniform_sphere(Vec2f(r.next_float(), r.next_float())); }
 
-// Diffuse pdf (two-sided, |cos|/pi) of sampling the direction towards b at vertex i.
+// Diffuse pdf (two-sided, |cos|/pi) of sampling the direction towards b at vertex i; at a medium vertex the
+// phase function's density of the pair (b, the other path neighbour of x_i), symmetric as vcm_eval_medium's.
 float pdf_w(const TestPath& P, int i, Vec3f b) {
   Vec3f d = normalize(b - P.x[i].p);
+  if (P.x[i].medium) {
+    const Vec3f n1 = P.x[i + 1].p;
+    const Vec3f other = (b.x == n1.x && b.y == n1.y && b.z == n1.z) ? P.x[i - 1].p : n1;
+    return hg_phase(dot(normalize(other - P.x[i].p), d), kG);
+  }
   return absdot(P.x[i].n, d) * kInvPi;
 }
-float cosv(const TestPath& P, int i, Vec3f b) { return absdot(P.x[i].n, normalize(b - P.x[i].p)); }
+float cosv(const TestPath& P, int i, Vec3f b) {
+  return P.x[i].medium ? 1.f : absdot(P.x[i].n, normalize(b - P.x[i].p));
+}
+// The merge term of x_i in the recursion (vcm_scatter_medium passes none for a medium vertex).
+bool vm_here(const TestPath& P, int i) { return !P.x[i].medium || g_medium_vm; }
+// The light side's merge term of a connection at light vertex x_a (vcm_camera_connect).
+float light_vm(const VcmParams& p, const TestPath& P, int a) { return P.x[a].medium ? 0.f : p.vm_factor; }
 float dist(const TestPath& P, int i, int j) { return length(P.x[i].p - P.x[j].p); }
 float camera_pdf_w(const TestPath& P, Vec3f dir) {
   float c = dot(dir, P.forward);
@@ -66,7 +84,8 @@ VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
     vcm_after_segment(p, m, dist(P, i - 1, i), cosv(P, i, P.x[i - 1].p), true);
     if (i < j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i + 1].p), pdf_w(P, i, P.x[i + 1].p),
-                        pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta, true, upg && g_upg_rules);
+                        pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta, vm_here(P, i),
+                        upg && g_upg_rules && !P.x[i].medium);
   }
   return vcm_mis_commit(p, m);
 }
@@ -78,7 +97,9 @@ bool camera_vm_ok(const VcmParams& p, const TestPath& P, int j) {
   int k = int(P.x.size()) - 1;
   return p.mode != VcmMode::kUpg || !g_upg_rules || (j + 1 < k && !P.x[j + 1].delta);
 }
-float cam_vm(const VcmParams& p, const TestPath& P, int j) { return camera_vm_ok(p, P, j) ? p.vm_factor : 0.f; }
+float cam_vm(const VcmParams& p, const TestPath& P, int j) {
+  return camera_vm_ok(p, P, j) && !P.x[j].medium ? p.vm_factor : 0.f;
+}
 
 // Camera subpath state at vertex j (reached from x_{j+1}).
 VcmMis camera_state(const VcmParams& p, const TestPath& P, int j) {
@@ -88,7 +109,7 @@ VcmMis camera_state(const VcmParams& p, const TestPath& P, int j) {
     vcm_after_segment(p, m, dist(P, i + 1, i), cosv(P, i, P.x[i + 1].p), true);
     if (i > j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p),
-                        P.x[i].delta, camera_vm_ok(p, P, i));
+                        P.x[i].delta, camera_vm_ok(p, P, i) && vm_here(P, i));
   }
   return m;
 }
@@ -127,7 +148,7 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
       float cam_dir_a = pdf_w(P, b, P.x[a].p) * cosv(P, a, P.x[b].p) / d2;
       float light_dir_a = pdf_w(P, a, P.x[b].p) * cosv(P, b, P.x[a].p) / d2;
       float wc = vcm_weight_connect(p, l, c, cam_dir_a, pdf_w(P, b, P.x[b + 1].p), light_dir_a,
-                                    pdf_w(P, a, P.x[a - 1].p), cam_vm(p, P, b));
+                                    pdf_w(P, a, P.x[a - 1].p), cam_vm(p, P, b), light_vm(p, P, a));
       sum += wc, ++n;
       if (p.mode == VcmMode::kUpg) sum += wc * p.vm_factor * vcm_mis(p, cam_dir_a), ++n;  // the gather of x_a at x_b
     }
@@ -136,12 +157,12 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
     VcmMis l = light_state(p, P, k - 1);
     float d = dist(P, k - 1, k);
     float cam_a = camera_pdf_w(P, normalize(P.x[k - 1].p - P.x[k].p)) * cosv(P, k - 1, P.x[k].p) / (d * d);
-    sum += vcm_weight_camera(p, l, cam_a, pdf_w(P, k - 1, P.x[k - 2].p));
+    sum += vcm_weight_camera(p, l, cam_a, pdf_w(P, k - 1, P.x[k - 2].p), P.x[k - 1].medium);
     ++n;
   }
   if (p.merges())
     for (int i = 1; i <= k - 1; ++i) {
-      if (P.x[i].delta) continue;
+      if (P.x[i].delta || P.x[i].medium) continue;  // no merging at medium vertices
       VcmMis l = light_state(p, P, i), c = camera_state(p, P, i);
       sum += vcm_weight_merge(p, l, c, pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p));
       ++n;
@@ -150,7 +171,7 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
   return sum;
 }
 
-TestPath random_path(PCG32& r, int k, bool point_light, bool allow_delta) {
+TestPath random_path(PCG32& r, int k, bool point_light, bool allow_delta, bool media = false) {
   TestPath P;
   P.point_light = point_light;
   for (int i = 0; i <= k; ++i) {
@@ -158,6 +179,7 @@ TestPath random_path(PCG32& r, int k, bool point_light, bool allow_delta) {
     v.p = Vec3f(2.f * r.next_float() - 1.f, 2.f * r.next_float() - 1.f, 2.f * r.next_float() - 1.f) * 2.f;
     v.n = random_unit(r);
     v.delta = allow_delta && i > 0 && i < k && r.next_float() < 0.3f;
+    v.medium = media && !v.delta && i > 0 && i < k && r.next_float() < 0.5f;
     P.x.push_back(v);
   }
   // The camera looks roughly at x_{k-1}.
@@ -301,4 +323,45 @@ TEST(VcmMis, LightBvhPicksWeightsSumToOne) {
     ++n_paths;
   }
   EXPECT_GT(broken, n_paths / 2) << broken << " of " << n_paths;
+}
+
+// Medium vertices (phase function, |cos| 1, no merge there) among surface and delta vertices: bdpt's and vcm's
+// weights still sum to one (radius over four decades for vcm).
+TEST(VcmMis, WeightsSumToOneWithMediumVertices) {
+  PCG32 r(23, 7);
+  int with_media = 0;
+  for (VcmMode mode : {VcmMode::kBpt, VcmMode::kVcm}) {
+    for (int trial = 0; trial < 3000; ++trial) {
+      int k = 2 + int(r.next_u32() % 6);
+      bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
+      float radius = std::pow(10.f, -4.f + 4.f * r.next_float());
+      TestPath P = random_path(r, k, point, true, true);
+      for (const V& v : P.x) with_media += v.medium;
+      int n = 0;
+      double s = weight_sum(params(mode, balance, radius), P, &n);
+      if (n == 0) continue;
+      EXPECT_NEAR(s, 1.0, 1e-4) << "mode " << int(mode) << " trial " << trial << " k " << k << " radius " << radius;
+    }
+  }
+  EXPECT_GT(with_media, 3000);
+}
+
+// Sensitivity: vcm's recursion with a merge term at medium vertices (where no merge runs) breaks the sum.
+TEST(VcmMis, MergeTermAtMediumVerticesIsDetected) {
+  PCG32 r(29, 8);
+  int broken = 0, n = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    TestPath P = random_path(r, 6, false, true, true);
+    bool any = false;
+    for (const V& v : P.x) any = any || v.medium;
+    if (!any) continue;
+    VcmParams p = params(VcmMode::kVcm, false, 0.3f);
+    EXPECT_NEAR(weight_sum(p, P), 1.0, 1e-4);
+    g_medium_vm = true;
+    broken += std::fabs(weight_sum(p, P) - 1.0) > 1e-3;
+    g_medium_vm = false;
+    ++n;
+  }
+  EXPECT_GT(n, 100);
+  EXPECT_GT(broken, n / 2) << broken << " of " << n;
 }

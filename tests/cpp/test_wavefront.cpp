@@ -511,13 +511,14 @@ TEST(WavefrontVcm, CpuBackendMatchesTheCpuDriverBitForBit) {
   }
 }
 
-// light and bdpt in participating media (vcm.h's medium vertices, null surfaces, transmittance on every
-// connection): a homogeneous fog with a point light, a glass lens focusing a point light into fog, and a
-// heterogeneous smoke (delta and ratio tracking) - the wavefront reproduces the CPU driver bit for bit.
+// light, bdpt and vcm in participating media (vcm.h's medium vertices, null surfaces, transmittance on every
+// connection, merges at surface vertices only): a homogeneous fog with a point light, a glass lens focusing a
+// point light into fog, and a heterogeneous smoke (delta and ratio tracking) - the wavefront reproduces the
+// CPU driver bit for bit.
 TEST(WavefrontVcm, CpuBackendMatchesTheCpuDriverInMedia) {
   for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"}) {
     auto sc = small_scene(name, 24, 18);
-    for (const char* integrator : {"light", "bdpt"}) {
+    for (const char* integrator : {"light", "bdpt", "vcm"}) {
       RenderOptions o;
       o.integrator = integrator;
       o.spp = 2;
@@ -627,8 +628,8 @@ TEST(Cuda, BidirectionalMatchesTheCpuPerRegion) {
   auto sc = small_scene("smallvcm-spheres", 32, 32);
   for (const char* integrator : {"light", "bdpt", "bpm", "vcm", "upg"})
     expect_gpu_agrees_per_region(sc, photon_options(integrator, 8, 0), integrator);
-  for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"})  // light and bdpt in media
-    for (const char* integrator : {"light", "bdpt"})
+  for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"})  // light, bdpt and vcm in media
+    for (const char* integrator : {"light", "bdpt", "vcm"})
       expect_gpu_agrees_per_region(small_scene(name, 32, 32), photon_options(integrator, 8, 0),
                                    std::string(integrator) + " " + name);
 }

@@ -1,12 +1,14 @@
-"""Light tracing and bidirectional path tracing in participating media (integrator/vcm.h, medium vertices).
+"""Light tracing, bidirectional path tracing and vertex connection and merging in participating media
+(integrator/vcm.h, medium vertices; vcm merges at surface vertices only).
 
 Furnaces with analytic answers (test_media.py's null sphere of medium under a constant environment: albedo 1
 gives Le everywhere), cross-checks against the volumetric path tracer on scenes both render (a point light in
 homogeneous fog and in a heterogeneous smoke blob, the camera inside the medium and outside it), and a
 volumetric caustic (a point light focused by a glass sphere into fog) that the path tracer cannot render and
-light tracing and bdpt agree on. bdpt's light subpaths splat into pixels other than their camera path's, so
+light tracing, bdpt and vcm agree on. bdpt's light subpaths splat into pixels other than their camera path's, so
 pixels are not quite independent: standard errors come from the image means of several seeds, or per region
 from two independent halves with the box filter (a splat reaches one pixel)."""
+import functools
 import json
 import subprocess
 import sys
@@ -17,6 +19,7 @@ import pytest
 import caustica
 from conftest import mean_and_se
 from test_media import LE, medium_sphere
+from test_media_emission import emission_furnace_medium
 from test_media_grid import CUDA, WHY, assert_cuda_matches_cpu, grid_medium, random_grid, smoke_box
 from test_media_photons import fog_box, region_means
 
@@ -26,14 +29,15 @@ def seed_means(scene, seeds, **opts):
     return np.array([caustica.render(scene, seed=s, **opts).reshape(-1, 3).mean(axis=0) for s in seeds])
 
 
+@pytest.mark.parametrize("integrator", ["bdpt", "vcm"])
 @pytest.mark.parametrize("medium", [
     {"sigma_a": 0.0, "sigma_s": [0.8, 1.0, 1.25], "g": 0.5},
     {"sigma_a": 0.0, "sigma_s": [0.8, 1.0, 1.25], "g": -0.3},
     "grid",
 ], ids=["g0.5", "g-0.3", "grid"])
-def test_scattering_furnace(medium):
+def test_scattering_furnace(medium, integrator):
     # Albedo 1, sigma_s differing per channel (each subpath's hero channel and spectral MIS), the camera inside
-    # the medium: bdpt sees Le in every pixel - every strategy's medium vertices, their connections through the
+    # the medium: bdpt and vcm (no surface to merge at: its connections alone) see Le in every pixel - every strategy's medium vertices, their connections through the
     # null boundary (transmittance to the environment) and the light subpaths from the environment, which start
     # outside the sphere and enter it. The grid case: a random 8^3 density grid with empty cells (delta
     # tracking in both subpaths, ratio tracking on every connection). 8 seeds, 5 standard errors of their mean.
@@ -41,7 +45,7 @@ def test_scattering_furnace(medium):
         values = random_grid()
         values[::3, ::2, 1::4] = 0.0
         medium = grid_medium(values, sigma_a=0.0, sigma_s=[0.8, 1.0, 1.25], g=0.3)
-    means = seed_means(medium_sphere(medium, width=16), range(8), integrator="bdpt", spp=8, max_depth=-1)
+    means = seed_means(medium_sphere(medium, width=16), range(8), integrator=integrator, spp=8, max_depth=-1)
     for c in range(3):
         m, se = mean_and_se(means[:, c])
         assert 0.0 < se < 0.02 * LE[c]
@@ -89,6 +93,19 @@ def with_box_filter(scene):
     return scene
 
 
+def cross_check_scene(name):
+    s = {"fog": lambda: fog_box(), "smoke": lambda: smoke_box(), "fog-outside": lambda: outside(fog_box()),
+         "coloured-smoke": lambda: smoke_box()}[name]()
+    if name == "coloured-smoke":
+        s["media"]["fog"]["sigma_s"] = [0.3, 0.4, 0.6]
+    return with_box_filter(s)
+
+
+@functools.lru_cache(maxsize=None)
+def path_reference(name):
+    return halves(cross_check_scene(name), "path", 1024, (11, 12))
+
+
 @pytest.mark.parametrize("scene", ["fog", "smoke", "fog-outside", "coloured-smoke"])
 def test_cross_check_against_the_path_tracer(scene):
     # A point light in fog (homogeneous, sigma_s 0.3, g 0.3) or in a smoke blob (a 16^3 grid; the coloured one
@@ -98,13 +115,8 @@ def test_cross_check_against_the_path_tracer(scene):
     # is outside the fog. (From inside, light tracing's splats of vertices near the lens grow as 1/d^2: its
     # variance is infinite and its finite-sample means run low, measured -6%; bdpt's MIS gives those
     # vertices to the camera's strategies.) A region 10% off is far outside the bound (checked below).
-    s = {"fog": lambda: fog_box(), "smoke": lambda: smoke_box(),
-         "fog-outside": lambda: outside(fog_box()),
-         "coloured-smoke": lambda: smoke_box()}[scene]()
-    if scene == "coloured-smoke":
-        s["media"]["fog"]["sigma_s"] = [0.3, 0.4, 0.6]
-    with_box_filter(s)
-    ref = halves(s, "path", 1024, (11, 12))
+    s = cross_check_scene(scene)
+    ref = path_reference(scene)
     bd = halves(s, "bdpt", 256, (13, 14))
     z = z_scores(bd, ref)
     assert np.abs(z).max() < 5.0, (np.abs(z).max(), bd[0][..., 1], ref[0][..., 1])
@@ -113,6 +125,19 @@ def test_cross_check_against_the_path_tracer(scene):
         lt = halves(s, "light", 512, (15, 16))
         z = z_scores(lt, ref)
         assert np.abs(z).max() < 5.0, (np.abs(z).max(), lt[0][..., 1], ref[0][..., 1])
+
+
+@pytest.mark.parametrize("scene", ["fog", "smoke", "fog-outside"])
+def test_vcm_cross_checks_the_path_tracer(scene):
+    # vcm in the scenes above: connections at every vertex, merges on the floor only (not at medium vertices;
+    # the MIS weights leave those merges out, tests/cpp/test_vcm_mis.cpp). Per region within 5 standard errors
+    # of the difference plus 1% of the value for the merges' kernel bias at the automatic radius (measured
+    # over two seed sets: |z| <= 2.9, relative differences up to 4% where the noise is largest).
+    s = cross_check_scene(scene)
+    ref = path_reference(scene)
+    vc = halves(s, "vcm", 256, (17, 18))
+    d = np.abs(vc[0] - ref[0])
+    assert (d < 5 * np.sqrt(vc[1] ** 2 + ref[1] ** 2) + 0.01 * ref[0]).all(), (vc[0][..., 1], ref[0][..., 1])
 
 
 def test_volumetric_caustic():
@@ -133,13 +158,16 @@ def test_volumetric_caustic():
     assert np.abs(z).max() < 5.0, (np.abs(z).max(), bd[0][..., 1], lt[0][..., 1])
     caustic = z_scores(bd, pt)[2:, 1:3]
     assert caustic.max() > 10.0, caustic[..., 1]
+    # vcm renders every region bdpt does (what the sphere shows included): within 5 standard errors plus 1%.
+    vc = halves(s, "vcm", 256, (27, 28))
+    assert (np.abs(vc[0] - bd[0]) < 5 * np.sqrt(vc[1] ** 2 + bd[1] ** 2) + 0.01 * bd[0]).all()
 
 
 def test_threads_and_wavefront_give_the_same_image():
     # The wavefront driver runs the same stage functions (the transmittance of every connection and splat
     # included) with the same streams: bit for bit, as the thread count.
     for s in (fog_box(width=16), smoke_box(width=16)):
-        for integrator in ("light", "bdpt"):
+        for integrator in ("light", "bdpt", "vcm"):
             kw = dict(integrator=integrator, spp=3, seed=6, max_depth=-1)
             one = caustica.render(s, threads=1, **kw)
             assert np.array_equal(one, caustica.render(s, threads=2, **kw))
@@ -158,13 +186,19 @@ def test_strategy_images_sum_to_the_image():
         assert r.strategies[k].mean() > 0, k
 
 
-@pytest.mark.parametrize("integrator", ["bdpt", "light"])
-def test_emissive_media_are_refused(integrator):
-    scene = medium_sphere({"sigma_a": 0.5, "sigma_s": 0.5, "emission": [1, 1, 1]}, width=8)
-    with pytest.raises(caustica.InputError) as e:
-        caustica.render(scene, integrator=integrator, spp=1)
-    assert str(e.value) == (f"integrator '{integrator}' does not render emissive media (medium 'm' emits); "
-                            "use --integrator path")
+@pytest.mark.parametrize("integrator", ["bdpt", "vcm"])
+@pytest.mark.parametrize("kind", ["homogeneous", "colour grid with an emission grid"])
+def test_furnace_with_emission(kind, integrator):
+    # test_media_emission's furnace (a scattering medium emitting the environment's radiance: L_env in every
+    # pixel): the camera subpaths score the emission at their medium vertices with MIS weight 1 (no light
+    # subpath starts in a medium), the scattered environment light comes by every strategy. 8 seeds, 5
+    # standard errors of their mean.
+    means = seed_means(medium_sphere(emission_furnace_medium(kind), width=16), range(8), integrator=integrator,
+                       spp=8, max_depth=-1)
+    for c in range(3):
+        m, se = mean_and_se(means[:, c])
+        assert 0.0 < se < 0.02 * LE[c]
+        assert abs(m - LE[c]) < 5 * se, (c, m, LE[c], se)
 
 
 def test_cli_renders_fog_with_bdpt(tmp_path):
@@ -180,4 +214,5 @@ def test_cli_renders_fog_with_bdpt(tmp_path):
 @pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
 def test_cuda_matches_the_cpu():
     # light and bdpt in the smoke blob on the GPU (the same stage functions) against the CPU, per region.
-    assert_cuda_matches_cpu(smoke_box(), (dict(integrator="bdpt", spp=16), dict(integrator="light", spp=16)))
+    assert_cuda_matches_cpu(smoke_box(), (dict(integrator="bdpt", spp=16), dict(integrator="light", spp=16),
+                                          dict(integrator="vcm", spp=16)))

@@ -38,21 +38,25 @@ def test_absorbing_emitter(max_depth, wavefront):
     assert_pixel_means(img, le * (1 - T) + np.array(LE) * T)
 
 
+def emission_furnace_medium(kind):
+    """A medium that emits the environment's radiance L_env and scatters (albedo < 1, chromatic, g 0.4): in
+    equilibrium with it, sigma_a L_env emitted + sigma_s L_env scattered in = sigma_t L_env lost. The grid
+    version: a random colour density, an albedo grid, and Le times an emission grid equal to L_env everywhere."""
+    if kind == "homogeneous":
+        return {"sigma_a": [0.3, 0.1, 0.6], "sigma_s": [0.5, 1.0, 0.4], "g": 0.4, "emission": LE}
+    d = np.random.default_rng(7).uniform(0.0, 2.0, size=(5, 5, 5, 3)).astype(np.float32)
+    medium = grid_medium(d[..., 0], sigma_t=[0.8, 1.1, 1.0], g=0.4)
+    medium["density"] = {"resolution": [5, 5, 5], "channels": 3, "values": d.ravel().tolist()}
+    medium["albedo"] = {"resolution": [2, 1, 1], "channels": 3, "values": [0.9, 0.2, 0.5, 0.3, 0.7, 0.95]}
+    medium["emission"] = {"resolution": [1, 1, 1], "channels": 3, "values": LE, "outside": "clamp"}
+    return medium
+
+
 @pytest.mark.parametrize("kind", ["homogeneous", "colour grid with an emission grid"])
 def test_furnace_with_emission(kind):
-    # A medium that emits the environment's radiance L_env and scatters (albedo < 1, chromatic, g 0.4) is in
-    # equilibrium with it: sigma_a L_env emitted + sigma_s L_env scattered in = sigma_t L_env lost, so every
-    # pixel is L_env. The grid version: a random colour density, an albedo grid, and Le times an emission grid
-    # equal to L_env everywhere. 4 standard errors of the 576-pixel mean.
-    if kind == "homogeneous":
-        medium = {"sigma_a": [0.3, 0.1, 0.6], "sigma_s": [0.5, 1.0, 0.4], "g": 0.4, "emission": LE}
-    else:
-        d = np.random.default_rng(7).uniform(0.0, 2.0, size=(5, 5, 5, 3)).astype(np.float32)
-        medium = grid_medium(d[..., 0], sigma_t=[0.8, 1.1, 1.0], g=0.4)
-        medium["density"] = {"resolution": [5, 5, 5], "channels": 3, "values": d.ravel().tolist()}
-        medium["albedo"] = {"resolution": [2, 1, 1], "channels": 3, "values": [0.9, 0.2, 0.5, 0.3, 0.7, 0.95]}
-        medium["emission"] = {"resolution": [1, 1, 1], "channels": 3, "values": LE, "outside": "clamp"}
-    img = caustica.render(medium_sphere(medium), spp=64, seed=2, max_depth=-1)
+    # emission_furnace_medium is in equilibrium with the environment: every pixel is L_env. 4 standard errors
+    # of the 576-pixel mean.
+    img = caustica.render(medium_sphere(emission_furnace_medium(kind)), spp=64, seed=2, max_depth=-1)
     assert_pixel_means(img, LE)
 
 
@@ -128,13 +132,14 @@ def test_blackbody_emission_grid(kelvin):
         assert abs(m - expected[c]) <= 4 * se + 1e-3 * expected.max() + 1e-9, (c, m, expected[c], se)
 
 
-def test_photon_mappers_refuse_emissive_media():
+def test_photon_mappers_and_light_tracing_refuse_emissive_media():
+    # Their paths start at lights only (light tracing's camera paths end at their first non-delta vertex).
     s = medium_sphere({"sigma_a": 0.2, "sigma_s": 0.5, "emission": 1.0})
-    for integrator in ("pppm", "sppm"):
+    for integrator in ("pppm", "sppm", "light"):
         with pytest.raises(caustica.InputError) as e:
             caustica.render(s, integrator=integrator, spp=1, photons=100)
-        assert f"integrator '{integrator}' does not render emissive media (medium 'm' emits); use --integrator path" \
-            in str(e.value)
+        assert str(e.value) == (f"integrator '{integrator}' does not render emissive media (medium 'm' emits); "
+                                "use --integrator path, bdpt or vcm")
 
 
 def test_threads_wavefront_export_and_describe(tmp_path):

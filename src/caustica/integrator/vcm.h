@@ -42,19 +42,23 @@
 // point, each with h(d) and its own MIS weight using p(d) as the camera's
 // raster density (box and tent: p = h; gaussian: p is the untruncated shape).
 //
-// Participating media (`light` and `bdpt`; the drivers refuse them for the merging modes). Both subpaths
+// Participating media (`light`, `bdpt`, `vcm`; the drivers refuse them for `bpm` and `upg`). Both subpaths
 // sample free-flight distances in the medium their ray is in with the path tracer's estimator (medium/medium.h:
 // a hero channel per subpath, spectral MIS over the subpath; delta tracking in grid media), so a subpath's
-// throughput is unbiased per channel however its hero was drawn, and a connection of two independent subpaths
-// is too. A scattering event is a vertex like a surface's with the Henyey-Greenstein phase function in the place
-// of the BSDF and no cosine: in the MIS quantities its |cos| is 1 (the geometry term has a cosine at surface points only;
-// pbrt-v3's BDPT, Sec. 16.3, converts a medium vertex's density to area by 1/d^2 alone). Like that BDPT, the
-// MIS densities leave out the free-flight and transmittance factors of the segments: every strategy's weight for a path is computed from the same densities, so the
-// weights still sum to one and each strategy's estimate stays unbiased; only the weights' quality suffers
-// where transmittance varies strongly. Connections, next-event estimation and light-tracing splats carry the
-// transmittance of their segment (ratio tracking in grid media, medium_scene.h's shadow_transmittance), through
-// null surfaces, which subpaths also cross without a vertex (the segment's length for the 1/d^2 conversion runs
-// from the last vertex). Russian roulette at a medium vertex continues with the event's albedo.
+// throughput is unbiased per channel however its hero was drawn, and a connection of two independent
+// subpaths is too. A scattering event is a vertex like a surface's with the Henyey-Greenstein phase function
+// in the place of the BSDF and no cosine: in the MIS quantities its |cos| is 1 (the geometry term has a
+// cosine at surface points only; pbrt-v3's BDPT, Sec. 16.3, converts a medium vertex's density to area by
+// 1/d^2 alone). Like that BDPT, the MIS densities leave out the free-flight and transmittance factors of the
+// segments: every strategy's weight for a path is computed from the same densities, so the weights still sum
+// to one and each strategy's estimate stays unbiased; only the weights' quality suffers where transmittance
+// varies strongly. Medium vertices are never merged (vcm merges at surfaces only): their merge term is left
+// out of the running quantities (vcm_after_scatter's vm_here) and of the weights of connections there.
+// Connections, next-event estimation and light-tracing splats carry the transmittance of their segment
+// (ratio tracking in grid media, medium_scene.h's shadow_transmittance), through null surfaces, which
+// subpaths also cross without a vertex (the segment's length for the 1/d^2 conversion runs from the last
+// vertex). Russian roulette at a medium vertex continues with the event's albedo. Camera subpaths score an
+// emissive medium's emission at their events with MIS weight 1 (no light subpath starts in a medium).
 //
 // Modes (as SmallVCM's algorithms): kLight uses only t = 1 (light tracing, no
 // MIS) plus camera rays through specular chains for L S* E; kBpt all
@@ -227,13 +231,17 @@ CHD float vcm_weight_nee(const VcmParams& p, const VcmMis& cam, float pick, floa
 
 // The merge term at a light vertex joined to the camera (t = 1): for upg none
 // (a gathered photon is never joined to the camera itself).
-CHD float vcm_lt_vm(const VcmParams& p) { return p.mode == VcmMode::kUpg ? 0.f : p.vm_factor; }
+CHD float vcm_lt_vm(const VcmParams& p, bool in_medium) {
+  return p.mode == VcmMode::kUpg || in_medium ? 0.f : p.vm_factor;
+}
 
 // Light vertex to camera (t = 1, Eqs. 46-47): camera_pdf_a is the camera's
-// density of the light vertex (raster density -> area at the vertex).
-CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camera_pdf_a, float bsdf_rev_pdf_w) {
-  float w_light =
-      vcm_mis(p, camera_pdf_a / p.n_light) * (vcm_lt_vm(p) + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
+// density of the light vertex (raster density -> area at the vertex); in_medium: a medium vertex (no merge).
+// (vcm_light_to_camera computes the same per pixel: VcmSplat::Q.)
+CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camera_pdf_a, float bsdf_rev_pdf_w,
+                            bool in_medium = false) {
+  float w_light = vcm_mis(p, camera_pdf_a / p.n_light) *
+                  (vcm_lt_vm(p, in_medium) + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
   return 1.f / (w_light + 1.f);
 }
 
@@ -242,8 +250,9 @@ CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camer
 // cam_vm as for vcm_weight_nee; the light side's merge term (the merge, or upg's
 // gather, of the light vertex joined to this camera vertex) always exists.
 CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_a,
-                             float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w, float cam_vm) {
-  float w_light = vcm_mis(p, cam_dir_pdf_a) * (p.vm_factor + light.dVCM + light.dVC * vcm_mis(p, light_rev_pdf_w));
+                             float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w, float cam_vm,
+                             float light_vm) {
+  float w_light = vcm_mis(p, cam_dir_pdf_a) * (light_vm + light.dVCM + light.dVC * vcm_mis(p, light_rev_pdf_w));
   float w_camera = vcm_mis(p, light_dir_pdf_a) * (cam_vm + cam.dVCM + cam.dVC * vcm_mis(p, cam_rev_pdf_w));
   return 1.f / (w_light + 1.f + w_camera);
 }
@@ -470,7 +479,7 @@ struct VcmMergeVertex {
   Vec3f wi;
   RGB beta{0.f};
   float dVCM = 0.f, dVM = 0.f;
-  uint32_t length = 0;
+  uint32_t length = 0;  // segments from the light; 0: a medium vertex, which is never merged (header comment)
 };
 
 CHD VcmMergeVertex vcm_merge_vertex(const VcmLightVertex& v) {
@@ -479,7 +488,7 @@ CHD VcmMergeVertex vcm_merge_vertex(const VcmLightVertex& v) {
   m.beta = v.beta;
   m.dVCM = v.mis.dVCM;
   m.dVM = v.mis.dVM;
-  m.length = v.length;
+  m.length = v.in_medium ? 0u : v.length;
   return m;
 }
 
@@ -581,7 +590,8 @@ CHD void vcm_light_locate(const SceneView& s, VcmPathState& st, Intersect&& inte
 // in a grid medium from a stream of its own): true for a scattering event, which st becomes as a medium vertex
 // (sh.p, wo_world, in_medium; the segment's length from the last vertex in *dist); false when the segment
 // reaches the surface (st.beta then holds its transmittance factor) or the path ends (st.active false).
-CHD bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit, float& dist) {
+// `camera`: a camera subpath, which scores an emissive medium's emission at the event.
+CHD bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit, float& dist, bool camera) {
   const Medium& md = s.media[st.medium];
   const float dlen = length(st.ray.d);
   const Vec3f d = st.ray.d / dlen;
@@ -591,6 +601,10 @@ CHD bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit
   const MediumSample ms = medium_sample(s, md, st.ray.o, d, hit.valid() ? hit.t * dlen : kInf, st.hero, u.y,
                                         track_seed);
   const RGB before = st.beta;
+  // An emissive medium's emission at a camera subpath's event (medium/medium.h's collision estimator, with the
+  // throughput before the event): no other strategy samples such a path (light subpaths start at lights), so
+  // its MIS weight is 1.
+  if (camera) st.L += medium_event_emission(ms, st.beta, st.r_medium);
   if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta) || !isfinite3(st.beta)) {
     st.active = false;
     return false;
@@ -650,7 +664,7 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   st.crossing = false;
   st.in_medium = false;
   float dist = 0.f;
-  if (st.medium >= 0 && vcm_medium_segment(s, st, hit, dist)) {
+  if (st.medium >= 0 && vcm_medium_segment(s, st, hit, dist, false)) {
     // A scattering event in the medium: a vertex with the phase function (|cos| 1).
   } else {
     if (!st.active || !hit.valid()) {
@@ -736,7 +750,7 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   sp.C = st.beta * e.f * (K / p.n_light);
   sp.K = K;
   VcmMis lm = vcm_mis_commit(p, st.mis);
-  sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p) + lm.dVCM + lm.dVC * vcm_mis(p, e.pdf_rev);
+  sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p, st.in_medium) + lm.dVCM + lm.dVC * vcm_mis(p, e.pdf_rev);
   sp.raster = raster;
   sp.length = st.length;
   sp.ray = spawn_ray_to(vcm_origin_towards(st, w), pl, Vec3f(0.f));
@@ -786,7 +800,7 @@ CHD bool vcm_scatter_medium(const SceneView& s, const VcmParams& p, VcmPathState
   const float u_rr = st.sampler.next_1d();
   float pdf;
   const Vec3f wi = hg_sample(st.wo_world, s.media[st.medium].g, u, &pdf);
-  vcm_after_scatter(p, st.mis, 1.f, pdf, pdf, false, true, false);
+  vcm_after_scatter(p, st.mis, 1.f, pdf, pdf, false, false, false);  // no merge at a medium vertex
   st.vm_ok = false;
   st.specular = false;
   if (st.length >= p.rr_depth) {
@@ -891,8 +905,8 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
   st.crossing = false;
   st.in_medium = false;
   float dist = 0.f;
-  if (st.medium >= 0 && vcm_medium_segment(s, st, hit, dist)) {
-    // A scattering event in the medium: a vertex with the phase function (|cos| 1), no emission.
+  if (st.medium >= 0 && vcm_medium_segment(s, st, hit, dist, true)) {
+    // A scattering event in the medium: a vertex with the phase function (|cos| 1).
     st.length += 1;
     st.seg_t = 0.f;
     st.null_crossings = 0;
@@ -968,7 +982,7 @@ struct VcmShadow {
 
 // The merge term at camera vertex st (see vcm_weight_nee).
 CHD float vcm_cam_vm(const VcmParams& p, const VcmPathState& st) {
-  return p.mode == VcmMode::kUpg && !st.vm_ok ? 0.f : p.vm_factor;
+  return (p.mode == VcmMode::kUpg && !st.vm_ok) || st.in_medium ? 0.f : p.vm_factor;
 }
 
 // Next-event estimation from the camera vertex (s = 1).
@@ -1035,7 +1049,8 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   float G = cos_c * cos_l / d2;
   float cam_dir_a = ec.pdf_fwd * cos_l / d2;
   float light_dir_a = el.pdf_fwd * cos_c / d2;
-  float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, ec.pdf_rev, light_dir_a, el.pdf_rev, vcm_cam_vm(p, st));
+  float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, ec.pdf_rev, light_dir_a, el.pdf_rev, vcm_cam_vm(p, st),
+                                v.in_medium ? 0.f : p.vm_factor);
   sr.contrib = st.beta * ec.f * el.f * v.beta * (G * mw);
   sr.weight = mw;
   Vec3f o = vcm_origin_towards(st, w);
@@ -1054,11 +1069,11 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
 // `vertices` is indexed as the grid reports (the grid's order when its view has no ids).
 CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
                           const VcmMergeVertex* vertices) {
-  if (!st.vertex_valid || !p.merges()) return;
+  if (!st.vertex_valid || !p.merges() || st.in_medium) return;
   RGB sum(0.f);
   grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
     const VcmMergeVertex& v = vertices[id];
-    if (v.length + st.length > p.max_depth) return;
+    if (v.length == 0 || v.length + st.length > p.max_depth) return;  // a medium vertex, or too long
     Vec3f wl = st.frame.to_local(v.wi);
     RGB f = bsdf_eval(st.m, st.wo, wl) * photon_gather_cosines(st.sh.ns, st.sh.ng, v.wi);
     if (is_black(f)) return;
