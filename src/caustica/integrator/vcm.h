@@ -536,22 +536,31 @@ struct VcmPathState {
 // Vertices in media (header comment).
 
 // A vertex's scattering towards w: f (with the shading-normal adjoint for importance), its |cos| (1 in a
-// medium), and the forward (wo -> w) and reverse densities per solid angle.
+// medium), and the forward (wo -> w) and reverse densities per solid angle, each only where asked for (fwd,
+// rev; else 0: a BSDF's density costs about what its value does).
 struct VcmVertexEval {
   RGB f{0.f};
   float cos = 1.f, pdf_fwd = 0.f, pdf_rev = 0.f;
 };
 
 CHD VcmVertexEval vcm_eval_surface(const Material& m, const Frame& fr, const SurfaceHit& sh, Vec3f wo_world, Vec3f wo,
-                                   Vec3f w, TransportMode mode) {
+                                   Vec3f w, TransportMode mode, bool fwd = true, bool rev = true) {
   VcmVertexEval e;
   const Vec3f wl = fr.to_local(w);
   e.f = bsdf_eval(m, wo, wl, mode);
+  if (is_black(e.f)) return e;
   if (mode == TransportMode::kImportance) e.f *= shading_normal_adjoint(sh, wo_world, w);
   e.cos = std::fabs(wl.z);
+  if (fwd) e.pdf_fwd = bsdf_pdf(m, wo, wl);
+  if (rev) e.pdf_rev = bsdf_pdf(m, wl, wo);
+  return e;
+}
+
+// The forward and reverse densities of vcm_eval_surface alone, into e.
+CHD void vcm_surface_pdfs(const Material& m, const Frame& fr, Vec3f wo, Vec3f w, VcmVertexEval& e) {
+  const Vec3f wl = fr.to_local(w);
   e.pdf_fwd = bsdf_pdf(m, wo, wl);
   e.pdf_rev = bsdf_pdf(m, wl, wo);
-  return e;
 }
 
 // The Henyey-Greenstein phase function is symmetric: both densities are its value.
@@ -564,9 +573,10 @@ CHD VcmVertexEval vcm_eval_medium(float g, Vec3f wo_world, Vec3f w) {
 }
 
 // The vertex st just reached, seen towards w (mode: the subpath's transport mode).
-CHD VcmVertexEval vcm_eval_state(const SceneView& s, const VcmPathState& st, Vec3f w, TransportMode mode) {
+CHD VcmVertexEval vcm_eval_state(const SceneView& s, const VcmPathState& st, Vec3f w, TransportMode mode,
+                                 bool fwd = true, bool rev = true) {
   if (st.in_medium) return vcm_eval_medium(s.media[st.medium].g, st.wo_world, w);
-  return vcm_eval_surface(st.m, st.frame, st.sh, st.wo_world, st.wo, w, mode);
+  return vcm_eval_surface(st.m, st.frame, st.sh, st.wo_world, st.wo, w, mode, fwd, rev);
 }
 
 // The point a ray from st's vertex towards w starts at, and the medium it starts in (a surface with a medium
@@ -591,7 +601,9 @@ CHD void vcm_light_locate(const SceneView& s, VcmPathState& st, Intersect&& inte
 // (sh.p, wo_world, in_medium; the segment's length from the last vertex in *dist); false when the segment
 // reaches the surface (st.beta then holds its transmittance factor) or the path ends (st.active false).
 // `camera`: a camera subpath, which scores an emissive medium's emission at the event.
-CHD bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit, float& dist, bool camera) {
+// (Out of line, as vcm_cross_null and vcm_scatter_medium: the hit and scatter stages of scenes without media
+// stay as compact as before.)
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit, float& dist, bool camera) {
   const Medium& md = s.media[st.medium];
   const float dlen = length(st.ray.d);
   const Vec3f d = st.ray.d / dlen;
@@ -621,7 +633,7 @@ CHD bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit
 }
 
 // A null surface at st.sh: the subpath goes on through it without a vertex (st.crossing).
-CHD void vcm_cross_null(const SceneView& s, VcmPathState& st, float t) {
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline void vcm_cross_null(const SceneView& s, VcmPathState& st, float t) {
   st.crossing = true;
   st.seg_t += t * length(st.ray.d);
   if (!cross_null_surface(s, st.sh, st.ray, st.medium, st.null_crossings)) st.active = false;
@@ -742,7 +754,8 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   Vec3f d = pl - st.sh.p;
   float d2 = length_sq(d);
   Vec3f w = d / std::sqrt(d2);
-  const VcmVertexEval e = vcm_eval_state(s, st, w, TransportMode::kImportance);
+  // The splat's MIS weight needs the reverse density only (light tracing alone, none).
+  const VcmVertexEval e = vcm_eval_state(s, st, w, TransportMode::kImportance, false, p.mode != VcmMode::kLight);
   if (is_black(e.f)) return;
   float cos_y = e.cos;
   float K = c.orthographic ? cos_y / camera_pixel_area(c)
@@ -794,7 +807,8 @@ CHD float vcm_rr_eta2(const BSDFSample& bs, TransportMode mode) {
 
 // The next direction from a medium vertex by the phase function (weight 1), Russian roulette with the event's
 // albedo (the throughput over the one before the event).
-CHD bool vcm_scatter_medium(const SceneView& s, const VcmParams& p, VcmPathState& st) {
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_scatter_medium(const SceneView& s, const VcmParams& p,
+                                                                     VcmPathState& st) {
   st.sampler.next_1d();  // the BSDF's lobe number, unused: both kinds of vertex take the same count
   const Vec2f u = st.sampler.next_2d();
   const float u_rr = st.sampler.next_1d();
@@ -999,7 +1013,7 @@ CHD void vcm_camera_nee(const SceneView& s, const VcmParams& p, VcmPathState& st
   const Light& l = s.lights[li];
   LightSample ls;
   if (!sample_light(s, l, st.p_front, u2, ls)) return;
-  const VcmVertexEval e = vcm_eval_state(s, st, ls.wi, TransportMode::kRadiance);
+  const VcmVertexEval e = vcm_eval_state(s, st, ls.wi, TransportMode::kRadiance, !ls.delta);
   const RGB f = e.f;
   if (is_black(f)) return;
   float cos_to_light = e.cos;
@@ -1033,18 +1047,23 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   if (!(d2 > 0.f)) return;
   float dist = std::sqrt(d2);
   Vec3f w = d / dist;
-  const VcmVertexEval ec = vcm_eval_state(s, st, w, TransportMode::kRadiance);
+  // Both sides' values first, their densities only where both are non-zero (a light vertex often faces away).
+  VcmVertexEval ec = vcm_eval_state(s, st, w, TransportMode::kRadiance, false, false);
   if (is_black(ec.f)) return;
   VcmVertexEval el;
+  SurfaceHit vsh = v.sh;  // surface_material may bend its shading normal
+  Material vm;
+  Frame vf;
   if (v.in_medium) {
     el = vcm_eval_medium(s.media[v.medium].g, v.wi, -w);
   } else {
-    SurfaceHit vsh = v.sh;  // surface_material may bend its shading normal
-    const Material vm = surface_material(s, vsh);
-    const Frame vf = shading_frame(s, vsh, vm);
-    el = vcm_eval_surface(vm, vf, vsh, v.wi, vf.to_local(v.wi), -w, TransportMode::kImportance);
+    vm = surface_material(s, vsh);
+    vf = shading_frame(s, vsh, vm);
+    el = vcm_eval_surface(vm, vf, vsh, v.wi, vf.to_local(v.wi), -w, TransportMode::kImportance, false, false);
   }
   if (is_black(el.f)) return;
+  if (!st.in_medium) vcm_surface_pdfs(st.m, st.frame, st.wo, w, ec);
+  if (!v.in_medium) vcm_surface_pdfs(vm, vf, vf.to_local(v.wi), -w, el);
   float cos_c = ec.cos, cos_l = el.cos;
   float G = cos_c * cos_l / d2;
   float cam_dir_a = ec.pdf_fwd * cos_l / d2;
