@@ -25,7 +25,11 @@ cube, a glass sphere of milk, a null box of smoke, a floor and an area light in 
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
 box whose albedo is a gridvolume).
 
-usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--rows]
+`--integrator bdpt` (or light, vcm, sppm, ...) renders caustica's side with that integrator instead of `path`, against
+the same Mitsuba renders (e.g. bdpt with medium vertices on foggy, smoky and tinted against Mitsuba's volpath).
+
+usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--integrator path] [--only NAME ...]
+       [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
 """
 import argparse
@@ -439,11 +443,11 @@ def write_scenes(res):
             "tinted": os.path.join(OUT, "tinted.xml")}
 
 
-def render_caustica(path, res, spp, seed):
+def render_caustica(path, res, spp, seed, integrator="path"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s = caustica.load_scene(path, width=res, height=res)
-        return np.asarray(caustica.render(s, spp=spp, seed=seed), np.float64)
+        return np.asarray(caustica.render(s, integrator=integrator, spp=spp, seed=seed), np.float64)
 
 
 def render_mitsuba(path, res, spp, seed):
@@ -474,6 +478,7 @@ def main():
     ap.add_argument("--res", type=int, default=128)
     ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
     ap.add_argument("--only", nargs="*", help="render only these scenes (names as printed)")
+    ap.add_argument("--integrator", default="path", help="caustica's integrator (default path)")
     args = ap.parse_args()
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() else "scalar_rgb")
@@ -484,7 +489,7 @@ def main():
     for name, path in scenes.items():
         if args.only and name not in args.only:
             continue
-        c1, c2 = (render_caustica(path, args.res, args.spp, s) for s in (1, 2))
+        c1, c2 = (render_caustica(path, args.res, args.spp, s, args.integrator) for s in (1, 2))
         m1, m2 = (render_mitsuba(path, args.res, args.spp, s) for s in (1, 2))
         noise = relmse(c1, c2)
         cross = relmse(c1, m1)
@@ -494,8 +499,9 @@ def main():
         print(f"{name:9s} mean caustica {c1.mean():.4f} mitsuba {m1.mean():.4f}  relMSE(c,m) {cross:.5f}  "
               f"relMSE(c1,c2) {noise:.5f}  relMSE(m1,m2) {mnoise:.5f}  ratio {ratio:.2f}  "
               f"worst 16x16 region {worst:.1f} standard errors")
+        how = "" if args.integrator == "path" else f" --integrator {args.integrator}"
         rows.append(f"| {datetime.date.today()} | {machine} | {commit} | `bench/compare_mitsuba_xml.py --spp "
-                    f"{args.spp} --res {args.res}` | {name}: mean {c1.mean():.4f} vs Mitsuba {mi.__version__} "
+                    f"{args.spp} --res {args.res}{how}` | {name}: mean {c1.mean():.4f} vs Mitsuba {mi.__version__} "
                     f"{m1.mean():.4f}; relMSE(caustica, Mitsuba) / mean relMSE(two seeds of each) = "
                     f"{ratio:.2f}; worst 16x16 region {worst:.1f} standard errors |")
         caustica.write_image(os.path.join(OUT, f"{name}_caustica.exr"), c1.astype(np.float32))

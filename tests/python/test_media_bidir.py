@@ -37,9 +37,9 @@ def seed_means(scene, seeds, **opts):
 ], ids=["g0.5", "g-0.3", "grid"])
 def test_scattering_furnace(medium, integrator):
     # Albedo 1, sigma_s differing per channel (each subpath's hero channel and spectral MIS), the camera inside
-    # the medium: bdpt and vcm (no surface to merge at: its connections alone) see Le in every pixel - every strategy's medium vertices, their connections through the
-    # null boundary (transmittance to the environment) and the light subpaths from the environment, which start
-    # outside the sphere and enter it. The grid case: a random 8^3 density grid with empty cells (delta
+    # the medium: bdpt and vcm (no surface to merge at: its connections alone) see Le in every pixel - every
+    # strategy's medium vertices, their connections through the null boundary (transmittance to the
+    # environment) and the light subpaths from the environment, which start outside the sphere and enter it. The grid case: a random 8^3 density grid with empty cells (delta
     # tracking in both subpaths, ratio tracking on every connection). 8 seeds, 5 standard errors of their mean.
     if medium == "grid":
         values = random_grid()

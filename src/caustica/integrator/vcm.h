@@ -247,8 +247,9 @@ CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camer
 
 // Light vertex to camera vertex (Eqs. 40-41). *_dir_pdf_a: each side's BSDF
 // density of the other vertex (area); *_rev_pdf_w: each side's reverse density.
-// cam_vm as for vcm_weight_nee; the light side's merge term (the merge, or upg's
-// gather, of the light vertex joined to this camera vertex) always exists.
+// cam_vm as for vcm_weight_nee; light_vm the light side's merge term (the merge, or
+// upg's gather, of the light vertex joined to this camera vertex): p.vm_factor, or 0
+// at a medium vertex (never merged).
 CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_a,
                              float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w, float cam_vm,
                              float light_vm) {
@@ -472,7 +473,7 @@ struct VcmLightVertex {
   bool in_medium = false;  // a scattering event in a medium (no surface)
 };
 
-// What a merge reads of a light vertex (36 bytes against VcmLightVertex's 100):
+// What a merge reads of a light vertex (36 bytes against VcmLightVertex's 108):
 // the merging stage keeps these in the photon grid's order, so that the records
 // found by one query lie close together in memory.
 struct VcmMergeVertex {
@@ -603,7 +604,8 @@ CHD void vcm_light_locate(const SceneView& s, VcmPathState& st, Intersect&& inte
 // `camera`: a camera subpath, which scores an emissive medium's emission at the event.
 // (Out of line, as vcm_cross_null and vcm_scatter_medium: the hit and scatter stages of scenes without media
 // stay as compact as before.)
-CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_medium_segment(const SceneView& s, VcmPathState& st, const Hit& hit, float& dist, bool camera) {
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_medium_segment(const SceneView& s, VcmPathState& st,
+                                                                     const Hit& hit, float& dist, bool camera) {
   const Medium& md = s.media[st.medium];
   const float dlen = length(st.ray.d);
   const Vec3f d = st.ray.d / dlen;
