@@ -269,6 +269,7 @@ void RenderJob::make_integrator() {
     const uint32_t pixels = uint32_t(v.camera.width) * uint32_t(v.camera.height);
     VcmWavefrontParams p;
     p.base = vcm_pass_params(opt_, vcm_mode(opt_.integrator), path_params().max_depth, 0, pixels);
+    if (scene_has_media(scene_->view())) p.base.outer_medium = vcm_outer_medium(*scene_, cpu_accel(), opt_);
     p.light_paths = vcm_light_paths(opt_, pixels);
     p.radius = vcm_initial_radius(*scene_, opt_);
     p.alpha = opt_.alpha;

@@ -93,6 +93,10 @@ struct VcmParams {
   float vm_factor = 0.f;    // mis(eta_VCM), 0 without merging   (report Sec. 5.1)
   float vc_factor = 0.f;    // mis(1 / eta_VCM), 0 without connections
   float vm_norm = 0.f;      // 1 / (pi r^2 N_VM)
+  // The medium of the region outside every medium boundary, where a light subpath starts when its first ray
+  // meets no boundary: the camera's medium when the camera is in that region (an unbounded fog), else vacuum
+  // (vcm_outer_medium in vcm_render.cpp).
+  int32_t outer_medium = -1;
   // Next-event estimation (s = 1) chooses its light by the light BVH from the camera vertex (light/light_bvh.h)
   // instead of by power; light subpaths still start in proportion to power. See vcm_nee_pick.
   bool light_bvh = false;
@@ -591,10 +595,11 @@ CHD int32_t vcm_medium_towards(const SceneView& s, const VcmPathState& st, Vec3f
   return medium_after_crossing(prim_medium_interface(s, st.sh.prim), w, st.sh.ng, st.medium);
 }
 
-// The medium a light subpath starts in (medium_scene.h's locate_medium; vacuum in scenes without media).
+// The medium a light subpath starts in (medium_scene.h's locate_medium, p.outer_medium where its ray meets no
+// boundary; vacuum in scenes without media).
 template <typename Intersect>
-CHD void vcm_light_locate(const SceneView& s, VcmPathState& st, Intersect&& intersect) {
-  if (st.active && scene_has_media(s)) st.medium = locate_medium(s, intersect, st.ray);
+CHD void vcm_light_locate(const SceneView& s, const VcmParams& p, VcmPathState& st, Intersect&& intersect) {
+  if (st.active && scene_has_media(s)) st.medium = locate_medium(s, intersect, st.ray, p.outer_medium);
 }
 
 // Free-flight sampling on the segment st.ray traced to `hit` through st.medium (medium/medium.h, delta tracking

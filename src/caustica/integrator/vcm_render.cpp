@@ -40,6 +40,7 @@ VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   // merge cost grows with r^2; at twice the footprint vcm lost to SmallVCM on
   // smallvcm-point, at one footprint it won (bench/RESULTS.md, bidirectional).
   r0_ = vcm_initial_radius(*scene_, opt);
+  if (scene_has_media(v)) outer_medium_ = vcm_outer_medium(*scene_, scene_->cpu_accel(opt.accel), opt);
   if (opt.strategy_images) {
     for (uint32_t k = 1; k <= kStrategyMaxLength; ++k)
       for (uint32_t s = 0; s <= k; ++s)
@@ -79,6 +80,23 @@ float vcm_radius(float r0, float alpha, int64_t pass) {
   return float(double(r0) * std::pow(double(pass + 1), 0.5 * (double(alpha) - 1.0)));
 }
 
+int32_t vcm_outer_medium(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt) {
+  const SceneView& v = scene.view();
+  if (!scene_has_media(v)) return -1;
+  // Where the camera's forward ray meets no boundary, the camera is in the region outside every boundary,
+  // whose medium is then the camera's; where it meets one, the camera's medium must be the side it is on.
+  Ray forward = v.camera.generate_ray(Vec2f(0.5f * v.camera.width, 0.5f * v.camera.height), Vec2f(0.5f, 0.5f));
+  const auto intersect = [&](const Ray& r, Hit& h) { accel.intersect(r, h); };
+  const int32_t found = locate_medium(v, intersect, forward, -2);
+  if (found == -2) return v.camera_medium;
+  if (found != v.camera_medium)
+    throw InputError("integrator '" + opt.integrator +
+                     "': the camera's medium is not the one enclosed by the shapes around it (light subpaths could "
+                     "not reach it); give the medium a closed boundary shape with it as interior, or use "
+                     "--integrator path");
+  return -1;
+}
+
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt) {
   return opt.radius > 0.f ? opt.radius : 0.5f * automatic_radius(scene);
 }
@@ -105,7 +123,7 @@ bool trace_light_subpaths(const SceneView& s, const VcmParams& p, const CpuAccel
       for (uint32_t i = c * chunk; i < end; ++i) {
         VcmPathState st;
         vcm_light_start(s, p, i, st);
-        vcm_light_locate(s, st, [&](const Ray& ray, Hit& h) { accel.intersect(ray, h); });
+        vcm_light_locate(s, p, st, [&](const Ray& ray, Hit& h) { accel.intersect(ray, h); });
         uint32_t count = 0;
         while (st.active) {
           Hit hit;
@@ -162,6 +180,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
   const uint32_t n = uint32_t(W_) * uint32_t(H_);
   VcmParams p = vcm_pass_params(opt_, VcmMode(mode_), max_depth_, pass, n);
+  p.outer_medium = outer_medium_;
   const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)
   vcm_set_radius(p, radius(pass));
 

@@ -40,6 +40,10 @@ uint32_t vcm_light_paths(const RenderOptions& opt, uint32_t pixels);  // light s
 float vcm_radius(float r0, float alpha, int64_t pass);
 // r_1: RenderOptions::radius, else half the photon integrators' automatic radius (see the constructor).
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt);
+// The medium of the region outside every medium boundary for light subpaths (VcmParams::outer_medium): the
+// camera's when the camera is in that region, else vacuum; InputError when the camera's medium is not the
+// one the shapes around it enclose.
+int32_t vcm_outer_medium(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt);
 // Last stage of vcm and upg: adds a finished pass to `sum` (3 per pixel): the camera estimates, then the
 // light-tracing splats in chunk order (so images do not depend on the thread count); on_splat, if given,
 // sees each splat's finite value at each pixel it reaches.
@@ -74,6 +78,7 @@ class VcmIntegrator {
   int mode_;
   uint32_t max_depth_;
   float r0_ = 0.f;
+  int32_t outer_medium_ = -1;  // VcmParams::outer_medium (vcm_outer_medium)
   int W_, H_;
   uint64_t traced_ = 0, rays_ = 0;
   std::vector<double> sum_;  // 3 per pixel: camera-path estimates (weighted by h/p) plus splats, summed over passes

@@ -100,7 +100,7 @@ class WavefrontVcm {
       uint32_t* queue = queue_.data();
       b_.parallel_for(nl, CAUSTICA_KERNEL(uint32_t i) {
         vcm_light_start(s, p, i, paths[i]);
-        vcm_light_locate(s, paths[i], TracerIntersect<decltype(tracer)>{tracer});
+        vcm_light_locate(s, p, paths[i], TracerIntersect<decltype(tracer)>{tracer});
         queue[i] = i;
       });
     }

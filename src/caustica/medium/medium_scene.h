@@ -100,14 +100,16 @@ CHD RGB shadow_transmittance(const SceneView& s, const Tracer& tracer, Ray r, in
 // boundary it meets: that boundary's exterior when r arrives on its front, its interior when from behind;
 // vacuum (-1) when r meets no boundary. Photon paths start with it (the camera's medium is the scene's
 // camera_medium instead), so a light is in the medium whose boundary encloses it, as in pbrt-v4 and
-// Mitsuba 3 where media are closed shapes. `intersect(ray, hit)` is the accelerator's closest hit.
+// Mitsuba 3 where media are closed shapes. `intersect(ray, hit)` is the accelerator's closest hit. `outside`:
+// what a ray that meets no boundary gets (vacuum by default; the bidirectional integrators pass the medium of
+// the region outside every boundary, which is the camera's when the camera is in that region).
 template <typename Intersect>
-CHD int32_t locate_medium(const SceneView& s, Intersect&& intersect, Ray r) {
-  if (!s.prim_medium) return -1;
+CHD int32_t locate_medium(const SceneView& s, Intersect&& intersect, Ray r, int32_t outside = -1) {
+  if (!s.prim_medium) return outside;
   for (uint32_t k = 0; k <= kMaxNullCrossings; ++k) {
     Hit h;
     intersect(r, h);
-    if (!h.valid()) return -1;
+    if (!h.valid()) return outside;
     const MediumInterface mi = prim_medium_interface(s, h.prim);
     const SurfaceHit sh = make_surface_hit(s, r, h);
     if (mi.transition) return dot(r.d, sh.ng) < 0.f ? mi.exterior : mi.interior;
