@@ -21,7 +21,7 @@ from conftest import mean_and_se
 from test_media import LE, medium_sphere
 from test_media_emission import emission_furnace_medium
 from test_media_grid import CUDA, WHY, assert_cuda_matches_cpu, grid_medium, random_grid, smoke_box
-from test_media_photons import fog_box, region_means
+from test_media_photons import fog_box, region_means, unbounded_fog
 
 
 def seed_means(scene, seeds, **opts):
@@ -216,22 +216,6 @@ def test_cuda_matches_the_cpu():
     # light and bdpt in the smoke blob on the GPU (the same stage functions) against the CPU, per region.
     assert_cuda_matches_cpu(smoke_box(), (dict(integrator="bdpt", spp=16), dict(integrator="light", spp=16),
                                           dict(integrator="vcm", spp=16)))
-
-
-def unbounded_fog(width=32):
-    """A camera in fog that no shape bounds (the camera's `medium`, no boundary), a point light in it and a grey
-    floor: the light's subpaths start in the fog too (VcmParams::outer_medium)."""
-    return {
-        "camera": {"position": [0, 0.5, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 60, "width": width,
-                   "height": width, "medium": "fog"},
-        "film": {"filter": "box"},
-        "media": {"fog": {"sigma_a": 0.05, "sigma_s": [0.2, 0.3, 0.4], "g": 0.3}},
-        "materials": {"floor": {"type": "diffuse", "reflectance": 0.5}},
-        "shapes": [{"type": "rectangle", "material": "floor",
-                    "transform": {"scale": 3, "rotate": {"axis": [1, 0, 0], "angle": -90},
-                                  "translate": [0, -1, 0]}}],
-        "lights": [{"type": "point", "position": [0.3, 0.8, -0.5], "intensity": [4, 4, 4]}],
-    }
 
 
 @pytest.mark.parametrize("integrator", ["bdpt", "vcm"])

@@ -39,11 +39,11 @@ float automatic_radius(const Scene& scene) {
 }
 
 float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_t seed, uint64_t photons,
-                              uint32_t max_depth) {
+                              uint32_t max_depth, int32_t outside) {
   constexpr uint32_t kVolumeRadiusPass = 0xffffffeu;  // a pass index no render pass uses
   std::vector<Photon> volume;
   for (const Photon& ph : PhotonIntegrator::trace_photons(scene.view(), accel, seed, kVolumeRadiusPass, photons,
-                                                          max_depth, false))
+                                                          max_depth, false, nullptr, outside))
     if (ph.flags & kPhotonVolume) volume.push_back(ph);
   if (volume.size() <= size_t(kVolumeRadiusK)) return 0.f;
   PhotonKdTree tree;
@@ -64,27 +64,35 @@ float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_
   return d[d.size() / 2];
 }
 
-float photon_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
-                         uint32_t photon_depth, float r0) {
+int32_t outer_medium(const Scene& scene, const CpuAccel& accel, const std::string& integrator,
+                     const std::string& paths) {
   const SceneView& v = scene.view();
-  // Photon paths start in the medium that encloses the light (locate_medium); the camera's medium must be
-  // one that photons can enter the same way.
+  // Paths from lights start in the medium that encloses the light (locate_medium). Where the camera's forward
+  // ray meets no boundary, the camera is in the region outside every boundary, whose medium is then the
+  // camera's; where it meets one, the camera's medium must be the side it is on.
   Ray forward = v.camera.generate_ray(Vec2f(0.5f * v.camera.width, 0.5f * v.camera.height), Vec2f(0.5f, 0.5f));
-  const int32_t found = locate_medium(v, [&](const Ray& r, Hit& h) { return accel.intersect(r, h); }, forward);
+  const int32_t found = locate_medium(v, [&](const Ray& r, Hit& h) { accel.intersect(r, h); }, forward, -2);
+  if (found == -2) return v.camera_medium;
   if (found != v.camera_medium)
-    throw InputError("integrator '" + opt.integrator +
-                     "': the camera's medium is not the one enclosed by the shapes around it (photons could not "
-                     "reach it); give the medium a closed boundary shape with it as interior, or use --integrator "
-                     "path");
+    throw InputError("integrator '" + integrator + "': the camera's medium is not the one enclosed by the shapes "
+                     "around it (" + paths + " could not reach it); give the medium a closed boundary shape with it "
+                     "as interior, or use --integrator path");
+  return -1;
+}
+
+float photon_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
+                         uint32_t photon_depth, float r0, int32_t* outside) {
+  *outside = outer_medium(scene, accel, opt.integrator, "photons");
   float rv = opt.volume_radius;
-  if (!(rv > 0.f)) rv = automatic_volume_radius(scene, accel, opt.seed, photons, photon_depth);
+  if (!(rv > 0.f)) rv = automatic_volume_radius(scene, accel, opt.seed, photons, photon_depth, *outside);
   // No volume photons in a pass (a medium the lights do not reach): any radius gives the same zero.
   return rv > 0.f ? rv : r0;
 }
 
 std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed,
                                                     uint32_t pass, uint64_t count, uint32_t max_depth,
-                                                    bool keep_direct, const std::atomic<bool>* cancel) {
+                                                    bool keep_direct, const std::atomic<bool>* cancel,
+                                                    int32_t outside) {
   const uint64_t chunk = 4096;
   const uint64_t nchunks = (count + chunk - 1) / chunk;
   std::vector<std::vector<Photon>> parts(nchunks);
@@ -98,7 +106,8 @@ std::vector<Photon> PhotonIntegrator::trace_photons(const SceneView& v, const Cp
             v, seed, pass, uint32_t(i), max_depth, [&](const Ray& ray, Hit& h) { return accel.intersect(ray, h); },
             [&](const Photon& ph) {
               if (keep_direct || !(ph.flags & kPhotonDirect)) out.push_back(ph);
-            });
+            },
+            outside);
       }
     }
   });
@@ -137,7 +146,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
                      "use --integrator path, bdpt, vcm, light, sppm or pppm");
   if (media_)
     rv0_ = photon_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
-                            max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_);
+                            max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_, &outer_medium_);
   size_t n = size_t(W_) * H_;
   K_ = kind_ == Kind::kPPM ? kPpmPointsPerPixel : 1;
   vp_.assign(n * K_, VisiblePoint());
@@ -188,7 +197,8 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
     // The maps are built once (two-pass photon mapping): all stored photons in the
     // global map, L S+ D photons in the caustic map, from the same photon paths.
     std::vector<Photon> all = trace_photons(v, accel, opt_.seed, 0xfffffffu, photons_per_pass_,
-                                            max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, true);
+                                            max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, true, nullptr,
+                                            outer_medium_);
     std::vector<Photon> caustic;
     for (const Photon& ph : all)
       if (ph.flags & kPhotonCaustic) caustic.push_back(ph);
@@ -247,7 +257,7 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   std::vector<Photon> photons =
       adaptive_ ? trace_photons_adaptive(abs_pass, photon_depth, rmax, cancel)
                 : trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
-                                photon_depth, false, &cancel);
+                                photon_depth, false, &cancel, outer_medium_);
   if (cancel.load()) return false;
   traced_ += photons_per_pass_;
   // Volume photons (scenes with media) in a grid of their own, with their own radius.

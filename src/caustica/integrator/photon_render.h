@@ -51,13 +51,20 @@ float automatic_radius(const Scene& scene);
 // that many photons of a pass where they are typical; 0 when the pass stores no volume photons.
 constexpr int kVolumeRadiusK = 32;
 float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_t seed, uint64_t photons,
-                              uint32_t max_depth);
+                              uint32_t max_depth, int32_t outside = -1);
 
-// pppm or sppm in a scene with media, on every driver: checks that the camera's medium is one that photon
-// paths can find (locate_medium: an InputError otherwise) and returns the volume photons' initial radius
-// (opt.volume_radius, else automatic_volume_radius over `photons` paths of photon_depth segments, else r0).
+// The medium of the region outside every medium boundary, where paths from lights start when their first ray
+// meets no boundary (locate_medium's `outside`): the camera's medium when the camera's forward ray meets no
+// boundary (the camera is in that region), else vacuum. An InputError naming `integrator` and `paths` (what
+// could not reach the camera) when the camera's medium is not the one the shapes around it enclose.
+int32_t outer_medium(const Scene& scene, const CpuAccel& accel, const std::string& integrator,
+                     const std::string& paths);
+
+// pppm or sppm in a scene with media, on every driver: the medium photon paths start in outside every
+// boundary (outer_medium, into *outside) and the volume photons' initial radius (opt.volume_radius, else
+// automatic_volume_radius over `photons` paths of photon_depth segments, else r0).
 float photon_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
-                         uint32_t photon_depth, float r0);
+                         uint32_t photon_depth, float r0, int32_t* outside);
 
 class PhotonIntegrator {
  public:
@@ -76,9 +83,10 @@ class PhotonIntegrator {
   AdaptiveSummary adaptive_summary() const;
   const ChainCounts& chain_counts() const { return chains_.totals; }
   // Traces one pass of photons in deterministic order (also used by tests).
+  // `outside`: trace_photon_path's.
   static std::vector<Photon> trace_photons(const SceneView& v, const CpuAccel& accel, uint64_t seed, uint32_t pass,
                                            uint64_t count, uint32_t max_depth, bool keep_direct,
-                                           const std::atomic<bool>* cancel = nullptr);
+                                           const std::atomic<bool>* cancel = nullptr, int32_t outside = -1);
 
  private:
   enum class Kind { kPPM, kSPPM, kPPPM, kPM } kind_;
@@ -101,6 +109,7 @@ class PhotonIntegrator {
   uint64_t photons_per_pass_;
   float r0_;
   bool media_ = false;  // pppm or sppm in a scene with media: volume photons and volume points (sppm.h)
+  int32_t outer_medium_ = -1;  // where photon paths that meet no medium boundary start (outer_medium)
   float rv0_ = 0.f;     // their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
   std::vector<double> Nv_, tauv_;  // sppm in media: each pixel's statistics of its volume visible points
   std::vector<float> Rv_;          // (sppm_update with dims 3), beside N_, tau_, R_ for its surface ones

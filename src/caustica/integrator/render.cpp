@@ -296,7 +296,8 @@ void RenderJob::make_integrator() {
     p.media = scene_has_media(v);  // pppm or sppm (validated above)
     if (p.media) {
       p.volume_radius = photon_media_setup(*scene_, cpu_accel(), opt_, p.photons,
-                                         p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius);
+                                         p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius,
+                                         &p.outer_medium);
       volume_radius_ = p.volume_radius;
     }
     int dev = cuda_device_index(opt_.device);

@@ -81,20 +81,8 @@ float vcm_radius(float r0, float alpha, int64_t pass) {
 }
 
 int32_t vcm_outer_medium(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt) {
-  const SceneView& v = scene.view();
-  if (!scene_has_media(v)) return -1;
-  // Where the camera's forward ray meets no boundary, the camera is in the region outside every boundary,
-  // whose medium is then the camera's; where it meets one, the camera's medium must be the side it is on.
-  Ray forward = v.camera.generate_ray(Vec2f(0.5f * v.camera.width, 0.5f * v.camera.height), Vec2f(0.5f, 0.5f));
-  const auto intersect = [&](const Ray& r, Hit& h) { accel.intersect(r, h); };
-  const int32_t found = locate_medium(v, intersect, forward, -2);
-  if (found == -2) return v.camera_medium;
-  if (found != v.camera_medium)
-    throw InputError("integrator '" + opt.integrator +
-                     "': the camera's medium is not the one enclosed by the shapes around it (light subpaths could "
-                     "not reach it); give the medium a closed boundary shape with it as interior, or use "
-                     "--integrator path");
-  return -1;
+  if (!scene_has_media(scene.view())) return -1;
+  return outer_medium(scene, accel, opt.integrator, "light subpaths");
 }
 
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt) {

@@ -419,10 +419,12 @@ class WavefrontPhoton {
       uint32_t* queue = queue_.data();
       const uint64_t seed = p_.seed;
       const bool media = p_.media;
+      const int32_t outside = p_.outer_medium;
       b_.parallel_for(P, CAUSTICA_KERNEL(uint32_t i) {
         photon_start(s, seed, pass_index, i, paths[i]);
         if (photon_depth == 0) paths[i].active = false;
-        if (media && paths[i].active) paths[i].medium = locate_medium(s, TracerIntersect<decltype(tracer)>{tracer}, paths[i].ray);
+        if (media && paths[i].active)
+          paths[i].medium = locate_medium(s, TracerIntersect<decltype(tracer)>{tracer}, paths[i].ray, outside);
         queue[i] = i;
       });
     }

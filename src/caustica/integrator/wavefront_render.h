@@ -93,6 +93,7 @@ struct PhotonWavefrontParams {
   // pppm in a scene with media (volumetric photon mapping, sppm.h): volume photons in a second grid, their
   // initial radius (resolved: > 0, photon_media_setup)
   bool media = false;
+  int32_t outer_medium = -1;  // where photon paths that meet no medium boundary start (outer_medium)
   float volume_radius = 0.f;
   // adaptive: the first sizes of a chain's regions (photons per payload, deposits per chain; 0: four per
   // step of the longest chain); they grow to what the chains need, so the photons do not depend on them

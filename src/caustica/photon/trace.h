@@ -169,11 +169,13 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
 
 // Traces one photon path. `intersect(ray, hit)` is the accelerator's closest
 // hit; `store(const Photon&)` receives each stored photon. max_depth counts
-// segments from the light (the first hit is depth 1).
+// segments from the light (the first hit is depth 1). `outside`: the medium a
+// path starts in when its first ray meets no medium boundary (locate_medium; the
+// camera's when the camera is outside every boundary, photon_media_setup).
 template <typename Rng, typename Intersect, typename Store>
 CHD void trace_photon_path(const SceneView& s, PhotonPathStateT<Rng>& st, uint32_t max_depth, Intersect&& intersect,
-                           Store&& store) {
-  if (st.active && st.depth == 0) st.medium = locate_medium(s, intersect, st.ray);
+                           Store&& store, int32_t outside = -1) {
+  if (st.active && st.depth == 0) st.medium = locate_medium(s, intersect, st.ray, outside);
   while (st.active && st.depth < max_depth) {
     Hit hit;
     intersect(st.ray, hit);
@@ -183,10 +185,10 @@ CHD void trace_photon_path(const SceneView& s, PhotonPathStateT<Rng>& st, uint32
 }
 template <typename Intersect, typename Store>
 CHD void trace_photon(const SceneView& s, uint64_t seed, uint32_t pass, uint32_t index, uint32_t max_depth,
-                      Intersect&& intersect, Store&& store) {
+                      Intersect&& intersect, Store&& store, int32_t outside = -1) {
   PhotonPathState st;
   photon_start(s, seed, pass, index, st);
-  trace_photon_path(s, st, max_depth, intersect, store);
+  trace_photon_path(s, st, max_depth, intersect, store, outside);
 }
 
 }  // namespace caustica
