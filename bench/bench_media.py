@@ -36,12 +36,26 @@ import caustica
 case = json.loads(sys.argv[2])
 imgs, secs = [], 0.0
 for seed in case["seeds"]:
-    r = caustica.render_job(case["scene"], spp=case["spp"], seed=seed, max_depth=2, jitter=False)
+    r = caustica.render_job(case["scene"], spp=case["spp"], seed=seed, **case["kwargs"])
     imgs.append(r.image)
     secs += r.stats["seconds"]
 np.save(sys.argv[3], np.stack(imgs))
 print(json.dumps({"seconds": secs / len(case["seeds"])}))
 """
+
+
+def run_build(build, scene, spp, seeds, **kwargs):
+    """Renders `scene` with `build` (a folder from bench_ab.py --save, or 'current') in a process of its own,
+    once per seed: (mean seconds per render, images seeds x H x W x 3)."""
+    case = {"scene": scene, "spp": spp, "seeds": list(seeds), "kwargs": kwargs}
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "img.npy")
+        r = subprocess.run([sys.executable, "-c", CHILD, build, json.dumps(case), out], capture_output=True,
+                           text=True)
+        if r.returncode != 0:
+            err = r.stderr.strip()
+            sys.exit(f"build {build}: " + (err.splitlines()[-1] if err else str(r.returncode)))
+        return json.loads(r.stdout.strip().splitlines()[-1])["seconds"], np.load(out).astype(np.float64)
 
 
 def scene(res, sigma_a, sigma_s, g):
@@ -78,15 +92,9 @@ def main():
             d = np.array([(2 * (x + 0.5) / res - 1) * tan_half, (1 - 2 * (y + 0.5) / res) * tan_half, -1.0])
             ref[y, x] = single_scattering_reference(d / np.linalg.norm(d), np.array(lamp["position"]),
                                                     lamp["intensity"], a.sigma_a, a.sigma_s, a.g, n=4000)
-    case = {"scene": sc, "spp": a.spp, "seeds": list(range(1, a.seeds + 1))}
     rows = []
     for b in a.build:
-        with tempfile.TemporaryDirectory() as tmp:
-            out = os.path.join(tmp, "img.npy")
-            r = subprocess.run([sys.executable, "-c", CHILD, b, json.dumps(case), out], capture_output=True, text=True,
-                               check=True)
-            t = json.loads(r.stdout.strip().splitlines()[-1])["seconds"]
-            imgs = np.load(out).astype(np.float64)
+        t, imgs = run_build(b, sc, a.spp, range(1, a.seeds + 1), max_depth=2, jitter=False)
         rel = float(np.mean([np.mean((im - ref) ** 2 / (ref ** 2 + 1e-4)) for im in imgs]))
         bias = float((imgs.mean(axis=0) - ref).mean() / ref.mean())
         print(f"{b}: {a.spp} spp, {t:.3f} s, relMSE {rel:.3g}, relMSE x time {rel * t:.3g}, mean bias {bias:+.4f}")

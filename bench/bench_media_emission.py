@@ -15,35 +15,15 @@ usage: .venv/bin/python bench/bench_media_emission.py --build /tmp/ab/before --b
 """
 import argparse
 import datetime
-import json
 import os
-import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "python"))
 sys.path.insert(0, os.path.join(ROOT, "tests", "python"))
-
-CHILD = r"""
-import json, sys
-if sys.argv[1] != "current":  # that folder's caustica, not the editable install's
-    sys.meta_path = [f for f in sys.meta_path if "editable" not in type(f).__module__.lower()]
-    sys.path.insert(0, sys.argv[1])
-import numpy as np
-import caustica
-case = json.loads(sys.argv[2])
-imgs, secs = [], 0.0
-for seed in case["seeds"]:
-    r = caustica.render_job(case["scene"], integrator=case["integrator"], spp=case["spp"], seed=seed, max_depth=-1)
-    imgs.append(r.image)
-    secs += r.stats["seconds"]
-np.save(sys.argv[3], np.stack(imgs))
-print(json.dumps({"seconds": secs / len(case["seeds"])}))
-"""
-
+sys.path.insert(0, os.path.join(ROOT, "bench"))
 
 def plume(res, sigma_t=3.0):
     vdb = os.path.join(ROOT, "tests", "data", "media", "plume.vdb")
@@ -62,14 +42,6 @@ def plume(res, sigma_t=3.0):
     }
 
 
-def run(build, case, tmp):
-    out = os.path.join(tmp, "imgs.npy")
-    p = subprocess.run([sys.executable, "-c", CHILD, build, json.dumps(case), out], capture_output=True, text=True)
-    if p.returncode != 0:
-        sys.exit(f"build {build}: {p.stderr.strip().splitlines()[-1] if p.stderr.strip() else p.returncode}")
-    return json.loads(p.stdout.strip().splitlines()[-1])["seconds"], np.load(out)
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", action="append", required=True, help="a folder from bench_ab.py --save, or 'current'")
@@ -84,17 +56,15 @@ def main():
     from caustica import _provenance
     from conftest import relmse
     scene = plume(a.res, a.sigma_t)
-    with tempfile.TemporaryDirectory() as tmp:
-        _, ref = run("current", {"scene": scene, "integrator": "path", "spp": a.ref_spp, "seeds": [1000]}, tmp)
-        ref = ref[0]
-        rows = []
-        for build in a.build:
-            case = {"scene": scene, "integrator": a.integrator, "spp": a.spp, "seeds": list(range(1, a.seeds + 1))}
-            secs, imgs = run(build, case, tmp)
-            e = float(np.mean([relmse(im, ref) for im in imgs]))
-            rows.append((build, secs, e))
-            print(f"{build}: {a.integrator} {a.spp} spp {secs:.3f} s  relMSE {e:.5f}  relMSE x time {e * secs:.6f}",
-                  flush=True)
+    from bench_media import run_build
+    ref = run_build("current", scene, a.ref_spp, [1000], integrator="path", max_depth=-1)[1][0]
+    rows = []
+    for build in a.build:
+        secs, imgs = run_build(build, scene, a.spp, range(1, a.seeds + 1), integrator=a.integrator, max_depth=-1)
+        e = float(np.mean([relmse(im, ref) for im in imgs]))
+        rows.append((build, secs, e))
+        print(f"{build}: {a.integrator} {a.spp} spp {secs:.3f} s  relMSE {e:.5f}  relMSE x time {e * secs:.6f}",
+              flush=True)
     if a.rows:
         prov = {"commit": _provenance.commit(ROOT), "machine": _provenance.machine()}
         when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

@@ -231,14 +231,16 @@ def test_unbounded_fog_around_the_camera(integrator):
     assert (np.abs(x[0] - ref[0]) < bound).all(), (x[0][..., 1], ref[0][..., 1])
 
 
-def test_camera_medium_not_enclosed_is_an_error():
-    # The camera sits inside a sphere whose interior is `smoke` but names `fog` as its medium: light subpaths
-    # could not reach the camera's medium; one line naming the integrator, as pppm's.
+@pytest.mark.parametrize("integrator,paths", [("bdpt", "light subpaths"), ("pppm", "photons")])
+def test_camera_medium_not_enclosed_is_an_error(integrator, paths):
+    # The camera sits inside a sphere whose interior is `m` but names `fog` as its medium: paths from the light
+    # could not reach the camera's medium; one line naming the integrator (photon_render.cpp's outer_medium).
     s = medium_sphere({"sigma_a": 0.1, "sigma_s": 0.5}, width=8)
     s["media"]["fog"] = {"sigma_a": 0.1, "sigma_s": 0.2}
     s["camera"]["medium"] = "fog"
     with pytest.raises(caustica.InputError) as e:
-        caustica.render(s, integrator="bdpt", spp=1)
-    assert str(e.value) == ("integrator 'bdpt': the camera's medium is not the one enclosed by the shapes around it "
-                            "(light subpaths could not reach it); give the medium a closed boundary shape with it as "
-                            "interior, or use --integrator path")
+        caustica.render(s, integrator=integrator, spp=1)
+    assert str(e.value) == (f"integrator '{integrator}': the camera's medium is not the one enclosed by the shapes "
+                            f"around it ({paths} could not reach it); give the medium a closed boundary shape with it "
+                            "as interior, or use --integrator path")
+    assert caustica.render(s, spp=1).mean() > 0  # the path tracer renders it

@@ -272,20 +272,6 @@ def test_unbounded_fog_around_the_camera(integrator):
     assert z.max() < 1.0, (z.max(), m[..., 1], ref[..., 1])
 
 
-def test_camera_medium_not_enclosed_is_an_error():
-    # The camera sits inside a sphere whose interior is `m` but names another medium: photons could not reach
-    # it; one line naming the integrator.
-    d = medium_sphere({"sigma_a": 0.1, "sigma_s": 0.5}, width=8)
-    d["media"]["fog"] = {"sigma_a": 0.1, "sigma_s": 0.2}
-    d["camera"]["medium"] = "fog"
-    with pytest.raises(caustica.InputError) as e:
-        caustica.render(d, integrator="pppm", spp=1)
-    assert str(e.value) == ("integrator 'pppm': the camera's medium is not the one enclosed by the shapes around it "
-                            "(photons could not reach it); give the medium a closed boundary shape with it as "
-                            "interior, or use --integrator path")
-    assert caustica.render(d, spp=1).mean() > 0  # the path tracer renders it
-
-
 def test_cli_volume_radius(tmp_path):
     import json
     import subprocess
