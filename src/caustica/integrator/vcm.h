@@ -473,11 +473,11 @@ struct VcmLightVertex {
   RGB beta{0.f};  // throughput arriving at the vertex
   uint32_t length = 0;  // segments from the light
   VcmMis mis;
-  int32_t medium = -1;     // a medium vertex's medium
-  bool in_medium = false;  // a scattering event in a medium (no surface)
+  int32_t medium = -1;  // a scattering event in a medium (no surface): its medium; -1: a surface vertex
+  CHD bool in_medium() const { return medium >= 0; }
 };
 
-// What a merge reads of a light vertex (36 bytes against VcmLightVertex's 108):
+// What a merge reads of a light vertex (36 bytes against VcmLightVertex's 104):
 // the merging stage keeps these in the photon grid's order, so that the records
 // found by one query lie close together in memory.
 struct VcmMergeVertex {
@@ -493,7 +493,7 @@ CHD VcmMergeVertex vcm_merge_vertex(const VcmLightVertex& v) {
   m.beta = v.beta;
   m.dVCM = v.mis.dVCM;
   m.dVM = v.mis.dVM;
-  m.length = v.in_medium ? 0u : v.length;
+  m.length = v.in_medium() ? 0u : v.length;
   return m;
 }
 
@@ -726,8 +726,7 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   v.beta = st.beta;
   v.length = st.length;
   v.mis = vcm_mis_commit(p, st.mis);  // the vertex ends subpaths here: upg's pending term holds
-  v.medium = st.medium;
-  v.in_medium = st.in_medium;
+  v.medium = st.in_medium ? st.medium : -1;
   return true;
 }
 
@@ -1061,7 +1060,7 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   SurfaceHit vsh = v.sh;  // surface_material may bend its shading normal
   Material vm;
   Frame vf;
-  if (v.in_medium) {
+  if (v.in_medium()) {
     el = vcm_eval_medium(s.media[v.medium].g, v.wi, -w);
   } else {
     vm = surface_material(s, vsh);
@@ -1070,17 +1069,17 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   }
   if (is_black(el.f)) return;
   if (!st.in_medium) vcm_surface_pdfs(st.m, st.frame, st.wo, w, ec);
-  if (!v.in_medium) vcm_surface_pdfs(vm, vf, vf.to_local(v.wi), -w, el);
+  if (!v.in_medium()) vcm_surface_pdfs(vm, vf, vf.to_local(v.wi), -w, el);
   float cos_c = ec.cos, cos_l = el.cos;
   float G = cos_c * cos_l / d2;
   float cam_dir_a = ec.pdf_fwd * cos_l / d2;
   float light_dir_a = el.pdf_fwd * cos_c / d2;
   float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, ec.pdf_rev, light_dir_a, el.pdf_rev, vcm_cam_vm(p, st),
-                                v.in_medium ? 0.f : p.vm_factor);
+                                v.in_medium() ? 0.f : p.vm_factor);
   sr.contrib = st.beta * ec.f * el.f * v.beta * (G * mw);
   sr.weight = mw;
   Vec3f o = vcm_origin_towards(st, w);
-  if (v.in_medium) {
+  if (v.in_medium()) {
     sr.ray = Ray{o, v.sh.p - o, 1.f};
   } else {
     Vec3f target = offset_ray_origin(v.sh.p, v.sh.ng, -w);

@@ -81,7 +81,6 @@ float vcm_radius(float r0, float alpha, int64_t pass) {
 }
 
 int32_t vcm_outer_medium(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt) {
-  if (!scene_has_media(scene.view())) return -1;
   return outer_medium(scene, accel, opt.integrator, "light subpaths");
 }
 

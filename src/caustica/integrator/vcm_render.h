@@ -42,7 +42,7 @@ float vcm_radius(float r0, float alpha, int64_t pass);
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt);
 // The medium of the region outside every medium boundary for light subpaths (VcmParams::outer_medium): the
 // camera's when the camera is in that region, else vacuum; InputError when the camera's medium is not the
-// one the shapes around it enclose.
+// one the shapes around it enclose. (Callers ask only in scenes with media: it needs the CPU accelerator.)
 int32_t vcm_outer_medium(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt);
 // Last stage of vcm and upg: adds a finished pass to `sum` (3 per pixel): the camera estimates, then the
 // light-tracing splats in chunk order (so images do not depend on the thread count); on_splat, if given,
