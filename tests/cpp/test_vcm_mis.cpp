@@ -7,7 +7,8 @@
 // functions (vcm_light_start_mis / vcm_camera_start_mis / vcm_after_segment /
 // vcm_after_scatter) and the pdfs at the two joined vertices. Interior vertices
 // may also be medium vertices (a Henyey-Greenstein phase function, no normal:
-// |cos| 1, and no merging there, vcm.h's header comment).
+// |cos| 1; bpm and vcm merge there with the ball's term, rel = mis(4/3 r sigma_t)
+// times a surface vertex's, vcm.h's header comment).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -24,10 +25,13 @@ struct V {
   Vec3f p, n;
   bool delta = false;
   bool medium = false;  // a scattering event in a medium (phase function kG)
+  float sigma_t = 1.f;  // there: the medium's mean sigma_t
 };
 
 constexpr float kG = 0.6f;
-bool g_medium_vm = false;  // true: a merge term at medium vertices too (for the sensitivity test)
+// Sensitivity tests: 0 the integrator's rule; 1 no merge term at medium vertices in the running quantities and
+// connections (while merges run there); 2 a surface vertex's term (rel 1) there.
+int g_medium_rule = 0;
 
 float g_rev_scale = 1.f;  // perturbation for the sensitivity test
 bool g_upg_rules = true;  // false: upg's merge terms as vcm's (for the sensitivity test)
@@ -59,10 +63,13 @@ float pdf_w(const TestPath& P, int i, Vec3f b) {
 float cosv(const TestPath& P, int i, Vec3f b) {
   return P.x[i].medium ? 1.f : absdot(P.x[i].n, normalize(b - P.x[i].p));
 }
-// The merge term of x_i in the recursion (vcm_scatter_medium passes none for a medium vertex).
-bool vm_here(const TestPath& P, int i) { return !P.x[i].medium || g_medium_vm; }
+// The merge term of x_i relative to a surface vertex's (VcmPathState::vm_ok, vcm_medium_vm_rel).
+float vm_rel(const VcmParams& p, const TestPath& P, int i) {
+  if (!P.x[i].medium) return 1.f;
+  return g_medium_rule == 1 ? 0.f : g_medium_rule == 2 ? 1.f : vcm_medium_vm_rel_of(p, P.x[i].sigma_t);
+}
 // The light side's merge term of a connection at light vertex x_a (vcm_camera_connect).
-float light_vm(const VcmParams& p, const TestPath& P, int a) { return P.x[a].medium ? 0.f : p.vm_factor; }
+float light_vm(const VcmParams& p, const TestPath& P, int a) { return p.vm_factor * vm_rel(p, P, a); }
 float dist(const TestPath& P, int i, int j) { return length(P.x[i].p - P.x[j].p); }
 float camera_pdf_w(const TestPath& P, Vec3f dir) {
   float c = dot(dir, P.forward);
@@ -84,7 +91,7 @@ VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
     vcm_after_segment(p, m, dist(P, i - 1, i), cosv(P, i, P.x[i - 1].p), true);
     if (i < j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i + 1].p), pdf_w(P, i, P.x[i + 1].p),
-                        pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta, vm_here(P, i),
+                        pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta, vm_rel(p, P, i),
                         upg && g_upg_rules && !P.x[i].medium);
   }
   return vcm_mis_commit(p, m);
@@ -98,7 +105,7 @@ bool camera_vm_ok(const VcmParams& p, const TestPath& P, int j) {
   return p.mode != VcmMode::kUpg || !g_upg_rules || (j + 1 < k && !P.x[j + 1].delta);
 }
 float cam_vm(const VcmParams& p, const TestPath& P, int j) {
-  return camera_vm_ok(p, P, j) && !P.x[j].medium ? p.vm_factor : 0.f;
+  return camera_vm_ok(p, P, j) ? p.vm_factor * vm_rel(p, P, j) : 0.f;
 }
 
 // Camera subpath state at vertex j (reached from x_{j+1}).
@@ -109,7 +116,7 @@ VcmMis camera_state(const VcmParams& p, const TestPath& P, int j) {
     vcm_after_segment(p, m, dist(P, i + 1, i), cosv(P, i, P.x[i + 1].p), true);
     if (i > j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p),
-                        P.x[i].delta, camera_vm_ok(p, P, i) && vm_here(P, i));
+                        P.x[i].delta, camera_vm_ok(p, P, i) ? vm_rel(p, P, i) : 0.f);
   }
   return m;
 }
@@ -157,14 +164,16 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
     VcmMis l = light_state(p, P, k - 1);
     float d = dist(P, k - 1, k);
     float cam_a = camera_pdf_w(P, normalize(P.x[k - 1].p - P.x[k].p)) * cosv(P, k - 1, P.x[k].p) / (d * d);
-    sum += vcm_weight_camera(p, l, cam_a, pdf_w(P, k - 1, P.x[k - 2].p), P.x[k - 1].medium);
+    sum += vcm_weight_camera(p, l, cam_a, pdf_w(P, k - 1, P.x[k - 2].p), vm_rel(p, P, k - 1));
     ++n;
   }
   if (p.merges())
     for (int i = 1; i <= k - 1; ++i) {
-      if (P.x[i].delta || P.x[i].medium) continue;  // no merging at medium vertices
+      if (P.x[i].delta) continue;
       VcmMis l = light_state(p, P, i), c = camera_state(p, P, i);
-      sum += vcm_weight_merge(p, l, c, pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p));
+      // The merge weight of a medium vertex always divides by its true rel (vcm_camera_merge_medium).
+      const float rel = P.x[i].medium ? vcm_medium_vm_rel_of(p, P.x[i].sigma_t) : 1.f;
+      sum += vcm_weight_merge(p, l, c, pdf_w(P, i, P.x[i - 1].p), pdf_w(P, i, P.x[i + 1].p), rel);
       ++n;
     }
   if (used) *used = n;
@@ -180,6 +189,7 @@ TestPath random_path(PCG32& r, int k, bool point_light, bool allow_delta, bool m
     v.n = random_unit(r);
     v.delta = allow_delta && i > 0 && i < k && r.next_float() < 0.3f;
     v.medium = media && !v.delta && i > 0 && i < k && r.next_float() < 0.5f;
+    if (v.medium) v.sigma_t = std::pow(10.f, -2.f + 4.f * r.next_float());
     P.x.push_back(v);
   }
   // The camera looks roughly at x_{k-1}.
@@ -325,12 +335,13 @@ TEST(VcmMis, LightBvhPicksWeightsSumToOne) {
   EXPECT_GT(broken, n_paths / 2) << broken << " of " << n_paths;
 }
 
-// Medium vertices (phase function, |cos| 1, no merge there) among surface and delta vertices: bdpt's and vcm's
-// weights still sum to one (radius over four decades for vcm).
+// Medium vertices (phase function, |cos| 1, merged by bpm and vcm with rel = mis(4/3 r sigma_t)) among surface
+// and delta vertices: bdpt's, bpm's and vcm's weights still sum to one (radius over four decades, sigma_t over
+// four).
 TEST(VcmMis, WeightsSumToOneWithMediumVertices) {
   PCG32 r(23, 7);
   int with_media = 0;
-  for (VcmMode mode : {VcmMode::kBpt, VcmMode::kVcm}) {
+  for (VcmMode mode : {VcmMode::kBpt, VcmMode::kBpm, VcmMode::kVcm}) {
     for (int trial = 0; trial < 3000; ++trial) {
       int k = 2 + int(r.next_u32() % 6);
       bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
@@ -343,25 +354,28 @@ TEST(VcmMis, WeightsSumToOneWithMediumVertices) {
       EXPECT_NEAR(s, 1.0, 1e-4) << "mode " << int(mode) << " trial " << trial << " k " << k << " radius " << radius;
     }
   }
-  EXPECT_GT(with_media, 3000);
+  EXPECT_GT(with_media, 4500);
 }
 
-// Sensitivity: vcm's recursion with a merge term at medium vertices (where no merge runs) breaks the sum.
-TEST(VcmMis, MergeTermAtMediumVerticesIsDetected) {
-  PCG32 r(29, 8);
-  int broken = 0, n = 0;
-  for (int trial = 0; trial < 300; ++trial) {
-    TestPath P = random_path(r, 6, false, true, true);
-    bool any = false;
-    for (const V& v : P.x) any = any || v.medium;
-    if (!any) continue;
-    VcmParams p = params(VcmMode::kVcm, false, 0.3f);
-    EXPECT_NEAR(weight_sum(p, P), 1.0, 1e-4);
-    g_medium_vm = true;
-    broken += std::fabs(weight_sum(p, P) - 1.0) > 1e-3;
-    g_medium_vm = false;
-    ++n;
+// Sensitivity: with merges at medium vertices, running quantities and connections that leave out their merge
+// term (the rule before volumetric merging), or give it a surface vertex's size, break the sum.
+TEST(VcmMis, MediumMergeTermIsDetected) {
+  for (int rule : {1, 2}) {
+    PCG32 r(29, 8);
+    int broken = 0, n = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+      TestPath P = random_path(r, 6, false, true, true);
+      bool any = false;
+      for (const V& v : P.x) any = any || v.medium;
+      if (!any) continue;
+      VcmParams p = params(trial % 2 ? VcmMode::kVcm : VcmMode::kBpm, false, 0.3f);
+      EXPECT_NEAR(weight_sum(p, P), 1.0, 1e-4);
+      g_medium_rule = rule;
+      broken += std::fabs(weight_sum(p, P) - 1.0) > 1e-3;
+      g_medium_rule = 0;
+      ++n;
+    }
+    EXPECT_GT(n, 100);
+    EXPECT_GT(broken, n / 2) << "rule " << rule << ": " << broken << " of " << n;
   }
-  EXPECT_GT(n, 100);
-  EXPECT_GT(broken, n / 2) << broken << " of " << n;
 }

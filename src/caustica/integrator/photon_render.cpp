@@ -143,7 +143,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   media_ = scene_has_media(v);
   if (media_ && kind_ != Kind::kPPPM && kind_ != Kind::kSPPM)
     throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
-                     "use --integrator path, bdpt, vcm, light, sppm or pppm");
+                     "use --integrator path, bdpt, vcm, bpm, light, sppm or pppm");
   if (media_)
     rv0_ = photon_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
                             max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_, &outer_medium_);

@@ -195,22 +195,26 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
   // Participating media and null surfaces: the path tracer, pppm and sppm (volumetric photon mapping,
-  // integrator/sppm.h), and light, bdpt and vcm (medium vertices, integrator/vcm.h), on every driver. Emissive
-  // media: path, bdpt and vcm, whose camera subpaths score the emission (the others' paths start at lights).
+  // integrator/sppm.h), and light, bdpt, bpm and vcm (medium vertices, volumetric merging, integrator/vcm.h), on
+  // every driver. Emissive media: path, bdpt, bpm and vcm, whose camera subpaths score the emission (the others'
+  // paths start at lights).
   const bool media_photons = opt_.integrator == "pppm" || opt_.integrator == "sppm";
-  const bool media_bidir = opt_.integrator == "light" || opt_.integrator == "bdpt" || opt_.integrator == "vcm";
-  const bool emissive_ok = opt_.integrator == "bdpt" || opt_.integrator == "vcm";
+  const bool media_bidir = opt_.integrator == "light" || opt_.integrator == "bdpt" || opt_.integrator == "bpm" ||
+                           opt_.integrator == "vcm";
+  const bool emissive_ok = opt_.integrator == "bdpt" || opt_.integrator == "bpm" || opt_.integrator == "vcm";
   if (scene_has_media(scene_->view()) && opt_.integrator != "path") {
     const SceneView& v = scene_->view();
     const std::string what = " (" + std::to_string(v.num_media) + " media in scene '" + scene_->desc().name + "')";
     if (!media_photons && !media_bidir)
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
-                       what + "; use --integrator path, bdpt, vcm, light, sppm or pppm");
+                       what + "; use --integrator path, bdpt, vcm, bpm, light, sppm or pppm");
+    if (media_bidir && v.num_media > 32767u)  // VcmMergeVertex keeps a medium in 16 bits
+      throw InputError("integrator '" + opt_.integrator + "' renders at most 32767 media" + what);
     for (size_t i = 0; i < scene_->desc().media.size() && !emissive_ok; ++i)
       if (medium_emits(scene_->desc().media[i]))
         throw InputError("integrator '" + opt_.integrator + "' does not render emissive media (medium '" +
                          (i < scene_->desc().medium_names.size() ? scene_->desc().medium_names[i] : std::to_string(i)) +
-                         "' emits); use --integrator path, bdpt or vcm");
+                         "' emits); use --integrator path, bdpt, vcm or bpm");
     if (media_photons && opt_.photon_sampling != "uniform")
       throw InputError("--photon-sampling adaptive does not trace photons through participating media" + what +
                        "; use --photon-sampling uniform");

@@ -42,7 +42,7 @@
 // point, each with h(d) and its own MIS weight using p(d) as the camera's
 // raster density (box and tent: p = h; gaussian: p is the untruncated shape).
 //
-// Participating media (`light`, `bdpt`, `vcm`; the drivers refuse them for `bpm` and `upg`). Both subpaths
+// Participating media (`light`, `bdpt`, `bpm`, `vcm`; the drivers refuse them for `upg`). Both subpaths
 // sample free-flight distances in the medium their ray is in with the path tracer's estimator (medium/medium.h:
 // a hero channel per subpath, spectral MIS over the subpath; delta tracking in grid media), so a subpath's
 // throughput is unbiased per channel however its hero was drawn, and a connection of two independent
@@ -52,8 +52,21 @@
 // 1/d^2 alone). Like that BDPT, the MIS densities leave out the free-flight and transmittance factors of the
 // segments: every strategy's weight for a path is computed from the same densities, so the weights still sum
 // to one and each strategy's estimate stays unbiased; only the weights' quality suffers where transmittance
-// varies strongly. Medium vertices are never merged (vcm merges at surfaces only): their merge term is left
-// out of the running quantities (vcm_after_scatter's vm_here) and of the weights of connections there.
+// varies strongly.
+// Volumetric merging (`bpm`, `vcm`): a camera vertex in a medium merges with the light vertices in the same
+// medium within the ball of radius r around it, the point-point estimator of Krivanek, Georgiev, Hachisuka,
+// Vevoda, Sik, Nowrouzezahrai, Jarosz 2014, "Unifying Points, Beams, and Paths in Volumetric Light Transport
+// Simulation" (UPBP; Jensen & Christensen 1998's volume radiance estimate): the light vertices carry their
+// sigma_s (their throughput includes the event's), the camera's weight leaves out its own, and the kernel is
+// 1 / (4/3 pi r^3 N_VM) (vcm_camera_merge_medium). Its acceptance probability is the ball's volume times the
+// light subpath's density of the vertex per volume; as the MIS densities leave out free-flight factors, that
+// density is taken as sigma_t(x) (the mean over channels at the vertex: a function of the point, the same
+// from either subpath) times the density per area, so a medium vertex's merge term is eta_VCM times
+// rel = mis(4/3 r sigma_t(x)) (vcm_medium_vm_rel; a surface vertex's rel is 1). With rel varying per vertex the
+// running quantities keep the report's form: dVC gains vm_factor rel and dVM gains rel at each vertex
+// (vcm_after_scatter), the merge and connection terms of a vertex are vm_factor rel (vcm_cam_vm, vcm_lt_vm), and
+// a merge at a medium vertex divides its w_light and w_camera by rel (vcm_weight_merge); dVM stays dVC vc_factor
+// as in the report, so the weights sum to one (tests/cpp/test_vcm_mis.cpp).
 // Connections, next-event estimation and light-tracing splats carry the transmittance of their segment
 // (ratio tracking in grid media, medium_scene.h's shadow_transmittance), through null surfaces, which
 // subpaths also cross without a vertex (the segment's length for the 1/d^2 conversion runs from the last
@@ -139,6 +152,18 @@ struct VcmMis {
   float pend = 0.f;
 };
 
+// A medium vertex's merge term relative to a surface vertex's (header comment: rel = mis(4/3 r sigma_t(x)),
+// sigma_t(x) the mean over channels at x); 0 where no merge runs (light, bdpt; upg does not render media).
+CHD float vcm_medium_vm_rel_of(const VcmParams& p, float sigma_t) {
+  return p.merges() ? vcm_mis(p, (4.f / 3.f) * p.radius * sigma_t) : 0.f;
+}
+CHD float vcm_medium_vm_rel(const SceneView& s, const VcmParams& p, int32_t medium, Vec3f x) {
+  if (!p.merges()) return 0.f;
+  const Medium& md = s.media[medium];
+  const RGB st = md.grid >= 0 ? grid_coefficients(md, s.medium_grids, s.grid_values, x).sigma_t : medium_sigma_t(md);
+  return vcm_medium_vm_rel_of(p, (st.x + st.y + st.z) * (1.f / 3.f));
+}
+
 CHD VcmMis vcm_mis_commit(const VcmParams& p, VcmMis m) {
   m.dVC += p.vm_factor * m.pend;
   m.dVM += m.pend;
@@ -163,15 +188,16 @@ CHD void vcm_after_segment(const VcmParams& p, VcmMis& m, float dist, float cos_
 // density pdf_dir and reverse density pdf_rev (both per solid angle).
 //
 // The merge term of this vertex (the "+ 1" of dVM, "+ vm_factor" of dVC) is the
-// strategy that merges here. For vcm and bpm it exists at every non-delta vertex.
+// strategy that merges here; vm is its size relative to a surface vertex's (0: none, 1: a surface vertex, rel
+// of vcm_medium_vm_rel at a medium vertex). For vcm and bpm it exists at every non-delta vertex.
 // For upg it is the gather whose photon lies here, joined to the neighbour on
 // the camera side, which must be a non-delta surface scattering (not the camera):
-//   camera subpaths pass vm_here = whether the previous camera vertex was such a
-//   vertex (VcmPathState::vm_ok);
+//   camera subpaths pass vm = 1 where the previous camera vertex was such a
+//   vertex (VcmPathState::vm_ok), else 0;
 //   light subpaths pass defer = true: the term waits in m.pend until the next
 //   vertex's scattering is known (added if non-delta, dropped if delta).
 CHD void vcm_after_scatter(const VcmParams& p, VcmMis& m, float cos_out, float pdf_dir, float pdf_rev, bool delta,
-                           bool vm_here = true, bool defer = false) {
+                           float vm = 1.f, bool defer = false) {
   if (delta) {
     // A delta vertex cannot end a subpath: no connection or merge there.
     m.dVCM = 0.f;
@@ -182,12 +208,12 @@ CHD void vcm_after_scatter(const VcmParams& p, VcmMis& m, float cos_out, float p
   }
   m = vcm_mis_commit(p, m);
   float g = vcm_mis(p, cos_out / pdf_dir);
-  float vm = vm_here && !defer ? 1.f : 0.f;
-  float dVC = g * (m.dVC * vcm_mis(p, pdf_rev) + m.dVCM + p.vm_factor * vm);
-  float dVM = g * (m.dVM * vcm_mis(p, pdf_rev) + m.dVCM * p.vc_factor + vm);
+  const float vm_now = defer ? 0.f : vm;
+  float dVC = g * (m.dVC * vcm_mis(p, pdf_rev) + m.dVCM + p.vm_factor * vm_now);
+  float dVM = g * (m.dVM * vcm_mis(p, pdf_rev) + m.dVCM * p.vc_factor + vm_now);
   m.dVC = dVC;
   m.dVM = dVM;
-  m.pend = vm_here && defer ? g : 0.f;
+  m.pend = defer ? g * vm : 0.f;
   m.dVCM = vcm_mis(p, 1.f / pdf_dir);
 }
 
@@ -233,27 +259,27 @@ CHD float vcm_weight_nee(const VcmParams& p, const VcmMis& cam, float pick, floa
   return 1.f / (w_light + 1.f + w_camera);
 }
 
-// The merge term at a light vertex joined to the camera (t = 1): for upg none
-// (a gathered photon is never joined to the camera itself).
-CHD float vcm_lt_vm(const VcmParams& p, bool in_medium) {
-  return p.mode == VcmMode::kUpg || in_medium ? 0.f : p.vm_factor;
+// The merge term at a light vertex joined to the camera (t = 1), vm_rel its size relative to a surface
+// vertex's (vcm_medium_vm_rel): for upg none (a gathered photon is never joined to the camera itself).
+CHD float vcm_lt_vm(const VcmParams& p, float vm_rel) {
+  return p.mode == VcmMode::kUpg ? 0.f : p.vm_factor * vm_rel;
 }
 
 // Light vertex to camera (t = 1, Eqs. 46-47): camera_pdf_a is the camera's
-// density of the light vertex (raster density -> area at the vertex); in_medium: a medium vertex (no merge).
+// density of the light vertex (raster density -> area at the vertex); vm_rel as for vcm_lt_vm.
 // (vcm_light_to_camera computes the same per pixel: VcmSplat::Q.)
 CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camera_pdf_a, float bsdf_rev_pdf_w,
-                            bool in_medium = false) {
+                            float vm_rel = 1.f) {
   float w_light = vcm_mis(p, camera_pdf_a / p.n_light) *
-                  (vcm_lt_vm(p, in_medium) + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
+                  (vcm_lt_vm(p, vm_rel) + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
   return 1.f / (w_light + 1.f);
 }
 
 // Light vertex to camera vertex (Eqs. 40-41). *_dir_pdf_a: each side's BSDF
 // density of the other vertex (area); *_rev_pdf_w: each side's reverse density.
 // cam_vm as for vcm_weight_nee; light_vm the light side's merge term (the merge, or
-// upg's gather, of the light vertex joined to this camera vertex): p.vm_factor, or 0
-// at a medium vertex (never merged).
+// upg's gather, of the light vertex joined to this camera vertex): p.vm_factor times the vertex's rel
+// (vcm_medium_vm_rel; 1 at a surface).
 CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_a,
                              float cam_rev_pdf_w, float light_dir_pdf_a, float light_rev_pdf_w, float cam_vm,
                              float light_vm) {
@@ -263,11 +289,12 @@ CHD float vcm_weight_connect(const VcmParams& p, const VcmMis& light, const VcmM
 }
 
 // Merging at a camera vertex (Eqs. 38-39): cam_dir_pdf_w is the camera BSDF's
-// density of the light vertex's incoming direction, cam_rev_pdf_w the reverse.
+// density of the light vertex's incoming direction, cam_rev_pdf_w the reverse; vm_rel the merging vertex's
+// rel (1 at a surface; a medium vertex's merge is rel times a surface's, header comment).
 CHD float vcm_weight_merge(const VcmParams& p, const VcmMis& light, const VcmMis& cam, float cam_dir_pdf_w,
-                           float cam_rev_pdf_w) {
-  float w_light = light.dVCM * p.vc_factor + light.dVM * vcm_mis(p, cam_dir_pdf_w);
-  float w_camera = cam.dVCM * p.vc_factor + cam.dVM * vcm_mis(p, cam_rev_pdf_w);
+                           float cam_rev_pdf_w, float vm_rel = 1.f) {
+  float w_light = (light.dVCM * p.vc_factor + light.dVM * vcm_mis(p, cam_dir_pdf_w)) / vm_rel;
+  float w_camera = (cam.dVCM * p.vc_factor + cam.dVM * vcm_mis(p, cam_rev_pdf_w)) / vm_rel;
   return 1.f / (w_light + 1.f + w_camera);
 }
 
@@ -474,17 +501,19 @@ struct VcmLightVertex {
   uint32_t length = 0;  // segments from the light
   VcmMis mis;
   int32_t medium = -1;  // a scattering event in a medium (no surface): its medium; -1: a surface vertex
+  float vm_rel = 1.f;   // its merge term relative to a surface vertex's (vcm_medium_vm_rel)
   CHD bool in_medium() const { return medium >= 0; }
 };
 
-// What a merge reads of a light vertex (36 bytes against VcmLightVertex's 104):
+// What a merge reads of a light vertex (36 bytes against VcmLightVertex's 108):
 // the merging stage keeps these in the photon grid's order, so that the records
 // found by one query lie close together in memory.
 struct VcmMergeVertex {
   Vec3f wi;
   RGB beta{0.f};
   float dVCM = 0.f, dVM = 0.f;
-  uint32_t length = 0;  // segments from the light; 0: a medium vertex, which is never merged (header comment)
+  uint16_t length = 0;  // segments from the light (at most 65535: no subpath gets near)
+  int16_t medium = -1;  // a medium vertex's medium (merged at camera vertices in it), -1: a surface vertex
 };
 
 CHD VcmMergeVertex vcm_merge_vertex(const VcmLightVertex& v) {
@@ -493,7 +522,8 @@ CHD VcmMergeVertex vcm_merge_vertex(const VcmLightVertex& v) {
   m.beta = v.beta;
   m.dVCM = v.mis.dVCM;
   m.dVM = v.mis.dVM;
-  m.length = v.in_medium() ? 0u : v.length;
+  m.length = uint16_t(v.length < 65535u ? v.length : 65535u);
+  m.medium = int16_t(v.medium);
   return m;
 }
 
@@ -535,6 +565,10 @@ struct VcmPathState {
   bool in_medium = false;
   bool crossing = false;
   RGB beta_in{0.f};
+  // At a medium vertex: sigma_s there (what a merge divides the camera's throughput by) and the vertex's merge
+  // term relative to a surface vertex's (vcm_medium_vm_rel); 1 at a surface vertex.
+  RGB sigma_s{0.f};
+  float vm_rel = 1.f;
 };
 
 // ---------------------------------------------------------------------------
@@ -631,6 +665,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_medium_segment(const Scen
   if (!ms.scattered) return false;
   st.in_medium = true;
   st.beta_in = before;
+  st.sigma_s = ms.sigma_s;
   st.sh = SurfaceHit();
   st.sh.p = st.ray.o + d * ms.t;
   st.wo_world = -d;
@@ -706,6 +741,7 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   st.seg_t = 0.f;
   st.null_crossings = 0;
   float cos_in = st.in_medium ? 1.f : std::fabs(st.wo.z);
+  st.vm_rel = st.in_medium ? vcm_medium_vm_rel(s, p, st.medium, st.sh.p) : 1.f;
   if (st.length == 1 && st.receiver_pdf) {
     // The NEE density of the emission point seen from this receiver (area lights: per area; point and spot
     // lights: 1, the light itself; times the NEE pick); dVCM = mis(p_direct / p_emit).
@@ -727,6 +763,7 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   v.length = st.length;
   v.mis = vcm_mis_commit(p, st.mis);  // the vertex ends subpaths here: upg's pending term holds
   v.medium = st.in_medium ? st.medium : -1;
+  v.vm_rel = st.vm_rel;
   return true;
 }
 
@@ -769,7 +806,7 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   sp.C = st.beta * e.f * (K / p.n_light);
   sp.K = K;
   VcmMis lm = vcm_mis_commit(p, st.mis);
-  sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p, st.in_medium) + lm.dVCM + lm.dVC * vcm_mis(p, e.pdf_rev);
+  sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p, st.vm_rel) + lm.dVCM + lm.dVC * vcm_mis(p, e.pdf_rev);
   sp.raster = raster;
   sp.length = st.length;
   sp.ray = spawn_ray_to(vcm_origin_towards(st, w), pl, Vec3f(0.f));
@@ -820,7 +857,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_scatter_medium(const Scen
   const float u_rr = st.sampler.next_1d();
   float pdf;
   const Vec3f wi = hg_sample(st.wo_world, s.media[st.medium].g, u, &pdf);
-  vcm_after_scatter(p, st.mis, 1.f, pdf, pdf, false, false, false);  // no merge at a medium vertex
+  vcm_after_scatter(p, st.mis, 1.f, pdf, pdf, false, st.vm_rel);
   st.vm_ok = false;
   st.specular = false;
   if (st.length >= p.rr_depth) {
@@ -846,8 +883,8 @@ CHD bool vcm_scatter(const SceneView& s, const VcmParams& p, VcmPathState& st, T
   if (dot(wi_world, st.sh.ng) * bs.wi.z * dot(st.sh.ns, st.sh.ng) < 0.f) return st.active = false;
   float pdf_rev = bs.delta ? bs.pdf : bsdf_pdf(st.m, bs.wi, st.wo);
   const bool upg = p.mode == VcmMode::kUpg, light = mode == TransportMode::kImportance;
-  vcm_after_scatter(p, st.mis, std::fabs(bs.wi.z), bs.pdf, pdf_rev, bs.delta, !upg || light || st.vm_ok,
-                    upg && light);
+  vcm_after_scatter(p, st.mis, std::fabs(bs.wi.z), bs.pdf, pdf_rev, bs.delta,
+                    !upg || light || st.vm_ok ? 1.f : 0.f, upg && light);
   st.vm_ok = !bs.delta;
   st.specular = st.specular && bs.delta;
   RGB prev = st.beta;
@@ -935,6 +972,7 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
       st.active = false;
       return;
     }
+    st.vm_rel = vcm_medium_vm_rel(s, p, st.medium, st.sh.p);
     st.vertex_valid = true;
     return;
   }
@@ -989,6 +1027,7 @@ CHD void vcm_camera_hit(const SceneView& s, const VcmParams& p, VcmPathState& st
   st.frame = shading_frame(s, st.sh, st.m);
   st.wo = st.frame.to_local(st.wo_world);
   st.p_front = offset_ray_origin(st.sh.p, st.sh.ng, st.wo_world);
+  st.vm_rel = 1.f;
   st.vertex_valid = !material_is_delta(st.m);
 }
 
@@ -1002,7 +1041,7 @@ struct VcmShadow {
 
 // The merge term at camera vertex st (see vcm_weight_nee).
 CHD float vcm_cam_vm(const VcmParams& p, const VcmPathState& st) {
-  return (p.mode == VcmMode::kUpg && !st.vm_ok) || st.in_medium ? 0.f : p.vm_factor;
+  return p.mode == VcmMode::kUpg && !st.vm_ok ? 0.f : p.vm_factor * st.vm_rel;
 }
 
 // Next-event estimation from the camera vertex (s = 1).
@@ -1075,7 +1114,7 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   float cam_dir_a = ec.pdf_fwd * cos_l / d2;
   float light_dir_a = el.pdf_fwd * cos_c / d2;
   float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, ec.pdf_rev, light_dir_a, el.pdf_rev, vcm_cam_vm(p, st),
-                                v.in_medium() ? 0.f : p.vm_factor);
+                                p.vm_factor * v.vm_rel);
   sr.contrib = st.beta * ec.f * el.f * v.beta * (G * mw);
   sr.weight = mw;
   Vec3f o = vcm_origin_towards(st, w);
@@ -1089,16 +1128,42 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   sr.active = isfinite3(sr.contrib) && !is_black(sr.contrib);
 }
 
-// Merging at the camera vertex with the light vertices within the radius
-// (report Eqs. 38-39; the constant-kernel density estimate 1 / (pi r^2 N_light) of the paper's vertex merging).
-// `vertices` is indexed as the grid reports (the grid's order when its view has no ids).
-CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
-                          const VcmMergeVertex* vertices) {
-  if (!st.vertex_valid || !p.merges() || st.in_medium) return;
+// Volumetric merging at a camera vertex in a medium (header comment: UPBP's point-point estimator): the light
+// vertices in the same medium within the ball of radius r, each p(wo, wi_j) beta_j (sigma_s(x_j) in beta_j) over
+// 4/3 pi r^3 N_VM, times the camera's throughput without its own sigma_s (a channel with sigma_s = 0 there has
+// none either).
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline void vcm_camera_merge_medium(const SceneView& s, const VcmParams& p,
+                                                                          VcmPathState& st,
+                                                                          const PhotonGridView& grid,
+                                                                          const VcmMergeVertex* vertices) {
+  const float g = s.media[st.medium].g;
   RGB sum(0.f);
   grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
     const VcmMergeVertex& v = vertices[id];
-    if (v.length == 0 || v.length + st.length > p.max_depth) return;  // a medium vertex, or too long
+    if (v.medium != st.medium || uint32_t(v.length) + st.length > p.max_depth) return;
+    VcmMis lm;
+    lm.dVCM = v.dVCM;
+    lm.dVM = v.dVM;
+    const float ph = hg_phase(dot(st.wo_world, v.wi), g);
+    sum += v.beta * (ph * vcm_weight_merge(p, lm, st.mis, ph, ph, st.vm_rel));
+  }, vertices, uint32_t(sizeof(VcmMergeVertex)));
+  RGB cam;
+  for (int c = 0; c < 3; ++c) cam[c] = st.sigma_s[c] > 0.f ? st.beta[c] / st.sigma_s[c] : 0.f;
+  st.L += cam * sum * (p.vm_norm * 0.75f / p.radius);  // 1 / (pi r^2 N) * 3 / (4 r)
+}
+
+// Merging at the camera vertex with the light vertices within the radius
+// (report Eqs. 38-39; the constant-kernel density estimate 1 / (pi r^2 N_light) of the paper's vertex merging;
+// in a medium vcm_camera_merge_medium). `vertices` is indexed as the grid reports (the grid's order when its
+// view has no ids).
+CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
+                          const VcmMergeVertex* vertices) {
+  if (!st.vertex_valid || !p.merges()) return;
+  if (st.in_medium) return vcm_camera_merge_medium(s, p, st, grid, vertices);
+  RGB sum(0.f);
+  grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
+    const VcmMergeVertex& v = vertices[id];
+    if (v.medium >= 0 || uint32_t(v.length) + st.length > p.max_depth) return;  // a medium vertex, or too long
     Vec3f wl = st.frame.to_local(v.wi);
     RGB f = bsdf_eval(st.m, st.wo, wl) * photon_gather_cosines(st.sh.ns, st.sh.ng, v.wi);
     if (is_black(f)) return;
@@ -1108,7 +1173,6 @@ CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& 
     float w = vcm_weight_merge(p, lm, st.mis, bsdf_pdf(st.m, st.wo, wl), bsdf_pdf(st.m, wl, st.wo));
     sum += f * v.beta * w;
   }, vertices, uint32_t(sizeof(VcmMergeVertex)));
-  (void)s;
   st.L += st.beta * sum * p.vm_norm;
 }
 

@@ -193,7 +193,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
     }
     grid.build(ph, s.bounds, 2.f * p.radius, false, 0, true);
     gv = grid.view();
-    // The merges read each found vertex's record; in path order (100-byte VcmLightVertex) those reads
+    // The merges read each found vertex's record; in path order (108-byte VcmLightVertex) those reads
     // missed the cache at random and were the hottest instruction of the merge query (perf, 512 x 512
     // smallvcm-mirror-ball). A compact copy in the grid's order keeps the records of a cell run
     // together; the query then reports grid positions.
