@@ -1136,6 +1136,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline void vcm_camera_merge_medium(const
                                                                           VcmPathState& st,
                                                                           const PhotonGridView& grid,
                                                                           const VcmMergeVertex* vertices) {
+  if (!(st.vm_rel > 0.f)) return;  // no merge term (rel underflows only for r sigma_t below 1e-19)
   const float g = s.media[st.medium].g;
   RGB sum(0.f);
   grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
