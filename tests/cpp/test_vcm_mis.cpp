@@ -199,12 +199,12 @@ TestPath random_path(PCG32& r, int k, bool point_light, bool allow_delta, bool m
   return P;
 }
 
-VcmParams params(VcmMode mode, bool balance, float radius) {
+VcmParams params(VcmMode mode, bool balance, float radius, float volume_radius = 0.f) {
   VcmParams p;
   p.mode = mode;
   p.balance = balance;
   p.n_light = 4096.f;
-  vcm_set_radius(p, radius);
+  vcm_set_radius(p, radius, volume_radius);
   return p;
 }
 
@@ -335,9 +335,9 @@ TEST(VcmMis, LightBvhPicksWeightsSumToOne) {
   EXPECT_GT(broken, n_paths / 2) << broken << " of " << n_paths;
 }
 
-// Medium vertices (phase function, |cos| 1, merged by bpm and vcm with rel = mis(4/3 r sigma_t)) among surface
-// and delta vertices: bdpt's, bpm's and vcm's weights still sum to one (radius over four decades, sigma_t over
-// four).
+// Medium vertices (phase function, |cos| 1, merged by bpm and vcm with rel = mis(4/3 r_v^3 sigma_t / r^2)) among
+// surface and delta vertices: bdpt's, bpm's and vcm's weights still sum to one (radius over four decades, the
+// volume radius the same or within a decade of it, sigma_t over four decades).
 TEST(VcmMis, WeightsSumToOneWithMediumVertices) {
   PCG32 r(23, 7);
   int with_media = 0;
@@ -346,10 +346,11 @@ TEST(VcmMis, WeightsSumToOneWithMediumVertices) {
       int k = 2 + int(r.next_u32() % 6);
       bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
       float radius = std::pow(10.f, -4.f + 4.f * r.next_float());
+      float volume_radius = trial % 2 ? 0.f : radius * std::pow(10.f, -1.f + 2.f * r.next_float());
       TestPath P = random_path(r, k, point, true, true);
       for (const V& v : P.x) with_media += v.medium;
       int n = 0;
-      double s = weight_sum(params(mode, balance, radius), P, &n);
+      double s = weight_sum(params(mode, balance, radius, volume_radius), P, &n);
       if (n == 0) continue;
       EXPECT_NEAR(s, 1.0, 1e-4) << "mode " << int(mode) << " trial " << trial << " k " << k << " radius " << radius;
     }
@@ -368,7 +369,7 @@ TEST(VcmMis, MediumMergeTermIsDetected) {
       bool any = false;
       for (const V& v : P.x) any = any || v.medium;
       if (!any) continue;
-      VcmParams p = params(trial % 2 ? VcmMode::kVcm : VcmMode::kBpm, false, 0.3f);
+      VcmParams p = params(trial % 2 ? VcmMode::kVcm : VcmMode::kBpm, false, 0.3f, trial % 3 ? 0.f : 0.6f);
       EXPECT_NEAR(weight_sum(p, P), 1.0, 1e-4);
       g_medium_rule = rule;
       broken += std::fabs(weight_sum(p, P) - 1.0) > 1e-3;

@@ -190,12 +190,14 @@ def test_volumetric_caustic_seen_in_a_mirror():
     # The glass sphere's volumetric caustic (L S S V paths) seen only in a mirror (V S E): L S S V S E paths
     # have no connection strategy (the medium vertex's neighbours are both delta), so bdpt misses the caustic
     # (it renders the fog's glow, L V S E, and multiple scattering) and merging at medium vertices renders it,
-    # as pppm's volume photons do. Region means over 4 seeds each (standard errors from their spread): in the
-    # caustic's regions bdpt is far below pppm (measured 16-17% in the brightest, z < -14); vcm and bpm are far
-    # above bdpt in the brightest (bpm's next one down is too noisy to tell); everywhere vcm and bpm agree with
-    # pppm within 5 standard errors of the difference plus 5% of the value for pppm's kernel bias near the
-    # fog's boundary (there pppm reads 2-6% below bdpt, whose paths it does not lack; measured vcm - pppm up
-    # to +11% at |z| 4 in a corner, bpm |z| <= 3.5), and bdpt does not.
+    # as pppm's volume photons do. vcm and bpm with a volume radius of their own (0.3; the surface merges keep
+    # the automatic 0.05, a pixel footprint at the mirror). Region means over 4 seeds each (standard errors
+    # from their spread): in the caustic's regions bdpt is far below pppm (measured 16-17% in the brightest,
+    # z < -14); vcm and bpm are far above bdpt in the brightest (measured z 13 and 6.7; bpm's next one down is
+    # too noisy to tell); everywhere vcm and bpm agree with pppm within 5 standard errors of the difference plus
+    # 5% of the value for pppm's kernel bias near the fog's boundary (there pppm reads 2-6% below bdpt, whose
+    # paths it does not lack; measured vcm - pppm up to +11% at z 6.7 in a corner, bpm |z| <= 1.7), and bdpt
+    # does not.
     s = in_a_mirror(fog_box("glass"))
 
     def regions(integrator, seeds, **kw):
@@ -208,7 +210,7 @@ def test_volumetric_caustic_seen_in_a_mirror():
     caustic = (slice(2, 4), 2)  # the regions below the sphere where the cone is brightest
     assert z_scores(bd, pm)[caustic].max() < -10.0, z_scores(bd, pm)[..., 1]
     for integrator, seeds in (("vcm", range(10, 14)), ("bpm", range(20, 24))):
-        x = regions(integrator, seeds, radius=0.15)
+        x = regions(integrator, seeds, volume_radius=0.3)
         assert z_scores(x, bd)[2, 2].min() > 5.0, (integrator, z_scores(x, bd)[..., 1])  # bpm's row 3: noisy
         bound = 5 * np.sqrt(x[1] ** 2 + pm[1] ** 2) + 0.05 * pm[0]
         assert (np.abs(x[0] - pm[0]) < bound).all(), (integrator, x[0][..., 1], pm[0][..., 1])
@@ -217,13 +219,28 @@ def test_volumetric_caustic_seen_in_a_mirror():
 
 def test_threads_and_wavefront_give_the_same_image():
     # The wavefront driver runs the same stage functions (the transmittance of every connection and splat
-    # included) with the same streams: bit for bit, as the thread count.
+    # included) with the same streams: bit for bit, as the thread count; bpm and vcm also with a volume radius
+    # of their own (the medium vertices' grid split from the surface vertices' in both drivers).
     for s in (fog_box(width=16), smoke_box(width=16), unbounded_fog(width=16)):
-        for integrator in ("light", "bdpt", "vcm", "bpm"):
-            kw = dict(integrator=integrator, spp=3, seed=6, max_depth=-1)
+        for integrator, extra in (("light", {}), ("bdpt", {}), ("vcm", {}), ("bpm", {}),
+                                  ("vcm", {"volume_radius": 0.4}), ("bpm", {"volume_radius": 0.4})):
+            kw = dict(integrator=integrator, spp=3, seed=6, max_depth=-1, **extra)
             one = caustica.render(s, threads=1, **kw)
             assert np.array_equal(one, caustica.render(s, threads=2, **kw))
             assert np.array_equal(one, caustica.render(s, wavefront=True, **kw))
+
+
+def test_volume_radius_of_the_merges():
+    # bpm and vcm take --volume-radius in media: reported, the surface radius unchanged, a different image;
+    # without it the volume merges use the surface radius (reported as the volume radius).
+    s = fog_box(width=16)
+    for integrator in ("vcm", "bpm"):
+        auto = caustica.render_job(s, integrator=integrator, spp=2, seed=1)
+        assert auto.stats["volume_radius"] == auto.stats["radius"] > 0
+        given = caustica.render_job(s, integrator=integrator, spp=2, seed=1, volume_radius=0.3)
+        assert given.stats["volume_radius"] == pytest.approx(0.3)
+        assert given.stats["radius"] == auto.stats["radius"]
+        assert not np.array_equal(auto.image, given.image)
 
 
 def test_strategy_images_sum_to_the_image():

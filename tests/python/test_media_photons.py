@@ -228,7 +228,8 @@ def test_volume_radius_is_reported_and_sets_the_kernel():
      "--photon-sampling adaptive does not trace photons through participating media"),
     (dict(integrator="pppm", volume_radius=-1.0), "volume_radius must be a positive number"),
     (dict(integrator="path", volume_radius=0.5),
-     "--volume-radius applies to integrators 'pppm' and 'sppm' in scenes with participating media"),
+     "--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with participating media"),
+    (dict(integrator="bdpt", volume_radius=0.5), "--volume-radius applies to integrators"),
 ])
 def test_refusals(opts, message):
     with pytest.raises(caustica.InputError) as e:

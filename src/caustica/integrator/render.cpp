@@ -221,8 +221,13 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   }
   if (opt_.volume_radius < 0.f || !std::isfinite(opt_.volume_radius))
     throw InputError("--volume-radius must be a positive number");
-  if (opt_.volume_radius > 0.f && !(media_photons && scene_has_media(scene_->view())))
-    throw InputError("--volume-radius applies to integrators 'pppm' and 'sppm' in scenes with participating media");
+  const bool media_merges = opt_.integrator == "bpm" || opt_.integrator == "vcm";
+  if (opt_.volume_radius > 0.f && !((media_photons || media_merges) && scene_has_media(scene_->view())))
+    throw InputError("--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with "
+                     "participating media");
+  // bpm and vcm in media: volumetric merging's initial radius (the surface merges' unless given; vcm.h).
+  if (media_merges && scene_has_media(scene_->view()))
+    volume_radius_ = opt_.volume_radius > 0.f ? opt_.volume_radius : vcm_initial_radius(*scene_, opt_);
   // --accel small on a scene it does not take fails here, not in the render thread.
   if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
@@ -277,6 +282,7 @@ void RenderJob::make_integrator() {
     p.light_paths = vcm_light_paths(opt_, pixels);
     p.radius = vcm_initial_radius(*scene_, opt_);
     p.alpha = opt_.alpha;
+    p.volume_radius = opt_.volume_radius;
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_vcm_wavefront(scene_, p, dev)
                           : make_cpu_vcm_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());

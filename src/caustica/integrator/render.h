@@ -215,7 +215,8 @@ class RenderJob {
   std::unique_ptr<VcmIntegrator> vcm_;  // light, bdpt, bpm, vcm
   std::unique_ptr<UpgIntegrator> upg_;
   std::unique_ptr<WavefrontRenderer> wavefront_;
-  float volume_radius_ = 0.f;  // pppm and sppm in media on the wavefront: the volume photons' initial radius
+  float volume_radius_ = 0.f;  // pppm and sppm in media on the wavefront: the volume photons' initial radius;
+                               // bpm and vcm in media: volumetric merging's (vcm.h)
   std::atomic<uint64_t> photons_{0};
   std::unique_ptr<WavefrontPassStats> stage_totals_;  // wavefront renders: sums over passes
   mutable std::mutex stage_mutex_;                     // guards stage_totals_ (held briefly)

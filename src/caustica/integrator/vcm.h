@@ -58,11 +58,13 @@
 // Vevoda, Sik, Nowrouzezahrai, Jarosz 2014, "Unifying Points, Beams, and Paths in Volumetric Light Transport
 // Simulation" (UPBP; Jensen & Christensen 1998's volume radiance estimate): the light vertices carry their
 // sigma_s (their throughput includes the event's), the camera's weight leaves out its own, and the kernel is
-// 1 / (4/3 pi r^3 N_VM) (vcm_camera_merge_medium). Its acceptance probability is the ball's volume times the
+// 1 / (4/3 pi r_v^3 N_VM) (vcm_camera_merge_medium). The ball's radius r_v is the surface merges' r unless
+// given (--volume-radius; then it shrinks as pass^((alpha - 1) / 3), the 3D kernel's schedule, and the
+// volume merges use a grid of their own). A merge's acceptance probability is the ball's volume times the
 // light subpath's density of the vertex per volume; as the MIS densities leave out free-flight factors, that
 // density is taken as sigma_t(x) (the mean over channels at the vertex: a function of the point, the same
 // from either subpath) times the density per area, so a medium vertex's merge term is eta_VCM times
-// rel = mis(4/3 r sigma_t(x)) (vcm_medium_vm_rel; a surface vertex's rel is 1). With rel varying per vertex the
+// rel = mis(4/3 r_v^3 sigma_t(x) / r^2) (vcm_medium_vm_rel; a surface vertex's rel is 1). With rel varying per vertex the
 // running quantities keep the report's form: dVC gains vm_factor rel and dVM gains rel at each vertex
 // (vcm_after_scatter), the merge and connection terms of a vertex are vm_factor rel (vcm_cam_vm, vcm_lt_vm), and
 // a merge at a medium vertex divides its w_light and w_camera by rel (vcm_weight_merge); dVM stays dVC vc_factor
@@ -106,6 +108,8 @@ struct VcmParams {
   float vm_factor = 0.f;    // mis(eta_VCM), 0 without merging   (report Sec. 5.1)
   float vc_factor = 0.f;    // mis(1 / eta_VCM), 0 without connections
   float vm_norm = 0.f;      // 1 / (pi r^2 N_VM)
+  float radius_v = 0.f;     // volumetric merging's radius of this pass (header comment; r unless given)
+  float vm_norm_v = 0.f;    // 1 / (4/3 pi r_v^3 N_VM)
   // The medium of the region outside every medium boundary, where a light subpath starts when its first ray
   // meets no boundary: the camera's medium when the camera is in that region (an unbounded fog), else vacuum
   // (vcm_outer_medium in vcm_render.cpp).
@@ -131,13 +135,16 @@ CHD float vcm_nee_pick(const SceneView& s, const VcmParams& p, Vec3f x, uint32_t
   return p.light_bvh ? light_bvh_pmf(s.light_bvh, x, light) : power_pick;
 }
 
-// Fills the factors for a pass with radius r (eta_VCM = N pi r^2, report Eq. 20).
-CHD void vcm_set_radius(VcmParams& p, float r) {
+// Fills the factors for a pass with radius r (eta_VCM = N pi r^2, report Eq. 20) and volumetric merging's
+// radius rv (0: r).
+CHD void vcm_set_radius(VcmParams& p, float r, float rv = 0.f) {
   p.radius = r;
   float eta = kPi * r * r * p.n_light;
   p.vm_factor = p.use_vm() ? vcm_mis(p, eta) : 0.f;
   p.vc_factor = p.use_vc() ? vcm_mis(p, 1.f / eta) : 0.f;
   p.vm_norm = p.use_vm() ? 1.f / eta : 0.f;
+  p.radius_v = rv > 0.f ? rv : r;
+  p.vm_norm_v = p.use_vm() ? 1.f / ((4.f / 3.f) * kPi * p.radius_v * p.radius_v * p.radius_v * p.n_light) : 0.f;
 }
 
 // ---------------------------------------------------------------------------
@@ -152,10 +159,13 @@ struct VcmMis {
   float pend = 0.f;
 };
 
-// A medium vertex's merge term relative to a surface vertex's (header comment: rel = mis(4/3 r sigma_t(x)),
-// sigma_t(x) the mean over channels at x); 0 where no merge runs (light, bdpt; upg does not render media).
+// A medium vertex's merge term relative to a surface vertex's (header comment: rel = mis(4/3 r_v^3 sigma_t(x) /
+// r^2), the ball's volume over the disc's area times sigma_t(x), the mean over channels at x); 0 where no merge
+// runs (light, bdpt; upg does not render media).
 CHD float vcm_medium_vm_rel_of(const VcmParams& p, float sigma_t) {
-  return p.merges() ? vcm_mis(p, (4.f / 3.f) * p.radius * sigma_t) : 0.f;
+  return p.merges() ? vcm_mis(p, (4.f / 3.f) * p.radius_v * p.radius_v * p.radius_v * sigma_t /
+                                     (p.radius * p.radius))
+                    : 0.f;
 }
 CHD float vcm_medium_vm_rel(const SceneView& s, const VcmParams& p, int32_t medium, Vec3f x) {
   if (!p.merges()) return 0.f;
@@ -1129,9 +1139,9 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
 }
 
 // Volumetric merging at a camera vertex in a medium (header comment: UPBP's point-point estimator): the light
-// vertices in the same medium within the ball of radius r, each p(wo, wi_j) beta_j (sigma_s(x_j) in beta_j) over
-// 4/3 pi r^3 N_VM, times the camera's throughput without its own sigma_s (a channel with sigma_s = 0 there has
-// none either).
+// vertices in the same medium within the ball of radius r_v (`grid` and `vertices` hold the medium vertices),
+// each p(wo, wi_j) beta_j (sigma_s(x_j) in beta_j) over 4/3 pi r_v^3 N_VM, times the camera's throughput
+// without its own sigma_s (a channel with sigma_s = 0 there has none either).
 CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline void vcm_camera_merge_medium(const SceneView& s, const VcmParams& p,
                                                                           VcmPathState& st,
                                                                           const PhotonGridView& grid,
@@ -1139,7 +1149,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline void vcm_camera_merge_medium(const
   if (!(st.vm_rel > 0.f)) return;  // no merge term (rel underflows only for r sigma_t below 1e-19)
   const float g = s.media[st.medium].g;
   RGB sum(0.f);
-  grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
+  grid.query_indexed(st.sh.p, p.radius_v, [&](uint32_t id, const Photon&) {
     const VcmMergeVertex& v = vertices[id];
     if (v.medium != st.medium || uint32_t(v.length) + st.length > p.max_depth) return;
     VcmMis lm;
@@ -1150,21 +1160,23 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline void vcm_camera_merge_medium(const
   }, vertices, uint32_t(sizeof(VcmMergeVertex)));
   RGB cam;
   for (int c = 0; c < 3; ++c) cam[c] = st.sigma_s[c] > 0.f ? st.beta[c] / st.sigma_s[c] : 0.f;
-  st.L += cam * sum * (p.vm_norm * 0.75f / p.radius);  // 1 / (pi r^2 N) * 3 / (4 r)
+  st.L += cam * sum * p.vm_norm_v;
 }
 
 // Merging at the camera vertex with the light vertices within the radius
 // (report Eqs. 38-39; the constant-kernel density estimate 1 / (pi r^2 N_light) of the paper's vertex merging;
-// in a medium vcm_camera_merge_medium). `vertices` is indexed as the grid reports (the grid's order when its
+// in a medium vcm_camera_merge_medium). `grid` and `vertices` hold the light vertices on surfaces, `grid_v` and
+// `vertices_v` those in media (cells of 2 r_v), each indexed as its grid reports (the grid's order when its
 // view has no ids).
 CHD void vcm_camera_merge(const SceneView& s, const VcmParams& p, VcmPathState& st, const PhotonGridView& grid,
-                          const VcmMergeVertex* vertices) {
+                          const VcmMergeVertex* vertices, const PhotonGridView& grid_v,
+                          const VcmMergeVertex* vertices_v) {
   if (!st.vertex_valid || !p.merges()) return;
-  if (st.in_medium) return vcm_camera_merge_medium(s, p, st, grid, vertices);
+  if (st.in_medium) return vcm_camera_merge_medium(s, p, st, grid_v, vertices_v);
   RGB sum(0.f);
   grid.query_indexed(st.sh.p, p.radius, [&](uint32_t id, const Photon&) {
     const VcmMergeVertex& v = vertices[id];
-    if (v.medium >= 0 || uint32_t(v.length) + st.length > p.max_depth) return;  // a medium vertex, or too long
+    if (uint32_t(v.length) + st.length > p.max_depth) return;  // too long
     Vec3f wl = st.frame.to_local(v.wi);
     RGB f = bsdf_eval(st.m, st.wo, wl) * photon_gather_cosines(st.sh.ns, st.sh.ng, v.wi);
     if (is_black(f)) return;

@@ -80,6 +80,11 @@ float vcm_radius(float r0, float alpha, int64_t pass) {
   return float(double(r0) * std::pow(double(pass + 1), 0.5 * (double(alpha) - 1.0)));
 }
 
+float vcm_volume_radius(float rv0, float alpha, int64_t pass) {
+  if (!(rv0 > 0.f)) return 0.f;
+  return float(double(rv0) * std::pow(double(pass + 1), (double(alpha) - 1.0) / 3.0));
+}
+
 int32_t vcm_outer_medium(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt) {
   return outer_medium(scene, accel, opt.integrator, "light subpaths");
 }
@@ -169,7 +174,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   VcmParams p = vcm_pass_params(opt_, VcmMode(mode_), max_depth_, pass, n);
   p.outer_medium = outer_medium_;
   const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)
-  vcm_set_radius(p, radius(pass));
+  vcm_set_radius(p, radius(pass), vcm_volume_radius(opt_.volume_radius, opt_.alpha, pass));
 
   // 1. Light subpaths in fixed chunks (trace_light_subpaths, shared with upg).
   const bool keep_vertices = p.use_vc() || p.use_vm();
@@ -180,29 +185,38 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   const std::vector<std::vector<VcmSplat>>& csplats = lp.splats;
   std::atomic<uint64_t> rays{lp.rays};
 
-  // 2. The hash grid of light vertices for merging (cells of 2r).
-  PhotonHashGrid grid;
-  PhotonGridView gv;
-  std::vector<VcmMergeVertex> merge_verts;  // what merges read of verts, in the grid's order
+  // 2. The hash grids of light vertices for merging: those on surfaces (cells of 2r) and those in media (cells
+  // of 2 r_v; empty in scenes without media).
+  PhotonHashGrid grid, grid_v;
+  PhotonGridView gv, gvv;
+  std::vector<VcmMergeVertex> merge_verts, merge_verts_v;  // what merges read of verts, in each grid's order
   if (p.merges() && !verts.empty()) {
-    std::vector<Photon> ph(verts.size());
-    for (size_t k = 0; k < verts.size(); ++k) {
-      ph[k].p = verts[k].sh.p;
-      ph[k].wi = verts[k].wi;
-      ph[k].power = verts[k].beta;
-    }
-    grid.build(ph, s.bounds, 2.f * p.radius, false, 0, true);
-    gv = grid.view();
-    // The merges read each found vertex's record; in path order (108-byte VcmLightVertex) those reads
-    // missed the cache at random and were the hottest instruction of the merge query (perf, 512 x 512
-    // smallvcm-mirror-ball). A compact copy in the grid's order keeps the records of a cell run
-    // together; the query then reports grid positions.
-    const std::vector<uint32_t>& ids = grid.ids();
-    merge_verts.resize(ids.size());
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, ids.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t j = r.begin(); j < r.end(); ++j) merge_verts[j] = vcm_merge_vertex(verts[ids[j]]);
-    });
-    gv.ids = nullptr;
+    std::vector<uint32_t> which[2];  // the indices of the surface and of the medium vertices, in path order
+    for (uint32_t k = 0; k < uint32_t(verts.size()); ++k) which[verts[k].in_medium()].push_back(k);
+    auto build = [&](const std::vector<uint32_t>& idx, float r, PhotonHashGrid& g, PhotonGridView& view,
+                     std::vector<VcmMergeVertex>& records) {
+      if (idx.empty()) return;
+      std::vector<Photon> ph(idx.size());
+      for (size_t k = 0; k < idx.size(); ++k) {
+        ph[k].p = verts[idx[k]].sh.p;
+        ph[k].wi = verts[idx[k]].wi;
+        ph[k].power = verts[idx[k]].beta;
+      }
+      g.build(ph, s.bounds, 2.f * r, false, 0, true);
+      view = g.view();
+      // The merges read each found vertex's record; in path order (108-byte VcmLightVertex) those reads
+      // missed the cache at random and were the hottest instruction of the merge query (perf, 512 x 512
+      // smallvcm-mirror-ball). A compact copy in the grid's order keeps the records of a cell run
+      // together; the query then reports grid positions.
+      const std::vector<uint32_t>& ids = g.ids();
+      records.resize(ids.size());
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, ids.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t j = r.begin(); j < r.end(); ++j) records[j] = vcm_merge_vertex(verts[idx[ids[j]]]);
+      });
+      view.ids = nullptr;
+    };
+    build(which[0], p.radius, grid, gv, merge_verts);
+    build(which[1], p.radius_v, grid_v, gvv, merge_verts_v);
   }
 
   // 3. Camera subpaths, one per pixel, in parallel over rows (each pixel owned by one task).
@@ -251,7 +265,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
             }
           if (st.vertex_valid && p.merges()) {
             before = st.L;
-            vcm_camera_merge(s, p, st, gv, merge_verts.data());
+            vcm_camera_merge(s, p, st, gv, merge_verts.data(), gvv, merge_verts_v.data());
             if (rec) record(merge_slot(st.length + 1), pix, st.L - before);
           }
           vcm_camera_continue(s, p, st);

@@ -38,6 +38,10 @@ VcmParams vcm_pass_params(const RenderOptions& opt, VcmMode mode, uint32_t max_d
 uint32_t vcm_light_paths(const RenderOptions& opt, uint32_t pixels);  // light subpaths per pass
 // The merge radius of pass `pass` (0-based): r_1 (pass + 1)^((alpha - 1) / 2) (Georgiev et al. 2012, Sec. 5).
 float vcm_radius(float r0, float alpha, int64_t pass);
+// Volumetric merging's radius of pass `pass` (bpm, vcm in media; vcm.h): rv0 (pass + 1)^((alpha - 1) / 3), the
+// 3D kernel's schedule (its variance grows as r^-3), from rv0 = RenderOptions::volume_radius; 0 when that is 0
+// (then the surface radius of the pass).
+float vcm_volume_radius(float rv0, float alpha, int64_t pass);
 // r_1: RenderOptions::radius, else half the photon integrators' automatic radius (see the constructor).
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt);
 // The medium of the region outside every medium boundary for light subpaths (VcmParams::outer_medium): the

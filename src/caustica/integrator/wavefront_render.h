@@ -111,6 +111,7 @@ struct VcmWavefrontParams {
   uint32_t light_paths = 0;    // light subpaths per pass (exact; base.n_light is its float)
   float radius = 0.f;          // r_1 (resolved: > 0)
   float alpha = 0.75f;         // radius schedule r_i = r_1 i^((alpha - 1) / 2)
+  float volume_radius = 0.f;   // bpm, vcm in media: volumetric merging's r_v,1 (0: the surface radius; vcm.h)
 };
 std::unique_ptr<WavefrontRenderer> make_cpu_vcm_wavefront(std::shared_ptr<Scene> scene, const VcmWavefrontParams& p,
                                                           const CpuAccel* accel);

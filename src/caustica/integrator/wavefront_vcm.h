@@ -86,7 +86,10 @@ class WavefrontVcm {
     VcmParams p = p_.base;
     p.pass = pass;
     const bool upg = p.mode == VcmMode::kUpg;  // a fixed radius: the gather is unbiased for any r
-    vcm_set_radius(p, upg ? p_.radius : vcm_radius(p_.radius, p_.alpha, int64_t(pass)));
+    if (upg) vcm_set_radius(p, p_.radius);
+    else
+      vcm_set_radius(p, vcm_radius(p_.radius, p_.alpha, int64_t(pass)),
+                     vcm_volume_radius(p_.volume_radius, p_.alpha, int64_t(pass)));
     stats = WavefrontPassStats();
     auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
     StageClock<B> clock(b_);
@@ -155,8 +158,10 @@ class WavefrontVcm {
     clock.lap(stats.seconds_light);
 
     // 2. The hash grid of light vertices for merging (cells of 2r), the merge records in the grid's order;
-    // for upg's gathers, cells of 2(r + slack) and the grid reports vertex indices.
-    PhotonGridView gv;
+    // for upg's gathers, cells of 2(r + slack) and the grid reports vertex indices. In scenes with media the
+    // vertices in media go to a grid of their own (cells of 2 r_v; the CPU driver's split, each part in path
+    // order).
+    PhotonGridView gv, gvv;
     const float query_r = p.radius + upg_query_slack(s.bounds, p.radius);
     if ((p.merges() || upg) && nverts > 0) {
       if (photons_.size() < nverts) photons_.resize(nverts);
@@ -170,14 +175,47 @@ class WavefrontVcm {
         x.power = verts[k].beta;
         ph[k] = x;
       });
-      grid_.build(b_, ph, nverts, s.bounds, 2.f * (upg ? query_r : p.radius), false, 0);
-      gv = grid_.view();
-      const uint32_t* ids = grid_.ids();
-      if (upg) {
-        gv.ids = ids;
+      if (upg || !scene_has_media(s)) {
+        grid_.build(b_, ph, nverts, s.bounds, 2.f * (upg ? query_r : p.radius), false, 0);
+        gv = grid_.view();
+        const uint32_t* ids = grid_.ids();
+        if (upg) {
+          gv.ids = ids;
+        } else {
+          VcmMergeVertex* mv = merge_verts_.data();
+          b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t j) { mv[j] = vcm_merge_vertex(verts[ids[j]]); });
+        }
       } else {
+        for (Buffer<uint32_t>* buf : {&split_flags_, &split_scan_, &split_index_})
+          if (buf->size() < nverts + 1) buf->resize(nverts + 1);
+        if (split_photons_.size() < nverts) split_photons_.resize(nverts);
+        if (merge_verts_v_.size() < nverts) merge_verts_v_.resize(nverts);
+        uint32_t* flags = split_flags_.data();
+        uint32_t* scan = split_scan_.data();
+        b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t k) { flags[k] = verts[k].in_medium() ? 1u : 0u; });
+        const uint32_t nv = b_.exclusive_scan(flags, scan, nverts), ns = nverts - nv;
+        // Surface vertices first, then medium vertices, each in path order; index: a split position's vertex.
+        Photon* sp = split_photons_.data();
+        uint32_t* index = split_index_.data();
+        b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t k) {
+          const uint32_t j = flags[k] ? ns + scan[k] : k - scan[k];
+          sp[j] = ph[k];
+          index[j] = k;
+        });
         VcmMergeVertex* mv = merge_verts_.data();
-        b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t j) { mv[j] = vcm_merge_vertex(verts[ids[j]]); });
+        if (ns > 0) {
+          grid_.build(b_, sp, ns, s.bounds, 2.f * p.radius, false, 0);
+          gv = grid_.view();
+          const uint32_t* ids = grid_.ids();
+          b_.parallel_for(ns, CAUSTICA_KERNEL(uint32_t j) { mv[j] = vcm_merge_vertex(verts[index[ids[j]]]); });
+        }
+        if (nv > 0) {
+          grid_v_.build(b_, sp + ns, nv, s.bounds, 2.f * p.radius_v, false, 0);
+          gvv = grid_v_.view();
+          const uint32_t* ids = grid_v_.ids();
+          VcmMergeVertex* mvv = merge_verts_v_.data();
+          b_.parallel_for(nv, CAUSTICA_KERNEL(uint32_t j) { mvv[j] = vcm_merge_vertex(verts[index[ns + ids[j]]]); });
+        }
       }
     }
     clock.lap(stats.seconds_grid);
@@ -205,6 +243,7 @@ class WavefrontVcm {
       const VcmLightVertex* verts = verts_.data();
       const uint32_t* start = start_.data();
       const VcmMergeVertex* mv = merge_verts_.data();
+      const VcmMergeVertex* mvv = merge_verts_v_.data();
       VcmPathState* prev = prev_.data();
       uint32_t* have_prev = have_prev_.data();
       stats.rays += intersect_queue(paths, queue, len, depth == 0);
@@ -236,7 +275,7 @@ class WavefrontVcm {
                 }
               }
             }
-            if (st.vertex_valid && p.merges()) vcm_camera_merge(s, p, st, gv, mv);
+            if (st.vertex_valid && p.merges()) vcm_camera_merge(s, p, st, gv, mv, gvv, mvv);
             if (upg) {
               have_prev[i] = st.vertex_valid ? 1u : 0u;
               if (st.vertex_valid) prev[i] = st;
@@ -388,6 +427,12 @@ class WavefrontVcm {
   Buffer<Photon> photons_;
   Buffer<VcmMergeVertex> merge_verts_;
   BackendPhotonGrid<B> grid_;
+  // bpm, vcm in media: the vertices split into those on surfaces and those in media (flags, their scan, each
+  // split position's vertex, the split photons), the medium vertices' grid and merge records.
+  Buffer<uint32_t> split_flags_, split_scan_, split_index_;
+  Buffer<Photon> split_photons_;
+  Buffer<VcmMergeVertex> merge_verts_v_;
+  BackendPhotonGrid<B> grid_v_;
 };
 
 }  // namespace caustica
