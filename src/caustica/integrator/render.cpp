@@ -225,9 +225,6 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (opt_.volume_radius > 0.f && !((media_photons || media_merges) && scene_has_media(scene_->view())))
     throw InputError("--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with "
                      "participating media");
-  // bpm and vcm in media: volumetric merging's initial radius (the surface merges' unless given; vcm.h).
-  if (media_merges && scene_has_media(scene_->view()))
-    volume_radius_ = opt_.volume_radius > 0.f ? opt_.volume_radius : vcm_initial_radius(*scene_, opt_);
   // --accel small on a scene it does not take fails here, not in the render thread.
   if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
@@ -282,7 +279,8 @@ void RenderJob::make_integrator() {
     p.light_paths = vcm_light_paths(opt_, pixels);
     p.radius = vcm_initial_radius(*scene_, opt_);
     p.alpha = opt_.alpha;
-    p.volume_radius = opt_.volume_radius;
+    if (scene_has_media(v) && (opt_.integrator == "bpm" || opt_.integrator == "vcm"))
+      volume_radius_ = p.volume_radius = vcm_initial_volume_radius(*scene_, cpu_accel(), opt_, p.radius);
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_vcm_wavefront(scene_, p, dev)
                           : make_cpu_vcm_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());
@@ -547,7 +545,7 @@ RenderStats RenderJob::stats() const {
   s.seconds = seconds_.load();
   s.photons = photons_.load();
   s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
-  s.volume_radius = photon_ ? photon_->initial_volume_radius() : volume_radius_;
+  s.volume_radius = photon_ ? photon_->initial_volume_radius() : vcm_ ? vcm_->initial_volume_radius() : volume_radius_;
   if ((photon_ || wavefront_) && opt_.photon_sampling == "adaptive") {
     std::lock_guard<std::mutex> lock(adaptive_mutex_);
     s.adaptive = adaptive_;

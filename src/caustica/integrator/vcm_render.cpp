@@ -41,6 +41,8 @@ VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   // smallvcm-point, at one footprint it won (bench/RESULTS.md, bidirectional).
   r0_ = vcm_initial_radius(*scene_, opt);
   if (scene_has_media(v)) outer_medium_ = vcm_outer_medium(*scene_, scene_->cpu_accel(opt.accel), opt);
+  if ((VcmMode(mode_) == VcmMode::kBpm || VcmMode(mode_) == VcmMode::kVcm) && scene_has_media(v))
+    rv0_ = vcm_initial_volume_radius(*scene_, scene_->cpu_accel(opt.accel), opt, r0_);
   if (opt.strategy_images) {
     for (uint32_t k = 1; k <= kStrategyMaxLength; ++k)
       for (uint32_t s = 0; s <= k; ++s)
@@ -91,6 +93,46 @@ int32_t vcm_outer_medium(const Scene& scene, const CpuAccel& accel, const Render
 
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt) {
   return opt.radius > 0.f ? opt.radius : 0.5f * automatic_radius(scene);
+}
+
+float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, float r0) {
+  if (opt.volume_radius > 0.f) return opt.volume_radius;
+  const SceneView& v = scene.view();
+  if (!scene_has_media(v)) return 0.f;
+  // Camera subpaths of 32 x 32 pixels (vcm's own stages, in a pass no render uses, one after another: the same
+  // result for any thread count) through delta surfaces and null boundaries up to their first vertex; where that
+  // is a scattering event in a medium, the distance travelled to it times the pixel's angle.
+  const int W = v.camera.width, H = v.camera.height;
+  VcmParams p = vcm_pass_params(opt, VcmMode::kVcm, 0xffffffffu, 0xfffffffe, uint32_t(W) * uint32_t(H));
+  vcm_set_radius(p, r0);
+  const float pixel_angle = 2.f * v.camera.tan_half_y / float(H);
+  std::vector<float> fp;
+  for (int y = 0; y < H; y += std::max(1, H / 32))
+    for (int x = 0; x < W; x += std::max(1, W / 32)) {
+      VcmPathState st;
+      vcm_camera_start(v, p, uint32_t(x), uint32_t(y), st);
+      float travelled = 0.f;
+      for (int k = 0; k < 64 && st.active; ++k) {
+        Hit hit;
+        accel.intersect(st.ray, hit);
+        const Vec3f o = st.ray.o;
+        vcm_camera_hit(v, p, st, hit);
+        if (st.crossing) {
+          travelled += length(st.ray.o - o);
+          continue;
+        }
+        if (!st.active && !st.vertex_valid) break;
+        travelled += length(st.sh.p - o);
+        if (st.vertex_valid) {
+          if (st.in_medium) fp.push_back(v.camera.orthographic ? pixel_angle : travelled * pixel_angle);
+          break;
+        }
+        vcm_camera_continue(v, p, st);  // a delta surface: on along its sampled direction
+      }
+    }
+  if (fp.empty()) return 0.f;
+  std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
+  return fp[fp.size() / 2];
 }
 
 // Stage 1 of vcm and upg: n light subpaths traced in fixed chunks of 1024
@@ -174,7 +216,7 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   VcmParams p = vcm_pass_params(opt_, VcmMode(mode_), max_depth_, pass, n);
   p.outer_medium = outer_medium_;
   const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)
-  vcm_set_radius(p, radius(pass), vcm_volume_radius(opt_.volume_radius, opt_.alpha, pass));
+  vcm_set_radius(p, radius(pass), vcm_volume_radius(rv0_, opt_.alpha, pass));
 
   // 1. Light subpaths in fixed chunks (trace_light_subpaths, shared with upg).
   const bool keep_vertices = p.use_vc() || p.use_vm();

@@ -44,6 +44,11 @@ float vcm_radius(float r0, float alpha, int64_t pass);
 float vcm_volume_radius(float rv0, float alpha, int64_t pass);
 // r_1: RenderOptions::radius, else half the photon integrators' automatic radius (see the constructor).
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt);
+// bpm and vcm in media, volumetric merging's r_v,1: RenderOptions::volume_radius, else one pixel footprint where
+// camera paths first scatter in a medium (the median over 32 x 32 pixels of the distance travelled to that
+// event, through delta surfaces and null boundaries, times the pixel's angle: vcm's surface radius is a
+// footprint at the first hit); 0 (the surface radius) where no camera path scatters in a medium.
+float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, float r0);
 // The medium of the region outside every medium boundary for light subpaths (VcmParams::outer_medium): the
 // camera's when the camera is in that region, else vacuum; InputError when the camera's medium is not the
 // one the shapes around it enclose. (Callers ask only in scenes with media: it needs the CPU accelerator.)
@@ -64,6 +69,7 @@ class VcmIntegrator {
   bool render_pass(int64_t pass, const std::atomic<bool>& cancel);
   std::vector<float> image(int64_t passes_done) const;
   float initial_radius() const { return r0_; }
+  float initial_volume_radius() const { return rv0_; }  // 0: the surface radius (vcm_initial_volume_radius)
   uint64_t photons_traced() const { return traced_; }
   uint64_t rays() const { return rays_; }
   // Merge radius of pass i (0-based): r_1 (i + 1)^((alpha - 1) / 2) (Georgiev et al. 2012, Sec. 5).
@@ -82,6 +88,7 @@ class VcmIntegrator {
   int mode_;
   uint32_t max_depth_;
   float r0_ = 0.f;
+  float rv0_ = 0.f;  // bpm, vcm in media: volumetric merging's r_v,1 (vcm_initial_volume_radius)
   int32_t outer_medium_ = -1;  // VcmParams::outer_medium (vcm_outer_medium)
   int W_, H_;
   uint64_t traced_ = 0, rays_ = 0;
