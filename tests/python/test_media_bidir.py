@@ -195,11 +195,11 @@ def test_volumetric_caustic_seen_in_a_mirror():
     # as pppm's volume photons do. vcm and bpm at their automatic radii (volume 0.14, a pixel footprint where
     # camera paths scatter in the fog; surface 0.05, one at the mirror). Region means over 4 seeds each (standard errors
     # from their spread): in the caustic's regions bdpt is far below pppm (measured 16-17% in the brightest,
-    # z < -14); vcm and bpm are far above bdpt in the brightest (measured z 13 and 6.7; bpm's next one down is
-    # too noisy to tell); everywhere vcm and bpm agree with pppm within 5 standard errors of the difference plus
+    # z < -14); vcm and bpm are far above bdpt in the brightest (measured z 9.0 and 8.3; bpm's next one down
+    # is too noisy to tell); everywhere vcm and bpm agree with pppm within 5 standard errors of the difference plus
     # 5% of the value for pppm's kernel bias near the fog's boundary (there pppm reads 2-6% below bdpt, whose
-    # paths it does not lack; measured vcm - pppm up to +11% at z 6.7 in a corner, bpm |z| <= 1.7), and bdpt
-    # does not.
+    # paths it does not lack; measured vcm - pppm up to +14% at z 7 in a corner, bpm -12% to +6% at |z| <= 4.4),
+    # and bdpt does not.
     s = in_a_mirror(fog_box("glass"))
 
     def regions(integrator, seeds, **kw):

@@ -545,7 +545,9 @@ RenderStats RenderJob::stats() const {
   s.seconds = seconds_.load();
   s.photons = photons_.load();
   s.radius = wavefront_ ? wavefront_->initial_radius() : photon_ ? photon_->initial_radius() : vcm_ ? vcm_->initial_radius() : upg_ ? upg_->radius() : 0.f;
-  s.volume_radius = photon_ ? photon_->initial_volume_radius() : vcm_ ? vcm_->initial_volume_radius() : volume_radius_;
+  s.volume_radius = photon_ ? photon_->initial_volume_radius()
+                    : vcm_  ? vcm_->initial_volume_radius()
+                            : volume_radius_;
   if ((photon_ || wavefront_) && opt_.photon_sampling == "adaptive") {
     std::lock_guard<std::mutex> lock(adaptive_mutex_);
     s.adaptive = adaptive_;
