@@ -12,13 +12,13 @@ the path tracer cannot sample from a point light; the reference is a long bdpt r
 `fog-mirror` (test_media_bidir.py's mirror scene: fog-lens without the floor seen only in a mirror, so the
 caustic comes through L S S V S E paths that no connection samples and only merging renders: pppm, sppm, bpm,
 vcm; the reference is a long pppm render, consistent but biased at its pass count: pppm's kernels read 2-6%
-low at the fog's boundary there; bpm and vcm use --merge-volume-radius there). Each
+low at the fog's boundary there; bpm and vcm take --merge-volume-radius there, default their automatic radii). Each
 integrator renders each scene for the given seconds (whole passes until the budget is spent) and the script
 reports relMSE against the reference.
 
 usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16]
        [--integrators path pppm sppm bdpt light bpm vcm] [--scenes fog-lamp fog-lens smoke-lamp fog-mirror]
-       [--lens-ref bdpt] [--merge-volume-radius 0.3] [--rows]
+       [--lens-ref bdpt] [--merge-volume-radius 0] [--rows]
 """
 import argparse
 import datetime
@@ -42,8 +42,8 @@ def main():
     ap.add_argument("--lens-ref", choices=["bdpt", "pppm"], default="bdpt",
                     help="fog-lens reference: bdpt at --ref-spp passes (unbiased) or pppm at --ref-passes")
     ap.add_argument("--integrators", nargs="+", default=["path", "pppm", "sppm"])
-    ap.add_argument("--merge-volume-radius", type=float, default=0.3,
-                    help="fog-mirror: bpm's and vcm's --volume-radius (0: the merge radius)")
+    ap.add_argument("--merge-volume-radius", type=float, default=0.0,
+                    help="fog-mirror: bpm's and vcm's --volume-radius (0: their automatic ones)")
     ap.add_argument("--scenes", nargs="+", default=["fog-lamp", "fog-lens", "smoke-lamp"])
     ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
     a = ap.parse_args()

@@ -386,8 +386,9 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
     pppm and sppm render participating media (volumetric photon mapping, on every driver): `volume_radius` is
     the volume photons' initial radius (default automatic, reported in stats["volume_radius"]). bpm and vcm
-    merge at medium vertices too: there `volume_radius` is the ball's initial radius (default: one pixel
-    footprint where camera paths first scatter in a medium; reported in stats["volume_radius"]).
+    merge at medium vertices too: there `volume_radius` is the ball's initial radius (default: for vcm one pixel
+    footprint where camera paths first scatter in a medium, for bpm a ball of about 32 light vertices of a
+    pass; reported in stats["volume_radius"]).
     `photon_sampling` (ppm, sppm, pppm, on every driver): "uniform" (default: the scene's, else uniform) or
     "adaptive", photon paths drawn by
     Markov chains on their visibility to the pass's visible points (Hachisuka & Jensen 2011); stats["adaptive"]

@@ -144,7 +144,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--volume-radius", type=_float("--volume-radius"), default=None,
                    help="pppm and sppm in scenes with participating media: the volume photons' initial radius "
                         "(default: automatic, printed); bpm and vcm: the volume merges' initial radius (default: "
-                        "a pixel footprint where camera paths scatter in a medium, printed)")
+                        "vcm a pixel footprint where camera paths scatter in a medium, bpm about 32 light vertices "
+                        "of a pass, printed)")
     r.add_argument("--alpha", type=_float("--alpha"), default=None,
                    help="photon integrators, bpm, vcm: radius reduction, in (0, 1) (default: the scene's, else 0.7; "
                         "0.75 for bpm and vcm)")

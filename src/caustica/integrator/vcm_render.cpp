@@ -42,7 +42,7 @@ VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   r0_ = vcm_initial_radius(*scene_, opt);
   if (scene_has_media(v)) outer_medium_ = vcm_outer_medium(*scene_, scene_->cpu_accel(opt.accel), opt);
   if ((VcmMode(mode_) == VcmMode::kBpm || VcmMode(mode_) == VcmMode::kVcm) && scene_has_media(v))
-    rv0_ = vcm_initial_volume_radius(*scene_, scene_->cpu_accel(opt.accel), opt, r0_);
+    rv0_ = vcm_initial_volume_radius(*scene_, scene_->cpu_accel(opt.accel), opt, VcmMode(mode_), max_depth_, r0_);
   if (opt.strategy_images) {
     for (uint32_t k = 1; k <= kStrategyMaxLength; ++k)
       for (uint32_t s = 0; s <= k; ++s)
@@ -95,14 +95,23 @@ float vcm_initial_radius(const Scene& scene, const RenderOptions& opt) {
   return opt.radius > 0.f ? opt.radius : 0.5f * automatic_radius(scene);
 }
 
-float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, float r0) {
+float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, VcmMode mode,
+                                uint32_t max_depth, float r0) {
   if (opt.volume_radius > 0.f) return opt.volume_radius;
   const SceneView& v = scene.view();
   if (!scene_has_media(v)) return 0.f;
+  const int W = v.camera.width, H = v.camera.height;
+  if (mode == VcmMode::kBpm) {
+    // bpm merges alone: a ball that holds about kVolumeRadiusK light vertices of a pass where they are typical
+    // (pppm's automatic volume radius over n_light photon paths).
+    const float rv = automatic_volume_radius(scene, accel, opt.seed, vcm_light_paths(opt, uint32_t(W) * uint32_t(H)),
+                                             max_depth == 0xffffffffu ? max_depth : max_depth - 1,
+                                             vcm_outer_medium(scene, accel, opt));
+    if (rv > 0.f) return rv;
+  }
   // Camera subpaths of 32 x 32 pixels (vcm's own stages, in a pass no render uses, one after another: the same
   // result for any thread count) through delta surfaces and null boundaries up to their first vertex; where that
   // is a scattering event in a medium, the distance travelled to it times the pixel's angle.
-  const int W = v.camera.width, H = v.camera.height;
   VcmParams p = vcm_pass_params(opt, VcmMode::kVcm, 0xffffffffu, 0xfffffffe, uint32_t(W) * uint32_t(H));
   vcm_set_radius(p, r0);
   const float pixel_angle = 2.f * v.camera.tan_half_y / float(H);

@@ -44,11 +44,15 @@ float vcm_radius(float r0, float alpha, int64_t pass);
 float vcm_volume_radius(float rv0, float alpha, int64_t pass);
 // r_1: RenderOptions::radius, else half the photon integrators' automatic radius (see the constructor).
 float vcm_initial_radius(const Scene& scene, const RenderOptions& opt);
-// bpm and vcm in media, volumetric merging's r_v,1: RenderOptions::volume_radius, else one pixel footprint where
-// camera paths first scatter in a medium (the median over 32 x 32 pixels of the distance travelled to that
-// event, through delta surfaces and null boundaries, times the pixel's angle: vcm's surface radius is a
-// footprint at the first hit); 0 (the surface radius) where no camera path scatters in a medium.
-float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, float r0);
+// bpm and vcm in media, volumetric merging's r_v,1: RenderOptions::volume_radius, else for vcm one pixel
+// footprint where camera paths first scatter in a medium (the median over 32 x 32 pixels of the distance
+// travelled to that event, through delta surfaces and null boundaries, times the pixel's angle: vcm's surface
+// radius is a footprint at the first hit; MIS gives the merges of a small ball only the paths connections
+// sample badly), for bpm, which merges alone, pppm's automatic volume radius over a pass's light subpaths (a
+// ball of about kVolumeRadiusK light vertices; the footprint where the pass stores no volume photons); 0 (the
+// surface radius) where no camera path scatters in a medium. max_depth: the render's (segments).
+float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, VcmMode mode,
+                                uint32_t max_depth, float r0);
 // The medium of the region outside every medium boundary for light subpaths (VcmParams::outer_medium): the
 // camera's when the camera is in that region, else vacuum; InputError when the camera's medium is not the
 // one the shapes around it enclose. (Callers ask only in scenes with media: it needs the CPU accelerator.)
