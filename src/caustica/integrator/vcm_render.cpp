@@ -242,16 +242,16 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   PhotonGridView gv, gvv;
   std::vector<VcmMergeVertex> merge_verts, merge_verts_v;  // what merges read of verts, in each grid's order
   if (p.merges() && !verts.empty()) {
-    std::vector<uint32_t> which[2];  // the indices of the surface and of the medium vertices, in path order
-    for (uint32_t k = 0; k < uint32_t(verts.size()); ++k) which[verts[k].in_medium()].push_back(k);
-    auto build = [&](const std::vector<uint32_t>& idx, float r, PhotonHashGrid& g, PhotonGridView& view,
+    // idx: the vertices' indices (nullptr: all of them, in scenes without media).
+    auto build = [&](const uint32_t* idx, size_t count, float r, PhotonHashGrid& g, PhotonGridView& view,
                      std::vector<VcmMergeVertex>& records) {
-      if (idx.empty()) return;
-      std::vector<Photon> ph(idx.size());
-      for (size_t k = 0; k < idx.size(); ++k) {
-        ph[k].p = verts[idx[k]].sh.p;
-        ph[k].wi = verts[idx[k]].wi;
-        ph[k].power = verts[idx[k]].beta;
+      if (count == 0) return;
+      std::vector<Photon> ph(count);
+      for (size_t k = 0; k < count; ++k) {
+        const VcmLightVertex& v = verts[idx ? idx[k] : k];
+        ph[k].p = v.sh.p;
+        ph[k].wi = v.wi;
+        ph[k].power = v.beta;
       }
       g.build(ph, s.bounds, 2.f * r, false, 0, true);
       view = g.view();
@@ -262,12 +262,18 @@ bool VcmIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
       const std::vector<uint32_t>& ids = g.ids();
       records.resize(ids.size());
       tbb::parallel_for(tbb::blocked_range<size_t>(0, ids.size(), 16384), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t j = r.begin(); j < r.end(); ++j) records[j] = vcm_merge_vertex(verts[idx[ids[j]]]);
+        for (size_t j = r.begin(); j < r.end(); ++j) records[j] = vcm_merge_vertex(verts[idx ? idx[ids[j]] : ids[j]]);
       });
       view.ids = nullptr;
     };
-    build(which[0], p.radius, grid, gv, merge_verts);
-    build(which[1], p.radius_v, grid_v, gvv, merge_verts_v);
+    if (!scene_has_media(s)) {
+      build(nullptr, verts.size(), p.radius, grid, gv, merge_verts);
+    } else {
+      std::vector<uint32_t> which[2];  // the indices of the surface and of the medium vertices, in path order
+      for (uint32_t k = 0; k < uint32_t(verts.size()); ++k) which[verts[k].in_medium()].push_back(k);
+      build(which[0].data(), which[0].size(), p.radius, grid, gv, merge_verts);
+      build(which[1].data(), which[1].size(), p.radius_v, grid_v, gvv, merge_verts_v);
+    }
   }
 
   // 3. Camera subpaths, one per pixel, in parallel over rows (each pixel owned by one task).
