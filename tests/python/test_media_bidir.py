@@ -270,6 +270,13 @@ def test_strategy_images_sum_to_the_image():
     assert np.abs(total - r.image).max() <= 1e-5 * float(r.image.max())
     for k in ("k2_s1_t2", "k2_s2_t1", "k3_s2_t2"):
         assert r.strategies[k].mean() > 0, k
+    # vcm in the mirror scene, whose only non-delta vertices lie in the fog: its merges are all volumetric and
+    # recorded in the merge images (the camera vertex after the mirror is t = 3).
+    r = caustica.render_job(in_a_mirror(fog_box("glass", width=16)), integrator="vcm", spp=2, seed=3, max_depth=4,
+                            strategy_images=True)
+    total = sum(r.strategies.values())
+    assert np.abs(total - r.image).max() <= 1e-5 * float(r.image.max())
+    assert r.strategies["merge_t3"].mean() > 0 and r.strategies["merge_t2"].max() == 0
 
 
 @pytest.mark.parametrize("integrator", ["bdpt", "vcm", "bpm"])
