@@ -44,6 +44,18 @@ print(json.dumps({"seconds": secs / len(case["seeds"])}))
 """
 
 
+def build_arguments(res):
+    """The arguments of the benches that time builds against each other (this one, bench_media_emission.py):
+    --build (repeated), --spp, --res (default `res`), --seeds and --rows."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--build", action="append", required=True, help="a folder from bench_ab.py --save, or 'current'")
+    ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--res", type=int, default=res)
+    ap.add_argument("--seeds", type=int, default=4)
+    ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
+    return ap
+
+
 def run_build(build, scene, spp, seeds, **kwargs):
     """Renders `scene` with `build` (a folder from bench_ab.py --save, or 'current') in a process of its own,
     once per seed: (mean seconds per render, images seeds x H x W x 3)."""
@@ -70,15 +82,10 @@ def scene(res, sigma_a, sigma_s, g):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--build", action="append", required=True, help="a folder from bench_ab.py --save, or 'current'")
-    ap.add_argument("--spp", type=int, default=16)
-    ap.add_argument("--res", type=int, default=64)
-    ap.add_argument("--seeds", type=int, default=4)
+    ap = build_arguments(64)
     ap.add_argument("--sigma-a", type=float, default=0.01)
     ap.add_argument("--sigma-s", type=float, default=0.05)
     ap.add_argument("--g", type=float, default=0.3)
-    ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
     a = ap.parse_args()
     from test_media import single_scattering_reference
     from caustica import _provenance

@@ -13,7 +13,6 @@ pbrt-v4 does (bench/RESULTS.md, 2026-12-05: not adopted); --sigma-t thins the pl
 usage: .venv/bin/python bench/bench_media_emission.py --build /tmp/ab/before --build current [--spp 16]
        [--res 96] [--seeds 4] [--ref-spp 2048] [--integrator path] [--sigma-t 3] [--rows]
 """
-import argparse
 import datetime
 import os
 import sys
@@ -43,20 +42,15 @@ def plume(res, sigma_t=3.0):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--build", action="append", required=True, help="a folder from bench_ab.py --save, or 'current'")
-    ap.add_argument("--spp", type=int, default=16)
-    ap.add_argument("--res", type=int, default=96)
-    ap.add_argument("--seeds", type=int, default=4)
+    from bench_media import build_arguments, run_build
+    ap = build_arguments(96)
     ap.add_argument("--ref-spp", type=int, default=2048)
     ap.add_argument("--integrator", default="path")
     ap.add_argument("--sigma-t", type=float, default=3.0, help="sigma_t per unit density (the docs' 3; lower: thinner)")
-    ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
     a = ap.parse_args()
     from caustica import _provenance
     from conftest import relmse
     scene = plume(a.res, a.sigma_t)
-    from bench_media import run_build
     ref = run_build("current", scene, a.ref_spp, [1000], integrator="path", max_depth=-1)[1][0]
     rows = []
     for build in a.build:

@@ -60,4 +60,14 @@ uint32_t compact_queue(const B& b, const T* paths, Buf& queue, Buf& queue2, uint
   return active;
 }
 
+// Stable partition of the items [0, n) by flags[k] (0 or 1, filled by the caller): index[j] is the item at
+// position j, those flagged 0 first, then those flagged 1, each part in item order (exclusive prefix sum and
+// scatter, as compact_queue). scan: n entries. Returns the number flagged 1.
+template <class B>
+uint32_t stable_partition(const B& b, const uint32_t* flags, uint32_t* scan, uint32_t* index, uint32_t n) {
+  const uint32_t ones = b.exclusive_scan(flags, scan, n), zeros = n - ones;
+  b.parallel_for(n, CAUSTICA_KERNEL(uint32_t k) { index[flags[k] ? zeros + scan[k] : k - scan[k]] = k; });
+  return ones;
+}
+
 }  // namespace caustica

@@ -281,7 +281,7 @@ void RenderJob::make_integrator() {
     p.alpha = opt_.alpha;
     if (scene_has_media(v) && (opt_.integrator == "bpm" || opt_.integrator == "vcm"))
       volume_radius_ = p.volume_radius = vcm_initial_volume_radius(*scene_, cpu_accel(), opt_, p.base.mode,
-                                                                   p.base.max_depth, p.radius);
+                                                                   p.base.max_depth, p.radius, p.base.outer_medium);
     int dev = cuda_device_index(opt_.device);
     wavefront_ = dev >= 0 ? make_cuda_vcm_wavefront(scene_, p, dev)
                           : make_cpu_vcm_wavefront(scene_, p, opt_.accel == "bvh" ? nullptr : &cpu_accel());

@@ -42,7 +42,8 @@ VcmIntegrator::VcmIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   r0_ = vcm_initial_radius(*scene_, opt);
   if (scene_has_media(v)) outer_medium_ = vcm_outer_medium(*scene_, scene_->cpu_accel(opt.accel), opt);
   if ((VcmMode(mode_) == VcmMode::kBpm || VcmMode(mode_) == VcmMode::kVcm) && scene_has_media(v))
-    rv0_ = vcm_initial_volume_radius(*scene_, scene_->cpu_accel(opt.accel), opt, VcmMode(mode_), max_depth_, r0_);
+    rv0_ = vcm_initial_volume_radius(*scene_, scene_->cpu_accel(opt.accel), opt, VcmMode(mode_), max_depth_, r0_,
+                                     outer_medium_);
   if (opt.strategy_images) {
     for (uint32_t k = 1; k <= kStrategyMaxLength; ++k)
       for (uint32_t s = 0; s <= k; ++s)
@@ -96,7 +97,7 @@ float vcm_initial_radius(const Scene& scene, const RenderOptions& opt) {
 }
 
 float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, VcmMode mode,
-                                uint32_t max_depth, float r0) {
+                                uint32_t max_depth, float r0, int32_t outer_medium) {
   if (opt.volume_radius > 0.f) return opt.volume_radius;
   const SceneView& v = scene.view();
   if (!scene_has_media(v)) return 0.f;
@@ -105,8 +106,7 @@ float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const
     // bpm merges alone: a ball that holds about kVolumeRadiusK light vertices of a pass where they are typical
     // (pppm's automatic volume radius over n_light photon paths).
     const float rv = automatic_volume_radius(scene, accel, opt.seed, vcm_light_paths(opt, uint32_t(W) * uint32_t(H)),
-                                             max_depth == 0xffffffffu ? max_depth : max_depth - 1,
-                                             vcm_outer_medium(scene, accel, opt));
+                                             max_depth == 0xffffffffu ? max_depth : max_depth - 1, outer_medium);
     if (rv > 0.f) return rv;
   }
   // Camera subpaths of 32 x 32 pixels (vcm's own stages, in a pass no render uses, one after another: the same

@@ -50,9 +50,10 @@ float vcm_initial_radius(const Scene& scene, const RenderOptions& opt);
 // radius is a footprint at the first hit; MIS gives the merges of a small ball only the paths connections
 // sample badly), for bpm, which merges alone, pppm's automatic volume radius over a pass's light subpaths (a
 // ball of about kVolumeRadiusK light vertices; the footprint where the pass stores no volume photons); 0 (the
-// surface radius) where no camera path scatters in a medium. max_depth: the render's (segments).
+// surface radius) where no camera path scatters in a medium. max_depth: the render's (segments); outer_medium:
+// where light subpaths that meet no boundary start (vcm_outer_medium).
 float vcm_initial_volume_radius(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, VcmMode mode,
-                                uint32_t max_depth, float r0);
+                                uint32_t max_depth, float r0, int32_t outer_medium);
 // The medium of the region outside every medium boundary for light subpaths (VcmParams::outer_medium): the
 // camera's when the camera is in that region, else vacuum; InputError when the camera's medium is not the
 // one the shapes around it enclose. (Callers ask only in scenes with media: it needs the CPU accelerator.)

@@ -343,25 +343,21 @@ class WavefrontPhoton {
                      : p_.pppm ? pppm_volume_radius(p_.volume_radius, p_.alpha, abs_pass)
                                : b_.reduce(Rv_.data(), n_, 0.f, FloatMax());
     if (p_.media) {
-      if (split_flags_.size() < count + 1) split_flags_.resize(count + 1);
-      if (split_scan_.size() < count + 1) split_scan_.resize(count + 1);
-      if (surface_.size() < count) surface_.resize(count);
-      if (volume_.size() < count) volume_.resize(count);
+      for (Buffer<uint32_t>* buf : {&split_flags_, &split_scan_, &split_index_})
+        if (buf->size() < count + 1) buf->resize(count + 1);
+      if (split_.size() < count) split_.resize(count);
       const Photon* all = photons_.data();
       uint32_t* flags = split_flags_.data();
-      uint32_t* scan = split_scan_.data();
+      uint32_t* index = split_index_.data();
       b_.parallel_for(count, CAUSTICA_KERNEL(uint32_t k) { flags[k] = (all[k].flags & kPhotonVolume) ? 1u : 0u; });
-      const uint32_t nv = b_.exclusive_scan(flags, scan, count);
-      Photon* sp = surface_.data();
-      Photon* vp = volume_.data();
-      b_.parallel_for(count, CAUSTICA_KERNEL(uint32_t k) {
-        if (flags[k]) vp[scan[k]] = all[k];
-        else sp[k - scan[k]] = all[k];
-      });
-      volume_grid_.build(b_, volume_.data(), nv, s.bounds, 2.f * rv, p_.stochastic_hash,
-                         hash3(p_.seed, uint64_t(abs_pass), 0x9e));
-      surface = surface_.data();
+      // The surface photons, then the volume photons, each in the photons' order.
+      const uint32_t nv = stable_partition(b_, flags, split_scan_.data(), index, count);
+      Photon* sp = split_.data();
+      b_.parallel_for(count, CAUSTICA_KERNEL(uint32_t j) { sp[j] = all[index[j]]; });
       count -= nv;
+      volume_grid_.build(b_, sp + count, nv, s.bounds, 2.f * rv, p_.stochastic_hash,
+                         hash3(p_.seed, uint64_t(abs_pass), 0x9e));
+      surface = sp;
     }
     // The grid, with cells of twice the largest radius (a query then overlaps at most 2x2x2 cells).
     grid_.build(b_, surface, count, s.bounds, 2.f * rmax, p_.stochastic_hash,
@@ -779,8 +775,8 @@ class WavefrontPhoton {
   Buffer<uint32_t> queue_, queue2_, flags_, scan_;
   BackendPhotonGrid<B> grid_;
   // pppm and sppm in media: the pass's photons split into surface and volume photons, the volume photons' grid
-  Buffer<Photon> surface_, volume_;
-  Buffer<uint32_t> split_flags_, split_scan_;
+  Buffer<Photon> split_;  // the surface photons, then the volume photons (stable_partition)
+  Buffer<uint32_t> split_flags_, split_scan_, split_index_;
   BackendPhotonGrid<B> volume_grid_;
 };
 

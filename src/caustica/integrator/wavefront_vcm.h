@@ -193,15 +193,11 @@ class WavefrontVcm {
         uint32_t* flags = split_flags_.data();
         uint32_t* scan = split_scan_.data();
         b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t k) { flags[k] = verts[k].in_medium() ? 1u : 0u; });
-        const uint32_t nv = b_.exclusive_scan(flags, scan, nverts), ns = nverts - nv;
         // Surface vertices first, then medium vertices, each in path order; index: a split position's vertex.
-        Photon* sp = split_photons_.data();
         uint32_t* index = split_index_.data();
-        b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t k) {
-          const uint32_t j = flags[k] ? ns + scan[k] : k - scan[k];
-          sp[j] = ph[k];
-          index[j] = k;
-        });
+        const uint32_t nv = stable_partition(b_, flags, scan, index, nverts), ns = nverts - nv;
+        Photon* sp = split_photons_.data();
+        b_.parallel_for(nverts, CAUSTICA_KERNEL(uint32_t j) { sp[j] = ph[index[j]]; });
         VcmMergeVertex* mv = merge_verts_.data();
         if (ns > 0) {
           grid_.build(b_, sp, ns, s.bounds, 2.f * p.radius, false, 0);
