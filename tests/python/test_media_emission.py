@@ -5,7 +5,7 @@ Analytic answers: a camera at the centre of a null sphere of radius R filled wit
 constant environment (every pixel is Le (1 - e^{-sigma_a R}) + L_env e^{-sigma_a R}, any max_depth); the
 furnace with emission (a scattering, absorbing medium emitting the environment's radiance: L_env everywhere),
 homogeneous and as a colour grid with an emission grid; an orthographic view through an absorbing grid whose
-density and emission vary along the view (1D quadrature). Also: pppm and sppm refuse emissive media, threads
+density and emission vary along the view (1D quadrature). Also: pm, pppm and sppm refuse emissive media, threads
 and the CPU wavefront give the same image, export, the schema, describe/info and the errors."""
 import json
 import os
@@ -135,7 +135,7 @@ def test_blackbody_emission_grid(kelvin):
 def test_photon_mappers_and_light_tracing_refuse_emissive_media():
     # Their paths start at lights only (light tracing's camera paths end at their first non-delta vertex).
     s = medium_sphere({"sigma_a": 0.2, "sigma_s": 0.5, "emission": 1.0})
-    for integrator in ("pppm", "sppm", "light"):
+    for integrator in ("pm", "pppm", "sppm", "light"):
         with pytest.raises(caustica.InputError) as e:
             caustica.render(s, integrator=integrator, spp=1, photons=100)
         assert str(e.value) == (f"integrator '{integrator}' does not render emissive media (medium 'm' emits); "

@@ -138,13 +138,14 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   // camera rays to their first hit, if not given.
   r0_ = opt.radius;
   if (!(r0_ > 0.f)) r0_ = automatic_radius(*scene_);
-  // Participating media (pppm and sppm; RenderJob refuses the others): volume photons and volume visible
-  // points.
+  // Participating media (pm, pppm and sppm; RenderJob refuses ppm): volume photons, and for pppm and sppm
+  // volume visible points with a volume radius (pm takes its k nearest volume photons).
   media_ = scene_has_media(v);
-  if (media_ && kind_ != Kind::kPPPM && kind_ != Kind::kSPPM)
+  if (media_ && kind_ == Kind::kPPM)
     throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
-                     "use --integrator path, bdpt, vcm, bpm, light, sppm or pppm");
-  if (media_)
+                     "use --integrator path, bdpt, vcm, bpm, light, pm, sppm or pppm");
+  if (media_ && kind_ == Kind::kPM) outer_medium_ = outer_medium(*scene_, scene_->cpu_accel(opt.accel), opt.integrator, "photons");
+  else if (media_)
     rv0_ = photon_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
                             max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_, &outer_medium_);
   size_t n = size_t(W_) * H_;
@@ -195,15 +196,16 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
   const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
   if (global_paths_ == 0) {
     // The maps are built once (two-pass photon mapping): all stored photons in the
-    // global map, L S+ D photons in the caustic map, from the same photon paths.
+    // global map, L S+ D photons in the caustic map, from the same photon paths; volume photons in maps of
+    // their own (pm.h).
     std::vector<Photon> all = trace_photons(v, accel, opt_.seed, 0xfffffffu, photons_per_pass_,
                                             max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, true, nullptr,
                                             outer_medium_);
-    std::vector<Photon> caustic;
-    for (const Photon& ph : all)
-      if (ph.flags & kPhotonCaustic) caustic.push_back(ph);
-    global_.build(all);
-    caustic_.build(caustic);
+    const PmPhotonSplit maps = pm_split_photons(all);
+    global_.build(maps.global);
+    caustic_.build(maps.caustic);
+    volume_.build(maps.volume);
+    volume_indirect_.build(maps.volume_indirect);
     global_paths_ = photons_per_pass_;
     traced_ += photons_per_pass_;
   }
@@ -219,8 +221,9 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
       for (int x = 0; x < W_; ++x) {
         PathState st;
         path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
-        const RGB L = pm_radiance(v, accel, caustic_, global_, global_paths_, k, st.ray, st.sampler, max_depth_,
-                                  light_bvh, idx.data(), d2.data());
+        const RGB L = pm_radiance(v, accel, PmMaps<PhotonKdTree>{caustic_, global_, volume_, volume_indirect_},
+                                  global_paths_, k, st.ray, st.sampler, max_depth_, light_bvh, idx.data(), d2.data());
+
         if (!isfinite3(L)) continue;
         size_t i = size_t(y) * W_ + x;
         for (int c = 0; c < 3; ++c) direct_[3 * i + c] += L[c];

@@ -91,7 +91,9 @@ class PhotonIntegrator {
  private:
   enum class Kind { kPPM, kSPPM, kPPPM, kPM } kind_;
   void render_pm_pass(int64_t abs_pass);
-  PhotonKdTree global_, caustic_;
+  // pm's maps (pm.h): the global and caustic maps, and in scenes with media the volume photons, all and
+  // those after a bounce.
+  PhotonKdTree global_, caustic_, volume_, volume_indirect_;
   uint64_t global_paths_ = 0;
   uint64_t traced_ = 0;
   void trace_visible_points(int64_t abs_pass);
@@ -108,9 +110,10 @@ class PhotonIntegrator {
   uint32_t max_depth_;
   uint64_t photons_per_pass_;
   float r0_;
-  bool media_ = false;  // pppm or sppm in a scene with media: volume photons and volume points (sppm.h)
+  bool media_ = false;  // pm, pppm or sppm in a scene with media: volume photons (and pppm's, sppm's volume points)
   int32_t outer_medium_ = -1;  // where photon paths that meet no medium boundary start (outer_medium)
-  float rv0_ = 0.f;     // their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
+  float rv0_ = 0.f;     // pppm, sppm: their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
+
   std::vector<double> Nv_, tauv_;  // sppm in media: each pixel's statistics of its volume visible points
   std::vector<float> Rv_;          // (sppm_update with dims 3), beside N_, tau_, R_ for its surface ones
   int W_, H_;

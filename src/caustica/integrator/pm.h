@@ -7,9 +7,28 @@
 //                 chains, direct light by NEE (sppm.h's trace_camera), caustics from the caustic map at the
 //                 visible point, indirect diffuse light by final gathering - one BSDF-sampled ray whose first
 //                 non-specular hit is estimated from the global map.
+//   pm_volume_estimate  the in-scattered radiance at a point in a medium from the k nearest volume photons
+//                 (Jensen & Christensen 1998, "Efficient Simulation of Light Transport in Scenes with
+//                 Participating Media using Photon Maps", Sec. 4.2, their volume radiance estimate)
 // A map is anything with `knn(p, k, max_radius, index, dist2)` (nearest first, returning the count) and
 // `photon(index)`.
+//
+// Participating media (Jensen & Christensen 1998): photon paths store volume photons at their scattering
+// events (photon/trace.h, power beta T sigma_s / p(t)), kept in two more maps: every volume photon (`volume`)
+// and those after at least one bounce (`volume_indirect`, the paper's multiple scattering). A camera ray
+// samples free-flight distances (trace_camera, as sppm's camera rays do); at a scattering event x it adds
+// single scattering by NEE with the phase function and multiple scattering from `volume_indirect`:
+//   L_s(x, wo) ~ sum_j p(wo, wi_j) power_j / (N 4/3 pi r^3),
+// r the distance to the k-th nearest volume photon (the paper's estimate, with sigma_s folded into the
+// photons' power; uniform kernel). At a surface point the final-gather ray also samples free-flight
+// distances through the media it crosses, starting in the medium of the side it leaves on; where it scatters
+// the in-scattered radiance there comes from `volume` (all orders, as the global map holds direct photons
+// too), and the caustic map holds only L S+ D paths (a volume event counts as diffuse). Each of the two rays
+// draws its own hero channel (medium/medium.h): the gather's one-sample MIS over channels is unbiased on its
+// own, so their product is too.
 #pragma once
+#include <vector>
+
 #include "../base/sampler.h"
 #include "../material/bsdf.h"
 #include "../photon/photon.h"
@@ -21,6 +40,23 @@ namespace caustica {
 // The most photons per estimate (--k) on the wavefront drivers, whose kernels keep the k nearest in fixed
 // arrays (2 KiB per thread at 256); the CPU driver takes any k.
 constexpr uint32_t kWavefrontMaxK = 256;
+
+// In-scattered radiance towards wo (world space) at p in a medium of asymmetry g from the k nearest photons
+// of the volume map `map` (header comment); idx and d2 hold k entries of scratch.
+template <class Map>
+CHD RGB pm_volume_estimate(const Map& map, uint64_t paths, uint32_t k, float g, Vec3f wo, Vec3f p, uint32_t* idx,
+                           float* d2) {
+  const uint32_t n = uint32_t(map.knn(p, k, kInf, idx, d2));
+  if (n == 0) return RGB(0.f);
+  const float r2 = d2[n - 1];
+  if (!(r2 > 0.f)) return RGB(0.f);
+  RGB sum(0.f);
+  for (uint32_t j = 0; j < n; ++j) {
+    const Photon& ph = map.photon(idx[j]);
+    sum += ph.power * hg_phase(dot(wo, ph.wi), g);
+  }
+  return sum / (4.f / 3.f * kPi * r2 * std::sqrt(r2) * float(paths));
+}
 
 // Radiance towards wo at p from the k nearest photons of `map` (paths: photon paths emitted for it); idx and
 // d2 hold k entries of scratch.
@@ -41,47 +77,71 @@ CHD RGB pm_estimate(const Map& map, uint64_t paths, uint32_t k, const Material& 
   return sum / ((1.f - 2.f / 3.f) * kPi * r2 * float(paths));
 }
 
+// The photon maps of pm_radiance (header comment): `volume` and `volume_indirect` are empty without media.
+template <class Map>
+struct PmMaps {
+  const Map& caustic;
+  const Map& global;
+  const Map& volume;
+  const Map& volume_indirect;
+};
+
+// pm's photons split into its four maps (header comment; each keeps the photons' trace order).
+struct PmPhotonSplit {
+  std::vector<Photon> global, caustic, volume, volume_indirect;
+};
+inline PmPhotonSplit pm_split_photons(const std::vector<Photon>& all) {
+  PmPhotonSplit out;
+  for (const Photon& ph : all) {
+    if (ph.flags & kPhotonVolume) {
+      out.volume.push_back(ph);
+      if (!(ph.flags & kPhotonDirect)) out.volume_indirect.push_back(ph);
+      continue;
+    }
+    out.global.push_back(ph);
+    if (ph.flags & kPhotonCaustic) out.caustic.push_back(ph);
+  }
+  return out;
+}
+
+// The most segments a final-gather ray follows through specular surfaces to the point it estimates from.
+
+constexpr uint32_t kPmGatherDepth = 8;
+
 // One camera sample's radiance along `ray` (the pixel's camera ray; smp its sampler after path_start).
 template <class Tracer, class Map>
-CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const Map& caustic, const Map& global, uint64_t paths,
-                    uint32_t k, Ray ray, Sampler& smp, uint32_t max_depth, bool light_bvh, uint32_t* idx, float* d2) {
+CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const PmMaps<Map>& maps, uint64_t paths, uint32_t k,
+                    Ray ray, Sampler& smp, uint32_t max_depth, bool light_bvh, uint32_t* idx, float* d2) {
   RGB L(0.f);
   const VisiblePoint vp = trace_camera(v, accel, ray, RGB(1.f), smp, max_depth, L, light_bvh);
   if (!vp.valid) return L;
+  if (vp.volume) {  // single scattering came by NEE; the rest from the volume photons after a bounce
+    L += vp.beta * pm_volume_estimate(maps.volume_indirect, paths, k, v.media[vp.medium].g, vp.wo, vp.p, idx, d2);
+    return L;
+  }
   const Material& m = vp.material;
   const Frame frame = tangent_frame(vp.ns, vp.tangent);
   const Vec3f wo = frame.to_local(vp.wo);
-  L += vp.beta * pm_estimate(caustic, paths, k, m, frame, wo, vp.p, idx, d2);
-  // Final gathering: one BSDF-sampled ray; radiance at its non-specular hit (through specular bounces) from
-  // the global map. Emission seen by it is direct light, already counted by NEE.
+  L += vp.beta * pm_estimate(maps.caustic, paths, k, m, frame, wo, vp.p, idx, d2);
+  // Final gathering: one BSDF-sampled ray; radiance at its first non-specular hit or scattering event
+  // (through specular bounces, kPmGatherDepth segments at most) from the global or volume map. Emission and
+  // light sources seen by it are direct light, already counted by NEE (trace_camera with direct false).
   BSDFSample bs;
   const float uc = smp.next_1d();
   const Vec2f u = smp.next_2d();
   if (!bsdf_sample(m, wo, uc, u, bs) || bs.delta) return L;
-  Vec3f wi = frame.to_world(bs.wi);
-  Ray r{offset_ray_origin(vp.p, vp.ng, wi), wi, kInf};
-  RGB beta = vp.beta * bs.weight;
-  for (int bounce = 0; bounce < 8; ++bounce) {
-    Hit hit;
-    if (!accel.intersect(r, hit)) break;
-    SurfaceHit sh = make_surface_hit(v, r, hit);
-    beta *= segment_transmittance(v, r.d, hit.t, sh);
-    const Material gm = surface_material(v, sh);
-    const Frame gf = shading_frame(v, sh, gm);
-    const Vec3f gwo = gf.to_local(-r.d);
-    if (!material_is_delta(gm)) {
-      L += beta * pm_estimate(global, paths, k, gm, gf, gwo, sh.p, idx, d2);
-      break;
-    }
-    BSDFSample gs;
-    const float guc = smp.next_1d();
-    const Vec2f gu = smp.next_2d();
-    if (!bsdf_sample(gm, gwo, guc, gu, gs)) break;
-    const Vec3f gwi = gf.to_world(gs.wi);
-    beta *= gs.weight;
-    r = Ray{offset_ray_origin(sh.p, sh.ng, gwi), gwi, kInf};
-  }
-  return L;
+  const Vec3f wi = frame.to_world(bs.wi);
+  const int32_t medium =
+      scene_has_media(v) ? medium_after_crossing(prim_medium_interface(v, uint32_t(vp.prim)), wi, vp.ng, vp.medium) : -1;
+  RGB unused(0.f);
+  const VisiblePoint gp = trace_camera(v, accel, Ray{offset_ray_origin(vp.p, vp.ng, wi), wi, kInf},
+                                       vp.beta * bs.weight, smp, kPmGatherDepth + 1, unused, false, false, medium);
+  if (!gp.valid) return L;
+  if (gp.volume)
+    return L + gp.beta * pm_volume_estimate(maps.volume, paths, k, v.media[gp.medium].g, gp.wo, gp.p, idx, d2);
+  const Frame gf = tangent_frame(gp.ns, gp.tangent);
+  return L + gp.beta * pm_estimate(maps.global, paths, k, gp.material, gf, gf.to_local(gp.wo), gp.p, idx, d2);
 }
+
 
 }  // namespace caustica

@@ -194,11 +194,12 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
-  // Participating media and null surfaces: the path tracer, pppm and sppm (volumetric photon mapping,
-  // integrator/sppm.h), and light, bdpt, bpm and vcm (medium vertices, volumetric merging, integrator/vcm.h), on
-  // every driver. Emissive media: path, bdpt, bpm and vcm, whose camera subpaths score the emission (the others'
-  // paths start at lights).
-  const bool media_photons = opt_.integrator == "pppm" || opt_.integrator == "sppm";
+  // Participating media and null surfaces: the path tracer, pm, pppm and sppm (volumetric photon mapping,
+  // integrator/pm.h and sppm.h), and light, bdpt, bpm and vcm (medium vertices, volumetric merging,
+  // integrator/vcm.h), on every driver. Emissive media: path, bdpt, bpm and vcm, whose camera subpaths score the
+  // emission (the others' paths start at lights).
+  const bool media_kernels = opt_.integrator == "pppm" || opt_.integrator == "sppm";  // a volume radius
+  const bool media_photons = media_kernels || opt_.integrator == "pm";
   const bool media_bidir = opt_.integrator == "light" || opt_.integrator == "bdpt" || opt_.integrator == "bpm" ||
                            opt_.integrator == "vcm";
   const bool emissive_ok = opt_.integrator == "bdpt" || opt_.integrator == "bpm" || opt_.integrator == "vcm";
@@ -207,7 +208,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     const std::string what = " (" + std::to_string(v.num_media) + " media in scene '" + scene_->desc().name + "')";
     if (!media_photons && !media_bidir)
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
-                       what + "; use --integrator path, bdpt, vcm, bpm, light, sppm or pppm");
+                       what + "; use --integrator path, bdpt, vcm, bpm, light, pm, sppm or pppm");
     if (media_bidir && v.num_media > 32767u)  // VcmMergeVertex keeps a medium in 16 bits
       throw InputError("integrator '" + opt_.integrator + "' renders at most 32767 media" + what);
     for (size_t i = 0; i < scene_->desc().media.size() && !emissive_ok; ++i)
@@ -222,7 +223,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
   if (opt_.volume_radius < 0.f || !std::isfinite(opt_.volume_radius))
     throw InputError("--volume-radius must be a positive number");
   const bool media_merges = opt_.integrator == "bpm" || opt_.integrator == "vcm";
-  if (opt_.volume_radius > 0.f && !((media_photons || media_merges) && scene_has_media(scene_->view())))
+  if (opt_.volume_radius > 0.f && !((media_kernels || media_merges) && scene_has_media(scene_->view())))
     throw InputError("--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with "
                      "participating media");
   // --accel small on a scene it does not take fails here, not in the render thread.
@@ -302,8 +303,11 @@ void RenderJob::make_integrator() {
     p.stochastic_hash = opt_.stochastic_hash;
     p.light_bvh = opt_.light_sampler == "bvh";
     p.adaptive = opt_.photon_sampling == "adaptive";
-    p.media = scene_has_media(v);  // pppm or sppm (validated above)
-    if (p.media) {
+    p.media = scene_has_media(v);  // pm, pppm or sppm (validated above)
+    if (p.media && p.pm) {
+      p.outer_medium = outer_medium(*scene_, cpu_accel(), opt_.integrator, "photons");
+    } else if (p.media) {
+
       p.volume_radius = photon_media_setup(*scene_, cpu_accel(), opt_, p.photons,
                                          p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius,
                                          &p.outer_medium);

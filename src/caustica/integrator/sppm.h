@@ -42,20 +42,29 @@ struct VisiblePoint {
   // A volume visible point (a scattering event of the camera ray in medium `medium`, header comment): p is
   // the event, wo towards the camera, beta without the medium's sigma_s; ng, ns, tangent, material unused.
   bool volume = false;
+  // The medium the camera ray arrived in (-1: vacuum or a scene without media); at a surface point also its
+  // primitive (-1 at volume points), whose medium interface gives the medium a ray leaving it enters (pm.h's
+  // final gathering).
   int32_t medium = -1;
+  int32_t prim = -1;
 };
 
 // Follows a camera ray through specular bounces to the first non-specular
 // surface, adding emission seen along the way (no MIS: the specular chain has no
 // light-sampling alternative) and NEE at the visible point, its light chosen by power or, with light_bvh, by
 // the light BVH's importance from the point (light/light_bvh.h). Returns the point. In scenes with media the
-// ray starts in the camera's medium and may end at a volume visible point instead (header comment).
+// ray starts in the camera's medium (or in `start_medium` unless that is kCameraMedium) and may end at a
+// volume visible point instead (header comment). With `direct` false it adds nothing to L and draws no light
+// samples: pm.h's final-gather rays find their point this way (the light they would add is the camera
+// point's NEE and caustic map).
+constexpr int32_t kCameraMedium = -2;
 template <typename Tracer>
 CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, RGB beta, Sampler& smp,
-                              uint32_t max_depth, RGB& L, bool light_bvh = false) {
+                              uint32_t max_depth, RGB& L, bool light_bvh = false, bool direct = true,
+                              int32_t start_medium = kCameraMedium) {
   VisiblePoint vp;
   const bool media = scene_has_media(s);
-  int32_t medium = media ? s.camera_medium : -1;
+  int32_t medium = !media ? -1 : start_medium == kCameraMedium ? s.camera_medium : start_medium;
   int32_t hero = -1;
   RGB r_medium(1.f);
   uint32_t null_crossings = 0;
@@ -76,7 +85,7 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
       if (ms.scattered) {
         const Vec3f x = ray.o + d * ms.t;
         const RGB w = beta;
-        if (depth < max_depth && s.num_lights > 0) {
+        if (direct && depth < max_depth && s.num_lights > 0) {
           // Single scattering by NEE with the phase function (volume photons of the first event are not
           // stored).
           float pmf = 0.f;
@@ -104,7 +113,7 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
       if (is_black(beta)) return vp;
     }
     if (!found) {
-      if (s.environment_light >= 0) L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
+      if (direct && s.environment_light >= 0) L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
       return vp;
     }
     SurfaceHit sh = make_surface_hit(s, ray, hit);
@@ -117,15 +126,19 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
     null_crossings = 0;
     Vec3f wo_world = -ray.d;
     beta *= segment_transmittance(s, ray.d, hit.t, sh);
-    if (sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
+    if (direct && sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
     const Material m = surface_material(s, sh);
     Frame frame = shading_frame(s, sh, m);
     Vec3f wo = frame.to_local(wo_world);
-    float u_l = smp.next_1d();
-    Vec2f u_l2 = smp.next_2d();
+    float u_l = 0.f;
+    Vec2f u_l2(0.f, 0.f);
+    if (direct) {
+      u_l = smp.next_1d();
+      u_l2 = smp.next_2d();
+    }
     if (!material_is_delta(m)) {
       // Direct light by NEE (photons of the first hit are not stored).
-      if (depth < max_depth && s.num_lights > 0) {
+      if (direct && depth < max_depth && s.num_lights > 0) {
         float pmf = 0.f;
         Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
         Vec2f u_choice(u_l, 0.f);
@@ -156,6 +169,8 @@ CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, 
       vp.wo = wo_world;
       vp.beta = beta;
       vp.material = m;
+      vp.medium = medium;
+      vp.prim = int32_t(sh.prim);
       vp.valid = depth < max_depth;  // a photon adds at least one more segment
       return vp;
     }

@@ -29,9 +29,11 @@
 // the second with the volume radius (pppm's global one, or sppm's per-pixel statistics of volume points), as
 // photon_render.cpp does.
 // Jensen's photon mapping (pm, Jensen 1996) runs here too, without visible points or grid: its first pass
-// traces the photons with the same stages (direct photons kept), builds the global and caustic maps on the
-// host as portable kd-trees (photon/knn_tree.h) and copies them to the backend; every pass then runs pm.h's
-// pm_radiance per pixel (render_pm_pass).
+// traces the photons with the same stages (direct photons kept), builds the global and caustic maps (and in
+// media the two volume maps of Jensen & Christensen 1998) on the host as portable kd-trees
+// (photon/knn_tree.h) and copies them to the backend; every pass then runs pm.h's pm_radiance per pixel
+// (render_pm_pass).
+
 #pragma once
 #include <atomic>
 #include <chrono>
@@ -646,12 +648,13 @@ class WavefrontPhoton {
       uint32_t count = 0;
       if (!trace_photons(0xfffffffu, photon_depth, true, cancel, stats, count)) return false;
       clock.lap(stats.seconds_photons);
-      std::vector<Photon> all(count), caustic;
+      std::vector<Photon> all(count);
       if (count > 0) b_.to_host(photons_, all.data(), count);
-      for (const Photon& ph : all)
-        if (ph.flags & kPhotonCaustic) caustic.push_back(ph);
-      upload_map(build_knn_tree(all), global_);
-      upload_map(build_knn_tree(caustic), caustic_);
+      const PmPhotonSplit maps = pm_split_photons(all);
+      upload_map(build_knn_tree(maps.global), global_);
+      upload_map(build_knn_tree(maps.caustic), caustic_);
+      upload_map(build_knn_tree(maps.volume), volume_);
+      upload_map(build_knn_tree(maps.volume_indirect), volume_indirect_);
       stats.photons = p_.photons;
       stats.stored_photons = count;
       maps_built_ = true;
@@ -664,7 +667,8 @@ class WavefrontPhoton {
       pp.sampler = p_.sampler;
       double* lpass = lpass_.data();
       const bool light_bvh = p_.light_bvh;
-      const KnnTreeView global = global_.view(), caustic = caustic_.view();
+      const KnnTreeView global = global_.view(), caustic = caustic_.view(), volume = volume_.view(),
+                        volume_indirect = volume_indirect_.view();
       const uint64_t paths = p_.photons;
       const uint32_t k = p_.k;
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
@@ -672,8 +676,8 @@ class WavefrontPhoton {
         path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
         uint32_t idx[kWavefrontMaxK];
         float d2[kWavefrontMaxK];
-        const RGB L = pm_radiance(s, tracer, caustic, global, paths, k, st.ray, st.sampler, max_depth, light_bvh,
-                                  idx, d2);
+        const RGB L = pm_radiance(s, tracer, PmMaps<KnnTreeView>{caustic, global, volume, volume_indirect}, paths, k,
+                                  st.ray, st.sampler, max_depth, light_bvh, idx, d2);
         const bool ok = isfinite3(L);
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });
@@ -754,7 +758,7 @@ class WavefrontPhoton {
   uint32_t nk_ = 0;  // visible points
   bool measured_ = false;  // ppm: the measurement points are traced (a pass has completed)
   bool maps_built_ = false;  // pm: the photon maps are built
-  DeviceKnnTree global_, caustic_;
+  DeviceKnnTree global_, caustic_, volume_, volume_indirect_;  // pm's maps (pm.h)
   // --photon-sampling adaptive: the chains' state over passes, the regions' sizes (grown as needed), buffers.
   AdaptiveChainState chains_;
   ChainCounts pass_counts_;  // the current pass's, until it completes
