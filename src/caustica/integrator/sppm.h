@@ -59,9 +59,9 @@ struct VisiblePoint {
 // point's NEE and caustic map).
 constexpr int32_t kCameraMedium = -2;
 template <typename Tracer>
-CHD VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, RGB beta, Sampler& smp,
-                              uint32_t max_depth, RGB& L, bool light_bvh = false, bool direct = true,
-                              int32_t start_medium = kCameraMedium) {
+CHD_ALWAYS_INLINE VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, RGB beta,
+                                            Sampler& smp, uint32_t max_depth, RGB& L, bool light_bvh = false,
+                                            bool direct = true, int32_t start_medium = kCameraMedium) {
   VisiblePoint vp;
   const bool media = scene_has_media(s);
   int32_t medium = !media ? -1 : start_medium == kCameraMedium ? s.camera_medium : start_medium;
