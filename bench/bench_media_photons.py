@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Equal-time comparison of the volumetric path tracer, volumetric photon mapping (pppm, sppm) and light
+"""Equal-time comparison of the volumetric path tracer, volumetric photon mapping (pppm, sppm, pm) and light
 tracing, bidirectional path tracing, bidirectional photon mapping and vertex connection and merging with medium
 vertices (light, bdpt, bpm, vcm) in fog.
 
@@ -14,11 +14,12 @@ caustic comes through L S S V S E paths that no connection samples and only merg
 vcm; the reference is a long pppm render, consistent but biased at its pass count: pppm's kernels read 2-6%
 low at the fog's boundary there; bpm and vcm take --merge-volume-radius there, default their automatic radii). Each
 integrator renders each scene for the given seconds (whole passes until the budget is spent) and the script
-reports relMSE against the reference.
+reports relMSE against the reference. pm builds its maps once (--pm-photons photon paths, --k nearest) within the
+budget and spends the rest on camera samples.
 
 usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16]
        [--integrators path pppm sppm bdpt light bpm vcm] [--scenes fog-lamp fog-lens smoke-lamp fog-mirror]
-       [--lens-ref bdpt] [--merge-volume-radius 0] [--rows]
+       [--lens-ref bdpt] [--merge-volume-radius 0] [--pm-photons 200000] [--k 50] [--rows]
 """
 import argparse
 import datetime
@@ -41,6 +42,8 @@ def main():
     ap.add_argument("--ref-passes", type=int, default=1024, help="fog-lens reference: pppm passes")
     ap.add_argument("--lens-ref", choices=["bdpt", "pppm"], default="bdpt",
                     help="fog-lens reference: bdpt at --ref-spp passes (unbiased) or pppm at --ref-passes")
+    ap.add_argument("--pm-photons", type=int, default=200000, help="pm: photon paths of its maps")
+    ap.add_argument("--k", type=int, default=50, help="pm: photons per estimate")
     ap.add_argument("--integrators", nargs="+", default=["path", "pppm", "sppm"])
     ap.add_argument("--merge-volume-radius", type=float, default=0.0,
                     help="fog-mirror: bpm's and vcm's --volume-radius (0: their automatic ones)")
@@ -76,6 +79,8 @@ def main():
         for integrator in a.integrators:
             for t in a.times:
                 kw = dict(photons=a.photons) if integrator in ("pppm", "sppm") else {}
+                if integrator == "pm":
+                    kw = dict(photons=a.pm_photons, k=a.k)
                 if name == "fog-mirror" and integrator in ("bpm", "vcm") and a.merge_volume_radius > 0:
                     kw["volume_radius"] = a.merge_volume_radius
                 r = caustica.render_job(sc, integrator=integrator, time=t, seed=7, max_depth=-1, **kw)
@@ -90,9 +95,11 @@ def main():
               f"(`bench/bench_media_photons.py`)\n")
         print(f"Machine: {prov['machine']}. Command: `.venv/bin/python bench/bench_media_photons.py --res {a.res} "
               f"--times {' '.join(f'{t:g}' for t in a.times)} --integrators {' '.join(a.integrators)} --scenes "
-              f"{' '.join(a.scenes)} --lens-ref {a.lens_ref} --merge-volume-radius {a.merge_volume_radius:g} --rows`; "
+              f"{' '.join(a.scenes)} --lens-ref {a.lens_ref} --merge-volume-radius {a.merge_volume_radius:g} "
+              f"--pm-photons {a.pm_photons} --k {a.k} --rows`; "
               f"{a.res}x{a.res}, {a.photons} photon paths per pass "
-              f"(pppm, sppm; light, bdpt, bpm and vcm one light subpath per pixel); references: fog-lamp and "
+              f"(pppm, sppm; pm's maps {a.pm_photons} paths, k {a.k}; light, bdpt, bpm and vcm one light subpath "
+              f"per pixel); references: fog-lamp and "
               f"smoke-lamp path {a.ref_spp} spp, fog-lens "
               + (f"pppm {a.ref_passes} passes of {4 * a.photons} photons" if a.lens_ref == "pppm"
                  else f"bdpt {a.ref_spp} passes")

@@ -2,13 +2,16 @@
 // with known answers: the mutation keeps the uniform density and is symmetric; a chain's states follow
 // V / |V| (chi-square, independent chains), including coordinates a state consumed lazily; the pass
 // estimator (n_vis / S) x (mean of the deposits) is unbiased; the mutation size moves toward the target
-// acceptance. The renderer-level tests are in tests/python/test_adaptive_photons.py.
+// acceptance; V(u)'s test tells volume photons from surface photons. The renderer-level tests are in
+// tests/python/test_adaptive_photons.py.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
+#include "caustica/integrator/adaptive_photons.h"
 #include "caustica/photon/adaptive.h"
+#include "caustica/photon/hash_grid.h"
 #include "chi2.h"
 
 using namespace caustica;
@@ -225,4 +228,58 @@ TEST(AdaptivePhotons, PrimarySampleStreamRecordsAndMutatesLazily) {
   EXPECT_EQ(b.n, 4u);
   for (uint32_t i = 0; i < kPssDims + 10; ++i) fresh.next_float();
   EXPECT_EQ(a.n, kPssDims);
+}
+
+// V(u)'s test for one photon (integrator/adaptive_photons.h) in a scene with media: a volume photon is
+// visible only to volume visible points within their volume radius (pppm's global r_v, or sppm's per point),
+// a surface photon only to surface points within their radius whose BSDF passes its direction.
+TEST(AdaptivePhotons, VisibilityTellsVolumeFromSurfacePhotons) {
+  std::vector<VisiblePoint> vps(2);
+  vps[0].p = Vec3f(0.f, 0.f, 0.f);  // a diffuse floor point facing +z, seen from above
+  vps[0].ng = vps[0].ns = Vec3f(0.f, 0.f, 1.f);
+  vps[0].wo = Vec3f(0.f, 0.f, 1.f);
+  vps[0].beta = RGB(1.f);
+  vps[0].valid = true;
+  vps[1].p = Vec3f(1.f, 0.f, 0.f);  // a scattering event in fog
+  vps[1].wo = Vec3f(0.f, 0.f, 1.f);
+  vps[1].beta = RGB(1.f);
+  vps[1].valid = vps[1].volume = true;
+  vps[1].medium = 0;
+  std::vector<Photon> points(2);
+  points[0].p = vps[0].p;
+  points[1].p = vps[1].p;
+  const std::vector<uint32_t> point_vp = {0, 1};
+  const Bounds3 bounds{Vec3f(-2.f), Vec3f(2.f)};
+  AdaptiveVisibility visible;
+  visible.set_radii(bounds, 0.1f, 0.2f);  // pppm: surface radius 0.1, volume radius 0.2
+  PhotonHashGrid grid;
+  grid.build(points, bounds, 2.f * visible.query_radius, false, 0, true);
+  visible.points = grid.view();
+  visible.point_vp = point_vp.data();
+  visible.vp = vps.data();
+  auto photon = [](Vec3f p, Vec3f wi, bool volume) {
+    Photon ph;
+    ph.p = p;
+    ph.wi = wi;
+    ph.power = RGB(1.f);
+    ph.flags = volume ? kPhotonVolume : 0u;
+    return ph;
+  };
+  const Vec3f up(0.f, 0.f, 1.f), down(0.f, 0.f, -1.f);
+  EXPECT_TRUE(visible(photon(Vec3f(1.15f, 0.f, 0.f), down, true)));    // within r_v of the fog point
+  EXPECT_FALSE(visible(photon(Vec3f(1.25f, 0.f, 0.f), down, true)));   // beyond it
+  EXPECT_FALSE(visible(photon(Vec3f(0.05f, 0.f, 0.f), up, true)));     // near the floor point only
+  EXPECT_TRUE(visible(photon(Vec3f(0.05f, 0.f, 0.f), up, false)));     // on the floor, from above
+  EXPECT_FALSE(visible(photon(Vec3f(0.05f, 0.f, 0.f), down, false)));  // from below: the BSDF is 0
+  EXPECT_FALSE(visible(photon(Vec3f(0.15f, 0.f, 0.f), up, false)));    // beyond r, within r_v
+  EXPECT_FALSE(visible(photon(Vec3f(1.05f, 0.f, 0.f), up, false)));    // near the fog point only
+  // sppm: each point's own volume radius.
+  const std::vector<float> R = {0.1f, 0.1f}, Rv = {0.3f, 0.3f};
+  visible.R = R.data();
+  visible.Rv = Rv.data();
+  visible.set_radii(bounds, 0.1f, 0.3f);
+  grid.build(points, bounds, 2.f * visible.query_radius, false, 0, true);
+  visible.points = grid.view();
+  EXPECT_TRUE(visible(photon(Vec3f(1.25f, 0.f, 0.f), down, true)));
+  EXPECT_FALSE(visible(photon(Vec3f(1.35f, 0.f, 0.f), down, true)));
 }

@@ -23,7 +23,9 @@
 namespace caustica {
 
 // V(u) for one stored photon: a visible point i lies within R_i (pppm: the pass's global radius) plus
-// `margin` of it and its BSDF passes light from the photon's direction. The gather (sppm_gather) measures
+// `margin` of it and its BSDF passes light from the photon's direction; in media, a volume photon's test is
+// against the volume visible points within their volume radius (sppm_volume_gather: R_v,i, or pppm's global
+// r_v), the phase function being positive everywhere. The gather (sppm_gather) measures
 // from the photon's quantized position (compact_photon.h: within |extent| / 65535 of the exact one); the
 // test here, on exact positions, takes R_i + margin with twice that error, so it is never 0 for a photon
 // that would be gathered (a larger V costs efficiency, not bias). The BSDF is evaluated as sppm_gather
@@ -34,25 +36,33 @@ struct AdaptiveVisibility {
   const uint32_t* point_vp = nullptr;  // a grid id's visible point
   const VisiblePoint* vp = nullptr;
   const float* R = nullptr;            // each visible point's radius; null: every radius is rmax (pppm)
-  float rmax = 0.f, margin = 0.f, query_radius = 0.f;
+  // In media: each volume visible point's radius (sppm, indexed like vp; null: every one is rvmax, pppm).
+  const float* Rv = nullptr;
+  float rmax = 0.f, rvmax = 0.f, margin = 0.f, query_radius = 0.f;
 
-  // margin and query_radius for the scene's bounds and the pass's largest radius; the query radius also
-  // covers the quantization of the visible points' own positions in the grid over them (cells of twice it).
-  CHD void set_radii(const Bounds3& scene_bounds, float largest_radius) {
+  // margin and query_radius for the scene's bounds and the pass's largest radii (surface, volume); the
+  // query radius also covers the quantization of the visible points' own positions in the grid over them
+  // (cells of twice it).
+  CHD void set_radii(const Bounds3& scene_bounds, float largest_radius, float largest_volume_radius = 0.f) {
     rmax = largest_radius;
+    rvmax = largest_volume_radius;
+    const float r = maxf(rmax, rvmax);
     const Vec3f ext = scene_bounds.hi - scene_bounds.lo;
-    margin = 2.f * length(ext) / 65535.f + 1e-6f * rmax;
-    query_radius = rmax + 2.f * margin;
+    margin = 2.f * length(ext) / 65535.f + 1e-6f * r;
+    query_radius = r + 2.f * margin;
   }
 
   CHD bool operator()(const Photon& ph) const {
     uint16_t oct[2];
     oct_encode(ph.wi, oct);
     const Vec3f wi = oct_decode(oct);
+    const bool volume = (ph.flags & kPhotonVolume) != 0;
     return points.query_any(ph.p, query_radius, [&](uint32_t id, const Photon&) {
       const uint32_t i = point_vp[id];
-      const float r = (R ? R[i] : rmax) + margin;
+      if (vp[i].volume != volume) return false;
+      const float r = (volume ? (Rv ? Rv[i] : rvmax) : (R ? R[i] : rmax)) + margin;
       if (photon_dist2(ph.p, vp[i].p) > r * r) return false;
+      if (volume) return true;
       const VisiblePoint& v = vp[i];
       const Frame frame = tangent_frame(v.ns, v.tangent);
       return !is_black(bsdf_eval(v.material, frame.to_local(v.wo), frame.to_local(wi), TransportMode::kRadiance));
@@ -98,11 +108,13 @@ struct HostCancelFlag {
 // light is NEE's, as with uniform tracing), go to its payload (Payload: clear(), push(const Photon&)); the
 // path is visible when it has one. `deposit(const Payload&)` receives the chain's state at every step that
 // has one. samples[0..1], payloads[0..1]: the chain's two buffers. False when `cancelled()` became true.
+// `outside`: trace_photon_path's (scenes with media).
 template <typename Tracer, typename Payload, typename Deposit, typename Cancelled>
 CHD bool run_adaptive_photon_chain(const SceneView& s, const Tracer& accel, const AdaptiveVisibility& visible,
                                    uint32_t photon_depth, uint64_t seed, int64_t abs_pass, uint32_t chain,
                                    uint64_t steps, float d, PrimarySample* samples, Payload* payloads,
-                                   Deposit&& deposit, Cancelled&& cancelled, ChainCounts& counts) {
+                                   Deposit&& deposit, Cancelled&& cancelled, ChainCounts& counts,
+                                   int32_t outside = -1) {
   PCG32 rng(hash3(seed, uint64_t(abs_pass), 0xada9000000000000ULL | chain), mix64(uint64_t(abs_pass) << 32 | chain));
   auto evaluate = [&](const PssStream& stream, Payload& out) {
     out.clear();
@@ -117,7 +129,9 @@ CHD bool run_adaptive_photon_chain(const SceneView& s, const Tracer& accel, cons
           if (!visible(ph)) return;
           out.push(ph);
           vis = true;
-        });
+        },
+        outside);
+
     return vis;
   };
   return run_visibility_chain(rng, steps, d, samples, payloads, evaluate, deposit, cancelled, counts);

@@ -257,17 +257,17 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   // points behind specular chains may exceed it by the chain's extra segments).
   uint32_t photon_depth = max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1;
   float rmax = kind_ == Kind::kPPPM ? pppm_radius(r0_, opt_.alpha, abs_pass) : *std::max_element(R_.begin(), R_.end());
+  // Volume photons (scenes with media) go to a grid of their own, with their own radius.
+  const float rv = !media_                ? 0.f
+                   : kind_ == Kind::kPPPM ? pppm_volume_radius(rv0_, opt_.alpha, abs_pass)
+                                          : *std::max_element(Rv_.begin(), Rv_.end());
   std::vector<Photon> photons =
-      adaptive_ ? trace_photons_adaptive(abs_pass, photon_depth, rmax, cancel)
+      adaptive_ ? trace_photons_adaptive(abs_pass, photon_depth, rmax, rv, cancel)
                 : trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
                                 photon_depth, false, &cancel, outer_medium_);
   if (cancel.load()) return false;
   traced_ += photons_per_pass_;
-  // Volume photons (scenes with media) in a grid of their own, with their own radius.
   std::vector<Photon> volume_photons;
-  const float rv = !media_                ? 0.f
-                   : kind_ == Kind::kPPPM ? pppm_volume_radius(rv0_, opt_.alpha, abs_pass)
-                                          : *std::max_element(Rv_.begin(), Rv_.end());
   if (media_) {
     auto is_volume = [](const Photon& ph) { return (ph.flags & kPhotonVolume) != 0; };
     auto mid = std::stable_partition(photons.begin(), photons.end(), [&](const Photon& ph) { return !is_volume(ph); });
@@ -309,11 +309,11 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
 }
 
 std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax,
-                                                             const std::atomic<bool>& cancel) {
+                                                             float rv, const std::atomic<bool>& cancel) {
   const SceneView& v = scene_->view();
   const CpuAccel& accel = scene_->cpu_accel(opt_.accel);
   // V(u) of photon/adaptive.h (adaptive_photons.h's AdaptiveVisibility) over a grid of the valid visible
-  // points, in index order.
+  // points (surface and volume ones), in index order.
   std::vector<Photon> points;
   std::vector<uint32_t> point_vp;  // visible-point index of each grid record
   for (size_t i = 0; i < vp_.size(); ++i)
@@ -324,13 +324,14 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
       point_vp.push_back(uint32_t(i));
     }
   AdaptiveVisibility visible;
-  visible.set_radii(v.bounds, rmax);
+  visible.set_radii(v.bounds, rmax, rv);
   PhotonHashGrid point_grid;
   if (!points.empty()) point_grid.build(points, v.bounds, 2.f * visible.query_radius, false, 0, true);
   visible.points = point_grid.view();
   visible.point_vp = point_vp.data();
   visible.vp = vp_.data();
   visible.R = kind_ == Kind::kPPPM ? nullptr : R_.data();
+  visible.Rv = media_ && kind_ == Kind::kSPPM ? Rv_.data() : nullptr;  // sppm: K_ is 1 in media
   const uint64_t n = photons_per_pass_;
   const uint32_t chains = adaptive_chain_count(n);
   const float d = chains_.mutation_size;
@@ -353,7 +354,8 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
           v, accel, visible, photon_depth, opt_.seed, abs_pass, c, adaptive_chain_steps(n, chains, c), d,
           buffers->samples, buffers->payloads,
           [&](const PhotonList& state) { out.insert(out.end(), state.photons.begin(), state.photons.end()); },
-          [&] { return cancel.load(std::memory_order_relaxed); }, counts[c]);
+          [&] { return cancel.load(std::memory_order_relaxed); }, counts[c], outer_medium_);
+
     }
   });
   if (cancel.load()) return {};

@@ -97,10 +97,11 @@ class PhotonIntegrator {
   uint64_t global_paths_ = 0;
   uint64_t traced_ = 0;
   void trace_visible_points(int64_t abs_pass);
-  // The photons of one pass drawn by the visibility chains (photon/adaptive.h), their powers scaled by
+  // The photons of one pass drawn by the visibility chains (photon/adaptive.h; rv: the largest volume radius
+  // in media, else 0), their powers scaled by
   // n_vis / S, the chains' counts in pass_counts_ (committed to chains_ when the pass completes); empty if
   // cancelled.
-  std::vector<Photon> trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax,
+  std::vector<Photon> trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax, float rv,
                                              const std::atomic<bool>& cancel);
   bool adaptive_ = false;
   AdaptiveChainState chains_;

@@ -216,9 +216,6 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
         throw InputError("integrator '" + opt_.integrator + "' does not render emissive media (medium '" +
                          (i < scene_->desc().medium_names.size() ? scene_->desc().medium_names[i] : std::to_string(i)) +
                          "' emits); use --integrator path, bdpt, vcm or bpm");
-    if (media_photons && opt_.photon_sampling != "uniform")
-      throw InputError("--photon-sampling adaptive does not trace photons through participating media" + what +
-                       "; use --photon-sampling uniform");
   }
   if (opt_.volume_radius < 0.f || !std::isfinite(opt_.volume_radius))
     throw InputError("--volume-radius must be a positive number");

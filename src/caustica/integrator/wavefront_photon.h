@@ -330,8 +330,11 @@ class WavefrontPhoton {
     const uint32_t photon_depth = max_depth == 0xffffffffu ? max_depth : max_depth - 1;
     const uint32_t P = p_.photons;
     const float rmax = p_.pppm ? pppm_radius(p_.radius, p_.alpha, abs_pass) : b_.reduce(R_.data(), nk_, 0.f, FloatMax());
+    const float rv = !p_.media ? 0.f
+                     : p_.pppm ? pppm_volume_radius(p_.volume_radius, p_.alpha, abs_pass)
+                               : b_.reduce(Rv_.data(), n_, 0.f, FloatMax());
     uint32_t count = 0;
-    if (p_.adaptive ? !trace_photons_adaptive(abs_pass, photon_depth, rmax, cancel, stats, count)
+    if (p_.adaptive ? !trace_photons_adaptive(abs_pass, photon_depth, rmax, rv, cancel, stats, count)
                     : !trace_photons(uint32_t(abs_pass), photon_depth, false, cancel, stats, count))
       return false;
     stats.photons = P;
@@ -341,9 +344,6 @@ class WavefrontPhoton {
 
     // In media: the volume photons to a grid of their own (stable: both keep the photons' order).
     const Photon* surface = photons_.data();
-    const float rv = !p_.media ? 0.f
-                     : p_.pppm ? pppm_volume_radius(p_.volume_radius, p_.alpha, abs_pass)
-                               : b_.reduce(Rv_.data(), n_, 0.f, FloatMax());
     if (p_.media) {
       for (Buffer<uint32_t>* buf : {&split_flags_, &split_scan_, &split_index_})
         if (buf->size() < count + 1) buf->resize(count + 1);
@@ -484,15 +484,16 @@ class WavefrontPhoton {
   // chains) but exact parity with the CPU driver. False when cancelled: checked between stages and, on the
   // CPU backend, by every chain each 256 steps (HostCancelFlag), so Ctrl-C stops a long pass as promptly as
   // the CPU driver's; a CUDA kernel runs its chains to the end.
-  bool trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax, const std::atomic<bool>* cancel,
-                              WavefrontPassStats& stats, uint32_t& count) {
+  bool trace_photons_adaptive(int64_t abs_pass, uint32_t photon_depth, float rmax, float rv,
+                              const std::atomic<bool>* cancel, WavefrontPassStats& stats, uint32_t& count) {
     const SceneView s = b_.scene();
     const auto tracer = b_.tracer();
     auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
     count = 0;
-    // The valid visible points in index order, and a grid over them that keeps their ids.
+    // The valid visible points (surface and volume ones) in index order, and a grid over them that keeps
+    // their ids.
     AdaptiveVisibility visible;
-    visible.set_radii(s.bounds, rmax);
+    visible.set_radii(s.bounds, rmax, rv);
     {
       if (point_flags_.size() < nk_) point_flags_.resize(nk_);
       if (point_scan_.size() < nk_) point_scan_.resize(nk_);
@@ -519,6 +520,7 @@ class WavefrontPhoton {
       visible.point_vp = point_vp_.data();
       visible.vp = vp;
       visible.R = p_.pppm ? nullptr : R_.data();
+      visible.Rv = p_.media && !p_.pppm ? Rv_.data() : nullptr;  // sppm: K_ is 1 in media
     }
     if (cancelled()) return false;
 
@@ -526,6 +528,7 @@ class WavefrontPhoton {
     const uint32_t chains = adaptive_chain_count(P);
     const float d = chains_.mutation_size;
     const uint64_t seed = p_.seed;
+    const int32_t outside = p_.outer_medium;
     if (samples_.size() < 2 * size_t(chains)) samples_.resize(2 * size_t(chains));
     if (chain_results_.size() < chains) chain_results_.resize(chains);
     std::vector<AdaptiveChainResult> results(chains);
@@ -556,7 +559,8 @@ class WavefrontPhoton {
               for (uint32_t j = 0; j < state.n; ++j, ++r.deposited)
                 if (j < state.cap && r.deposited < dcap) region[r.deposited] = state.photons[j];
             },
-            host_cancel, r.counts);
+            host_cancel, r.counts, outside);
+
         out[c] = r;
       });
       b_.to_host(chain_results_, results.data(), chains);
