@@ -131,7 +131,6 @@ CHD bool run_adaptive_photon_chain(const SceneView& s, const Tracer& accel, cons
           vis = true;
         },
         outside);
-
     return vis;
   };
   return run_visibility_chain(rng, steps, d, samples, payloads, evaluate, deposit, cancelled, counts);

@@ -223,7 +223,6 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
         path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
         const RGB L = pm_radiance(v, accel, PmMaps<PhotonKdTree>{caustic_, global_, volume_, volume_indirect_},
                                   global_paths_, k, st.ray, st.sampler, max_depth_, light_bvh, idx.data(), d2.data());
-
         if (!isfinite3(L)) continue;
         size_t i = size_t(y) * W_ + x;
         for (int c = 0; c < 3; ++c) direct_[3 * i + c] += L[c];
@@ -355,7 +354,6 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
           buffers->samples, buffers->payloads,
           [&](const PhotonList& state) { out.insert(out.end(), state.photons.begin(), state.photons.end()); },
           [&] { return cancel.load(std::memory_order_relaxed); }, counts[c], outer_medium_);
-
     }
   });
   if (cancel.load()) return {};

@@ -114,7 +114,6 @@ class PhotonIntegrator {
   bool media_ = false;  // pm, pppm or sppm in a scene with media: volume photons (and pppm's, sppm's volume points)
   int32_t outer_medium_ = -1;  // where photon paths that meet no medium boundary start (outer_medium)
   float rv0_ = 0.f;     // pppm, sppm: their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
-
   std::vector<double> Nv_, tauv_;  // sppm in media: each pixel's statistics of its volume visible points
   std::vector<float> Rv_;          // (sppm_update with dims 3), beside N_, tau_, R_ for its surface ones
   int W_, H_;

@@ -105,7 +105,6 @@ inline PmPhotonSplit pm_split_photons(const std::vector<Photon>& all) {
 }
 
 // The most segments a final-gather ray follows through specular surfaces to the point it estimates from.
-
 constexpr uint32_t kPmGatherDepth = 8;
 
 // One camera sample's radiance along `ray` (the pixel's camera ray; smp its sampler after path_start).
@@ -142,6 +141,5 @@ CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const PmMaps<Map>& 
   const Frame gf = tangent_frame(gp.ns, gp.tangent);
   return L + gp.beta * pm_estimate(maps.global, paths, k, gp.material, gf, gf.to_local(gp.wo), gp.p, idx, d2);
 }
-
 
 }  // namespace caustica

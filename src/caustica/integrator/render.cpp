@@ -304,7 +304,6 @@ void RenderJob::make_integrator() {
     if (p.media && p.pm) {
       p.outer_medium = outer_medium(*scene_, cpu_accel(), opt_.integrator, "photons");
     } else if (p.media) {
-
       p.volume_radius = photon_media_setup(*scene_, cpu_accel(), opt_, p.photons,
                                          p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius,
                                          &p.outer_medium);

@@ -33,7 +33,6 @@
 // media the two volume maps of Jensen & Christensen 1998) on the host as portable kd-trees
 // (photon/knn_tree.h) and copies them to the backend; every pass then runs pm.h's pm_radiance per pixel
 // (render_pm_pass).
-
 #pragma once
 #include <atomic>
 #include <chrono>
