@@ -5,7 +5,10 @@ equal time, `sppm`, on two views of the Cornell box:
            about 0.3% of uniform photon paths store a photon the camera's visible points gather);
   cornell  the built-in camera (about 40% of uniform paths visible);
   sunlit   tests/data/json/sunlit-room.json: a closed room lit by the sun through a small hole in its ceiling
-           (about 0.2% of uniform paths visible).
+           (about 0.2% of uniform paths visible);
+  fog-closeup  (only with --views) tests/python/test_adaptive_photons.py's fog close-up: a point light in a box
+           of fog over a floor, seen through a 6-degree lens aimed at the floor's far corner (about 0.1% of
+           uniform paths visible, mostly through volume photons).
 
 For each view and time budget, `--seeds` renders of each sampling; figures: passes done, relMSE against a
 path-traced reference (closeup and cornell, diffuse views the path tracer renders well; not for the sunlit
@@ -15,6 +18,7 @@ uniform tracing's mean: the indirectly lit pixels), and their ratios adaptive / 
 better at equal time).
 
     .venv/bin/python bench/bench_adaptive.py [--res 64] [--budgets 2 8] [--seeds 4] [--photons 100000]
+        [--views closeup cornell sunlit fog-closeup]
 
 Appends a block to bench/RESULTS.md."""
 from __future__ import annotations
@@ -40,7 +44,9 @@ def relmse(x, r):
     return float(np.mean((x - r) ** 2 / (r ** 2 + 0.01)))
 
 
-def views(res: int) -> dict:
+def views(res: int, names: list) -> dict:
+    sys.path.insert(0, os.path.join(ROOT, "tests", "python"))
+    from test_adaptive_photons import fog_closeup
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "cornell.json")
         caustica.load_scene_desc("cornell").write_json(path)
@@ -49,8 +55,11 @@ def views(res: int) -> dict:
     close["camera"] = {"position": [0, 0, 0.8], "target": [0.6, 1, -0.6], "up": [0, 1, 0], "fov": 5.0,
                        "width": res, "height": res}
     room = os.path.join(ROOT, "tests", "data", "json", "sunlit-room.json")
-    return {"closeup": caustica.load_scene(close), "cornell": caustica.load_scene("cornell", width=res, height=res),
-            "sunlit": caustica.load_scene(room, width=res, height=res)}
+    make = {"closeup": lambda: caustica.load_scene(close),
+            "cornell": lambda: caustica.load_scene("cornell", width=res, height=res),
+            "sunlit": lambda: caustica.load_scene(room, width=res, height=res),
+            "fog-closeup": lambda: caustica.load_scene(fog_closeup(width=res))}
+    return {n: make[n]() for n in names}
 
 
 def main() -> int:
@@ -60,10 +69,12 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--photons", type=int, default=100000)
     ap.add_argument("--ref-spp", type=int, default=8192)
+    ap.add_argument("--views", nargs="+", default=["closeup", "cornell", "sunlit"],
+                    choices=["closeup", "cornell", "sunlit", "fog-closeup"])
     ap.add_argument("--no-append", action="store_true")
     a = ap.parse_args()
     rows = []
-    for name, scene in views(a.res).items():
+    for name, scene in views(a.res, a.views).items():
         ref = None if name == "sunlit" else caustica.render(scene, spp=a.ref_spp, seed=12345,
                                                             sampler="independent").astype(np.float64)
         for T in a.budgets:
@@ -91,12 +102,13 @@ def main() -> int:
         return 0
     date = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     cmd = (f".venv/bin/python bench/bench_adaptive.py --res {a.res} --budgets {' '.join(f'{b:g}' for b in a.budgets)} "
-           f"--seeds {a.seeds} --photons {a.photons} --ref-spp {a.ref_spp}")
+           f"--seeds {a.seeds} --photons {a.photons} --ref-spp {a.ref_spp} --views {' '.join(a.views)}")
     lines = [f"\n## Adaptive photon tracing vs uniform, sppm at equal time, {date}, commit {_provenance_commit(ROOT)}\n",
              f"Command: `{cmd}`  ",
              f"Machine: {machine()}; load average {os.getloadavg()[0]:.2f} at the end  ",
              f"Views of `cornell` at {a.res}x{a.res} (closeup: 5-degree lens on the ceiling beside the light); "
-             f"sunlit: tests/data/json/sunlit-room.json; relMSE against {a.ref_spp}-spp path tracing (not for sunlit), "
+             f"sunlit: tests/data/json/sunlit-room.json; fog-closeup: a 6-degree lens on fog over a floor "
+             f"(tests/python/test_adaptive_photons.py); relMSE against {a.ref_spp}-spp path tracing (not for sunlit), "
              f"mean over {a.seeds} seeds; variance: per pixel over the seeds, mean over pixels and channels, all "
              "pixels and the dim 90% (indirectly lit). Ratios adaptive / uniform: below 1, adaptive is better.\n",
              "| view | budget s | passes uniform | passes adaptive | visible % | acceptance | relMSE uniform | "

@@ -384,8 +384,9 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
-    pppm and sppm render participating media (volumetric photon mapping, on every driver): `volume_radius` is
-    the volume photons' initial radius (default automatic, reported in stats["volume_radius"]). bpm and vcm
+    pppm and sppm render participating media (volumetric photon mapping, on every driver; adaptive photon
+    sampling too): `volume_radius` is the volume photons' initial radius (default automatic, reported in
+    stats["volume_radius"]); pm does too, from the k nearest volume photons (Jensen & Christensen 1998). bpm and vcm
     merge at medium vertices too: there `volume_radius` is the ball's initial radius (default: for vcm one pixel
     footprint where camera paths first scatter in a medium, for bpm a ball of about 32 light vertices of a
     pass; reported in stats["volume_radius"]).

@@ -386,7 +386,9 @@ def cmd_render(a) -> int:
     elif st.get("photons") or integrator != "path":
         msg = (f"{scene.name}: {integrator}{where}, {st['passes']} passes, {scene.width}x{scene.height}, "
                f"{st['seconds']:.2f} s, {st['passes'] / secs:.2f} passes/s, {st['photons']} photon paths "
-               f"({st['photons'] / secs / 1e6:.2f} M photons/s), initial radius {st['radius']:.4g}")
+               f"({st['photons'] / secs / 1e6:.2f} M photons/s), ")
+        # pm's estimates take the k nearest photons (its maps are built once); the others gather in a radius.
+        msg += f"{o['k']} nearest photons per estimate" if integrator == "pm" else f"initial radius {st['radius']:.4g}"
         if st.get("volume_radius"):
             msg += f", volume radius {st['volume_radius']:.4g}"
         if st.get("adaptive"):

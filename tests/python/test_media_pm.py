@@ -119,3 +119,24 @@ def test_volume_radius_is_refused():
     with pytest.raises(caustica.InputError) as e:
         caustica.render(fog_box(width=8), integrator="pm", spp=1, volume_radius=0.3)
     assert "--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm'" in str(e.value)
+
+
+def test_cli(tmp_path):
+    # The command line renders fog with pm and names its k in the summary (it has no gather radius); a
+    # --volume-radius is one error line, exit code 2, nothing written.
+    import json
+    import subprocess
+    import sys
+    f = tmp_path / "fog.json"
+    f.write_text(json.dumps(fog_box(width=8)))
+    out = tmp_path / "out.exr"
+    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(f), "--integrator", "pm", "--spp", "2",
+                        "--photons", "2000", "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "pm, 2 passes" in r.stderr and "50 nearest photons per estimate" in r.stderr and out.exists()
+    assert "initial radius" not in r.stderr
+    bad = tmp_path / "bad.exr"
+    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(f), "--integrator", "pm", "--spp", "1",
+                        "--volume-radius", "0.2", "-o", str(bad)], capture_output=True, text=True)
+    assert r.returncode == 2 and "--volume-radius applies to integrators" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr and not bad.exists()
