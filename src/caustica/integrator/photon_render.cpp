@@ -83,6 +83,7 @@ int32_t outer_medium(const Scene& scene, const CpuAccel& accel, const std::strin
 float photon_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
                          uint32_t photon_depth, float r0, int32_t* outside) {
   *outside = outer_medium(scene, accel, opt.integrator, "photons");
+  if (opt.integrator == "pm") return 0.f;
   float rv = opt.volume_radius;
   if (!(rv > 0.f)) rv = automatic_volume_radius(scene, accel, opt.seed, photons, photon_depth, *outside);
   // No volume photons in a pass (a medium the lights do not reach): any radius gives the same zero.
@@ -144,8 +145,7 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   if (media_ && kind_ == Kind::kPPM)
     throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
                      "use --integrator path, bdpt, vcm, bpm, light, pm, sppm or pppm");
-  if (media_ && kind_ == Kind::kPM) outer_medium_ = outer_medium(*scene_, scene_->cpu_accel(opt.accel), opt.integrator, "photons");
-  else if (media_)
+  if (media_)
     rv0_ = photon_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
                             max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_, &outer_medium_);
   size_t n = size_t(W_) * H_;

@@ -60,9 +60,10 @@ float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_
 int32_t outer_medium(const Scene& scene, const CpuAccel& accel, const std::string& integrator,
                      const std::string& paths);
 
-// pppm or sppm in a scene with media, on every driver: the medium photon paths start in outside every
+// pm, pppm or sppm in a scene with media, on every driver: the medium photon paths start in outside every
 // boundary (outer_medium, into *outside) and the volume photons' initial radius (opt.volume_radius, else
-// automatic_volume_radius over `photons` paths of photon_depth segments, else r0).
+// automatic_volume_radius over `photons` paths of photon_depth segments, else r0; pm, whose estimates take
+// the k nearest, has none: 0).
 float photon_media_setup(const Scene& scene, const CpuAccel& accel, const RenderOptions& opt, uint64_t photons,
                          uint32_t photon_depth, float r0, int32_t* outside);
 

@@ -301,9 +301,7 @@ void RenderJob::make_integrator() {
     p.light_bvh = opt_.light_sampler == "bvh";
     p.adaptive = opt_.photon_sampling == "adaptive";
     p.media = scene_has_media(v);  // pm, pppm or sppm (validated above)
-    if (p.media && p.pm) {
-      p.outer_medium = outer_medium(*scene_, cpu_accel(), opt_.integrator, "photons");
-    } else if (p.media) {
+    if (p.media) {
       p.volume_radius = photon_media_setup(*scene_, cpu_accel(), opt_, p.photons,
                                          p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius,
                                          &p.outer_medium);
