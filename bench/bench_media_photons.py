@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Equal-time comparison of the volumetric path tracer, volumetric photon mapping (pppm, sppm, pm) and light
+"""Equal-time comparison of the volumetric path tracer, volumetric photon mapping (pppm, sppm, ppm, pm) and light
 tracing, bidirectional path tracing, bidirectional photon mapping and vertex connection and merging with medium
 vertices (light, bdpt, bpm, vcm) in fog.
 
@@ -18,7 +18,7 @@ reports relMSE against the reference. pm builds its maps once (--pm-photons phot
 budget and spends the rest on camera samples.
 
 usage: .venv/bin/python bench/bench_media_photons.py [--res 64] [--times 1 4 16]
-       [--integrators path pppm sppm bdpt light bpm vcm] [--scenes fog-lamp fog-lens smoke-lamp fog-mirror]
+       [--integrators path pppm sppm ppm pm bdpt light bpm vcm] [--scenes fog-lamp fog-lens smoke-lamp fog-mirror]
        [--lens-ref bdpt] [--merge-volume-radius 0] [--pm-photons 200000] [--k 50] [--rows]
 """
 import argparse
@@ -78,7 +78,7 @@ def main():
     for name, sc in scenes.items():
         for integrator in a.integrators:
             for t in a.times:
-                kw = dict(photons=a.photons) if integrator in ("pppm", "sppm") else {}
+                kw = dict(photons=a.photons) if integrator in ("pppm", "sppm", "ppm") else {}
                 if integrator == "pm":
                     kw = dict(photons=a.pm_photons, k=a.k)
                 if name == "fog-mirror" and integrator in ("bpm", "vcm") and a.merge_volume_radius > 0:
@@ -98,7 +98,7 @@ def main():
               f"{' '.join(a.scenes)} --lens-ref {a.lens_ref} --merge-volume-radius {a.merge_volume_radius:g} "
               f"--pm-photons {a.pm_photons} --k {a.k} --rows`; "
               f"{a.res}x{a.res}, {a.photons} photon paths per pass "
-              f"(pppm, sppm; pm's maps {a.pm_photons} paths, k {a.k}; light, bdpt, bpm and vcm one light subpath "
+              f"(pppm, sppm, ppm; pm's maps {a.pm_photons} paths, k {a.k}; light, bdpt, bpm and vcm one light subpath "
               f"per pixel); references: fog-lamp and "
               f"smoke-lamp path {a.ref_spp} spp, fog-lens "
               + (f"pppm {a.ref_passes} passes of {4 * a.photons} photons" if a.lens_ref == "pppm"

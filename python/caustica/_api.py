@@ -384,7 +384,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     pass (default one per pixel); `radius` the initial gather radius (default automatic,
     reported in stats["radius"]); `alpha` the radius reduction; `pass_offset` (pppm) renders
     passes [pass_offset, pass_offset + spp), which can be averaged with other ranges.
-    pppm and sppm render participating media (volumetric photon mapping, on every driver; adaptive photon
+    ppm, pppm and sppm render participating media (volumetric photon mapping, on every driver; adaptive photon
     sampling too): `volume_radius` is the volume photons' initial radius (default automatic, reported in
     stats["volume_radius"]); pm does too, from the k nearest volume photons (Jensen & Christensen 1998). bpm and vcm
     merge at medium vertices too: there `volume_radius` is the ball's initial radius (default: for vcm one pixel
@@ -590,7 +590,7 @@ def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, t
     (passes, target_passes, samples, rays, shadow_rays, seconds); returning False stops
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,
-    pass_offset=, stochastic_hash=, photon_sampling=, and pppm/sppm in media volume_radius=; stop on quality: target_error= with reference=, and
+    pass_offset=, stochastic_hash=, photon_sampling=, and ppm/pppm/sppm in media volume_radius=; stop on quality: target_error= with reference=, and
     target_noise= (see render_job)."""
     r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
                    **photon_options)

@@ -142,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--radius", type=_float("--radius"), default=None,
                    help="photon integrators, bpm, vcm: initial gather/merge radius (default: automatic, printed)")
     r.add_argument("--volume-radius", type=_float("--volume-radius"), default=None,
-                   help="pppm and sppm in scenes with participating media: the volume photons' initial radius "
+                   help="ppm, pppm and sppm in scenes with participating media: the volume photons' initial radius "
                         "(default: automatic, printed); bpm and vcm: the volume merges' initial radius (default: "
                         "vcm a pixel footprint where camera paths scatter in a medium, bpm about 32 light vertices "
                         "of a pass, printed)")

@@ -654,8 +654,8 @@ TEST(Cuda, PhotonMappingMatchesTheCpuPerRegion) {
     o.photon_sampling = "adaptive";
     expect_gpu_agrees_per_region(sc, o, std::string(integrator) + " adaptive");
   }
-  for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"})  // pppm, sppm and pm in media
-    for (const char* integrator : {"pppm", "sppm", "pm"}) {
+  for (const char* name : {"smallvcm-fog", "fog-lens", "smallvcm-smoke"})  // the photon mappers in media
+    for (const char* integrator : {"pppm", "sppm", "pm", "ppm"}) {
       RenderOptions o = photon_options(integrator, 8, 0);
       expect_gpu_agrees_per_region(small_scene(name, 32, 32), o, std::string(integrator) + " " + name);
     }

@@ -197,10 +197,11 @@ CUDA, WHY = caustica.cuda_status()
 
 
 @pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
-@pytest.mark.parametrize("integrator", ["pppm", "sppm", "pm"])
+@pytest.mark.parametrize("integrator", ["pppm", "sppm", "pm", "ppm"])
 def test_cuda_matches_the_cpu_driver(integrator):
     # On a GPU: the same image per 8 x 8 region (sums in another order and float paths: not bit-identical).
-    # pm (test_media_pm.py) builds its volume kd-trees on the host and gathers from them on the device.
+    # pm (test_media_pm.py) builds its volume kd-trees on the host and gathers from them on the device; ppm
+    # (test_media_ppm.py) splits its measurement points at the glass and adds per-pass volume points.
     s = fog_box("glass", width=32)
     kw = dict(integrator=integrator, spp=16, photons=20000, max_depth=-1)
     cpu = np.array([region_means(caustica.render(s, seed=k, **kw)) for k in range(4)])
@@ -222,10 +223,11 @@ def test_volume_radius_is_reported_and_sets_the_kernel():
 
 
 @pytest.mark.parametrize("opts,message", [
-    (dict(integrator="ppm"), "integrator 'ppm' does not render participating media or null surfaces"),
+    (dict(integrator="upg"), "integrator 'upg' does not render participating media or null surfaces"),
     (dict(integrator="pppm", volume_radius=-1.0), "volume_radius must be a positive number"),
     (dict(integrator="path", volume_radius=0.5),
-     "--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with participating media"),
+     "--volume-radius applies to integrators 'ppm', 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with participating "
+     "media"),
     (dict(integrator="bdpt", volume_radius=0.5), "--volume-radius applies to integrators"),
 ])
 def test_refusals(opts, message):

@@ -131,7 +131,7 @@ def test_volume_radius_is_refused():
     # pm's volume estimate takes the k nearest photons: there is no ball radius to set.
     with pytest.raises(caustica.InputError) as e:
         caustica.render(fog_box(width=8), integrator="pm", spp=1, volume_radius=0.3)
-    assert "--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm'" in str(e.value)
+    assert "--volume-radius applies to integrators 'ppm', 'pppm', 'sppm', 'bpm' and 'vcm'" in str(e.value)
 
 
 def test_cli(tmp_path):

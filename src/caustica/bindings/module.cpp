@@ -172,7 +172,7 @@ static nb::dict stats_dict(const RenderJob& j, const RenderStats& s) {
   d["cancelled"] = s.cancelled;
   d["photons"] = s.photons;
   d["radius"] = s.radius;
-  if (s.volume_radius > 0.f) d["volume_radius"] = s.volume_radius;  // pppm in media
+  if (s.volume_radius > 0.f) d["volume_radius"] = s.volume_radius;  // ppm, pppm, sppm, bpm, vcm in media
   if (s.adaptive.visible >= 0.0) {  // --photon-sampling adaptive
     nb::dict a;
     a["visible_fraction"] = s.adaptive.visible;

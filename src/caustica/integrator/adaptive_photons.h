@@ -36,8 +36,11 @@ struct AdaptiveVisibility {
   const uint32_t* point_vp = nullptr;  // a grid id's visible point
   const VisiblePoint* vp = nullptr;
   const float* R = nullptr;            // each visible point's radius; null: every radius is rmax (pppm)
-  // In media: each volume visible point's radius (sppm, indexed like vp; null: every one is rvmax, pppm).
+  // In media: each volume visible point's radius (sppm and ppm; null: every one is rvmax, pppm), volume visible
+  // point i's at Rv[i - volume_base] (sppm: 0, a pixel's one visible point; ppm: the measurement points'
+  // count, its per-pass volume points follow them, one per pixel).
   const float* Rv = nullptr;
+  uint32_t volume_base = 0;
   float rmax = 0.f, rvmax = 0.f, margin = 0.f, query_radius = 0.f;
 
   // margin and query_radius for the scene's bounds and the pass's largest radii (surface, volume); the
@@ -60,7 +63,7 @@ struct AdaptiveVisibility {
     return points.query_any(ph.p, query_radius, [&](uint32_t id, const Photon&) {
       const uint32_t i = point_vp[id];
       if (vp[i].volume != volume) return false;
-      const float r = (volume ? (Rv ? Rv[i] : rvmax) : (R ? R[i] : rmax)) + margin;
+      const float r = (volume ? (Rv ? Rv[i - volume_base] : rvmax) : (R ? R[i] : rmax)) + margin;
       if (photon_dist2(ph.p, vp[i].p) > r * r) return false;
       if (volume) return true;
       const VisiblePoint& v = vp[i];

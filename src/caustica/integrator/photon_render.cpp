@@ -139,18 +139,16 @@ PhotonIntegrator::PhotonIntegrator(std::shared_ptr<Scene> scene, const RenderOpt
   // camera rays to their first hit, if not given.
   r0_ = opt.radius;
   if (!(r0_ > 0.f)) r0_ = automatic_radius(*scene_);
-  // Participating media (pm, pppm and sppm; RenderJob refuses ppm): volume photons, and for pppm and sppm
-  // volume visible points with a volume radius (pm takes its k nearest volume photons).
+  // Participating media: volume photons, and for ppm, pppm and sppm volume visible points with a volume
+  // radius (pm takes its k nearest volume photons).
   media_ = scene_has_media(v);
-  if (media_ && kind_ == Kind::kPPM)
-    throw InputError("integrator '" + opt.integrator + "' does not render participating media or null surfaces; "
-                     "use --integrator path, bdpt, vcm, bpm, light, pm, sppm or pppm");
+  remeasure_ = media_ && kind_ == Kind::kPPM && scene_has_grid_media(v);
   if (media_)
     rv0_ = photon_media_setup(*scene_, scene_->cpu_accel(opt.accel), opt, photons_per_pass_,
                             max_depth_ == 0xffffffffu ? max_depth_ : max_depth_ - 1, r0_, &outer_medium_);
   size_t n = size_t(W_) * H_;
   K_ = kind_ == Kind::kPPM ? kPpmPointsPerPixel : 1;
-  vp_.assign(n * K_, VisiblePoint());
+  vp_.assign(n * K_ + (media_ && kind_ == Kind::kPPM ? n : 0), VisiblePoint());
   direct_.assign(3 * n, 0.0);
   if (kind_ == Kind::kPPPM) indirect_.assign(3 * n, 0.0);
   else if (kind_ == Kind::kPM) {
@@ -183,8 +181,12 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
         Ray camera_ray = st.ray;
         VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L, light_bvh);
         if (kind_ != Kind::kPPM) vp_[i] = vp;
-        else if (abs_pass == opt_.pass_offset)
-          trace_measurement_points(v, accel, camera_ray, max_depth_, &vp_[i * K_], K_);
+        else {
+          // The pass's volume visible point (media): the camera rays that scatter before a surface.
+          if (media_) vp_[size_t(W_) * H_ * K_ + i] = vp.volume ? vp : VisiblePoint();
+          if (abs_pass == opt_.pass_offset || remeasure_)
+            trace_measurement_points(v, accel, camera_ray, max_depth_, &vp_[i * K_], K_, uint64_t(abs_pass) + 1);
+        }
         if (!isfinite3(L)) continue;
         for (int c = 0; c < 3; ++c) direct_[3 * i + c] += L[c];
       }
@@ -260,6 +262,7 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   const float rv = !media_                ? 0.f
                    : kind_ == Kind::kPPPM ? pppm_volume_radius(rv0_, opt_.alpha, abs_pass)
                                           : *std::max_element(Rv_.begin(), Rv_.end());
+  const size_t volume_base = kind_ == Kind::kPPM ? size_t(W_) * H_ * K_ : 0;  // a volume point's Rv_ index: i - it
   std::vector<Photon> photons =
       adaptive_ ? trace_photons_adaptive(abs_pass, photon_depth, rmax, rv, cancel)
                 : trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
@@ -284,25 +287,25 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   const double inv_np = 1.0 / double(photons_per_pass_);
   restore.commit = true;  // the gather below only computes (no allocation, no cancel check)
   if (adaptive_) chains_.commit(pass_counts_);
-  tbb::parallel_for(tbb::blocked_range<int>(0, H_, 1), [&](const tbb::blocked_range<int>& r) {
-    for (int y = r.begin(); y < r.end(); ++y)
-      for (int x = 0; x < W_ * K_; ++x) {
-        size_t i = size_t(y) * W_ * K_ + x;  // visible point index (pixel i / K_)
-        const VisiblePoint& vp = vp_[i];
-        if (!vp.valid) continue;
-        double phi[3];
-        uint32_t M;
-        if (vp.volume) {  // pppm and sppm in media (sppm.h); K_ is 1 here
-          sppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[i], phi, M);
-          if (kind_ == Kind::kPPPM) pppm_add_volume(&indirect_[3 * i], vp.beta, phi, inv_np, rv);
-          else sppm_update(Nv_[i], &tauv_[3 * i], Rv_[i], vp.beta, phi, M, opt_.alpha, 3);
-          continue;
-        }
-        float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
-        sppm_gather(vp, gv, radius, phi, M);
-        if (kind_ == Kind::kPPPM) pppm_add(&indirect_[3 * i], vp.beta, phi, inv_np, radius);
-        else sppm_update(N_[i], &tau_[3 * i], R_[i], vp.beta, phi, M, opt_.alpha);
+  const size_t row = size_t(W_) * K_;  // a task: a row's visible points
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, vp_.size(), row), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {  // visible point i (pixel i / K_, or a volume point below)
+      const VisiblePoint& vp = vp_[i];
+      if (!vp.valid) continue;
+      double phi[3];
+      uint32_t M;
+      if (vp.volume) {  // in media (sppm.h): pixel j's, j = i - volume_base (pppm and sppm: K_ is 1, j = i)
+        const size_t j = i - volume_base;
+        sppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[j], phi, M);
+        if (kind_ == Kind::kPPPM) pppm_add_volume(&indirect_[3 * j], vp.beta, phi, inv_np, rv);
+        else sppm_update(Nv_[j], &tauv_[3 * j], Rv_[j], vp.beta, phi, M, opt_.alpha, 3);
+        continue;
       }
+      float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
+      sppm_gather(vp, gv, radius, phi, M);
+      if (kind_ == Kind::kPPPM) pppm_add(&indirect_[3 * i], vp.beta, phi, inv_np, radius);
+      else sppm_update(N_[i], &tau_[3 * i], R_[i], vp.beta, phi, M, opt_.alpha);
+    }
   });
   return true;
 }
@@ -330,7 +333,8 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
   visible.point_vp = point_vp.data();
   visible.vp = vp_.data();
   visible.R = kind_ == Kind::kPPPM ? nullptr : R_.data();
-  visible.Rv = media_ && kind_ == Kind::kSPPM ? Rv_.data() : nullptr;  // sppm: K_ is 1 in media
+  visible.Rv = media_ && kind_ != Kind::kPPPM ? Rv_.data() : nullptr;
+  visible.volume_base = kind_ == Kind::kPPM ? uint32_t(size_t(W_) * H_ * K_) : 0u;
   const uint64_t n = photons_per_pass_;
   const uint32_t chains = adaptive_chain_count(n);
   const float d = chains_.mutation_size;

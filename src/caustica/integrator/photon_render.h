@@ -60,7 +60,7 @@ float automatic_volume_radius(const Scene& scene, const CpuAccel& accel, uint64_
 int32_t outer_medium(const Scene& scene, const CpuAccel& accel, const std::string& integrator,
                      const std::string& paths);
 
-// pm, pppm or sppm in a scene with media, on every driver: the medium photon paths start in outside every
+// pm, ppm, pppm or sppm in a scene with media, on every driver: the medium photon paths start in outside every
 // boundary (outer_medium, into *outside) and the volume photons' initial radius (opt.volume_radius, else
 // automatic_volume_radius over `photons` paths of photon_depth segments, else r0; pm, whose estimates take
 // the k nearest, has none: 0).
@@ -75,7 +75,7 @@ class PhotonIntegrator {
   bool render_pass(int64_t pass, const std::atomic<bool>& cancel);
   std::vector<float> image(int64_t passes_done) const;
   float initial_radius() const { return r0_; }
-  // pppm or sppm in a scene with media: the volume photons' initial radius (0 otherwise).
+  // ppm, pppm or sppm in a scene with media: the volume photons' initial radius (0 otherwise).
   float initial_volume_radius() const { return rv0_; }
   uint64_t photons_per_pass() const { return photons_per_pass_; }
   uint64_t photons_traced() const { return traced_; }
@@ -112,14 +112,17 @@ class PhotonIntegrator {
   uint32_t max_depth_;
   uint64_t photons_per_pass_;
   float r0_;
-  bool media_ = false;  // pm, pppm or sppm in a scene with media: volume photons (and pppm's, sppm's volume points)
+  bool media_ = false;  // in a scene with media: volume photons (and but for pm volume visible points)
   int32_t outer_medium_ = -1;  // where photon paths that meet no medium boundary start (outer_medium)
-  float rv0_ = 0.f;     // pppm, sppm: their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
-  std::vector<double> Nv_, tauv_;  // sppm in media: each pixel's statistics of its volume visible points
+  float rv0_ = 0.f;     // ppm, pppm, sppm: their initial radius (RenderOptions::volume_radius, else automatic_volume_radius)
+  std::vector<double> Nv_, tauv_;  // ppm, sppm in media: each pixel's statistics of its volume visible points
   std::vector<float> Rv_;          // (sppm_update with dims 3), beside N_, tau_, R_ for its surface ones
+  bool remeasure_ = false;  // ppm in a scene with grid media: the measurement points' weights drawn every pass
   int W_, H_;
-  int K_ = 1;  // visible points per pixel: 1, or up to kPPMPoints for ppm's split specular chains
-  std::vector<VisiblePoint> vp_;  // K_ per pixel
+  int K_ = 1;  // visible points per pixel: 1, or up to kPpmPointsPerPixel for ppm's split specular chains
+  // K_ per pixel (pixel i's at i * K_ + k); ppm in media then one per-pass volume visible point per pixel
+  // (pixel i's at W_ H_ K_ + i; invalid when its camera ray reached a surface).
+  std::vector<VisiblePoint> vp_;
   std::vector<double> direct_;    // 3 per pixel: sum over passes of emitted + NEE direct radiance
   std::vector<double> N_, tau_;   // ppm/sppm: photon count and flux per visible point (tau: 3 each)
   std::vector<float> R_;          // ppm/sppm: radius per visible point

@@ -194,11 +194,12 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("the reference image is " + std::to_string(opt_.reference.size() / 3) +
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
-  // Participating media and null surfaces: the path tracer, pm, pppm and sppm (volumetric photon mapping,
+  // Participating media and null surfaces: the path tracer, pm, ppm, pppm and sppm (volumetric photon mapping,
   // integrator/pm.h and sppm.h), and light, bdpt, bpm and vcm (medium vertices, volumetric merging,
   // integrator/vcm.h), on every driver. Emissive media: path, bdpt, bpm and vcm, whose camera subpaths score the
   // emission (the others' paths start at lights).
-  const bool media_kernels = opt_.integrator == "pppm" || opt_.integrator == "sppm";  // a volume radius
+  const bool media_kernels =
+      opt_.integrator == "ppm" || opt_.integrator == "pppm" || opt_.integrator == "sppm";  // a volume radius
   const bool media_photons = media_kernels || opt_.integrator == "pm";
   const bool media_bidir = opt_.integrator == "light" || opt_.integrator == "bdpt" || opt_.integrator == "bpm" ||
                            opt_.integrator == "vcm";
@@ -208,7 +209,7 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     const std::string what = " (" + std::to_string(v.num_media) + " media in scene '" + scene_->desc().name + "')";
     if (!media_photons && !media_bidir)
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
-                       what + "; use --integrator path, bdpt, vcm, bpm, light, pm, sppm or pppm");
+                       what + "; use --integrator path, bdpt, vcm, bpm, light, pm, ppm, sppm or pppm");
     if (media_bidir && v.num_media > 32767u)  // VcmMergeVertex keeps a medium in 16 bits
       throw InputError("integrator '" + opt_.integrator + "' renders at most 32767 media" + what);
     for (size_t i = 0; i < scene_->desc().media.size() && !emissive_ok; ++i)
@@ -221,8 +222,8 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
     throw InputError("--volume-radius must be a positive number");
   const bool media_merges = opt_.integrator == "bpm" || opt_.integrator == "vcm";
   if (opt_.volume_radius > 0.f && !((media_kernels || media_merges) && scene_has_media(scene_->view())))
-    throw InputError("--volume-radius applies to integrators 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with "
-                     "participating media");
+    throw InputError("--volume-radius applies to integrators 'ppm', 'pppm', 'sppm', 'bpm' and 'vcm' in scenes "
+                     "with participating media");
   // --accel small on a scene it does not take fails here, not in the render thread.
   if (opt_.accel == "small" && cuda_device_index(opt_.device) < 0) (void)cpu_accel();
   bool target = opt_.target_error > 0 || opt_.target_noise > 0;
@@ -300,7 +301,8 @@ void RenderJob::make_integrator() {
     p.stochastic_hash = opt_.stochastic_hash;
     p.light_bvh = opt_.light_sampler == "bvh";
     p.adaptive = opt_.photon_sampling == "adaptive";
-    p.media = scene_has_media(v);  // pm, pppm or sppm (validated above)
+    p.media = scene_has_media(v);  // pm, ppm, pppm or sppm (validated above)
+    p.grid_media = scene_has_grid_media(v);
     if (p.media) {
       p.volume_radius = photon_media_setup(*scene_, cpu_accel(), opt_, p.photons,
                                          p.max_depth == 0xffffffffu ? p.max_depth : p.max_depth - 1, p.radius,

@@ -193,25 +193,56 @@ CHD_ALWAYS_INLINE VisiblePoint trace_camera(const SceneView& s, const Tracer& ac
 // Fresnel probabilities, so a pixel's fixed points carry the exact specular weights; up to `cap` points
 // (kPpmPointsPerPixel), deepest branches dropped. Returns how many were written to out[0, cap); the caller
 // marks the rest invalid. No random numbers: the points depend on the camera ray alone.
+// In scenes with media the branches start in the camera's medium, cross null surfaces without a segment and
+// carry the transmittance of every segment in a medium (no free-flight sampling: a fixed point stands for
+// the camera rays that reach the surface, weight T; the rays that scatter before it are the per-pass volume
+// visible points of trace_camera, header comment). A grid medium's transmittance is a ratio-tracking
+// estimate drawn from `salt` (medium_segment_transmittance): ppm traces its points again every pass with the
+// pass as salt, so the points stay where they are (nothing else depends on it) and their weights average to
+// the exact T over the passes. Points are kept whatever their weight, so a pixel's k-th point is the same
+// point in every pass; a branch ends where its specular weight alone (w, no transmittance: the same in every
+// pass) is zero, as a chord of internal reflections in a glass sphere does after some 30 bounces in floats
+// (it would go on forever with an unbounded depth).
 constexpr int kPpmPointsPerPixel = 8;
 
 template <typename Tracer>
 CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ray, uint32_t max_depth,
-                                 VisiblePoint* out, int cap) {
+                                 VisiblePoint* out, int cap, uint64_t salt = 0) {
   struct Item {
     Ray ray;
-    RGB beta;
+    RGB beta, w;  // the weight, and its specular factor alone
     uint32_t depth;
+    int32_t medium;
   };
+  const bool media = scene_has_media(s);
   Item stack[16];
   int sp = 0, n = 0;
-  stack[sp++] = Item{ray, RGB(1.f), 1u};
+  stack[sp++] = Item{ray, RGB(1.f), RGB(1.f), 1u, media ? s.camera_medium : -1};
+  uint32_t null_crossings = 0;
   while (sp > 0 && n < cap) {
     Item it = stack[--sp];
     Hit hit;
-    if (!accel.intersect(it.ray, hit)) continue;
+    const bool found = accel.intersect(it.ray, hit);
+    if (!found) {
+      null_crossings = 0;
+      continue;
+    }
+    if (it.medium >= 0) {
+      const float dlen = length(it.ray.d);
+      it.beta *= medium_segment_transmittance(s, s.media[it.medium], it.ray.o, it.ray.d / dlen, hit.t * dlen, salt);
+    }
     SurfaceHit sh = make_surface_hit(s, it.ray, hit);
-    it.beta *= segment_transmittance(s, it.ray.d, hit.t, sh);
+    if (media && is_null_surface(s, sh)) {
+      // Crossed into the medium behind it, the same branch at the same depth (on top of the stack, so the
+      // count of crossings belongs to it).
+      if (cross_null_surface(s, sh, it.ray, it.medium, null_crossings)) stack[sp++] = it;
+      else null_crossings = 0;
+      continue;
+    }
+    null_crossings = 0;
+    const RGB absorbed = segment_transmittance(s, it.ray.d, hit.t, sh);  // Beer-Lambert inside glass (exact)
+    it.beta *= absorbed;
+    it.w *= absorbed;
     const Material m = surface_material(s, sh);
     Vec3f wo_world = -it.ray.d;
     if (!material_is_delta(m)) {
@@ -224,6 +255,8 @@ CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ra
         vp.wo = wo_world;
         vp.beta = it.beta;
         vp.material = m;
+        vp.medium = it.medium;
+        vp.prim = int32_t(sh.prim);
         vp.valid = true;
       }
       continue;
@@ -241,8 +274,13 @@ CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ra
     for (const BSDFSample* c : ch) {
       if (!c || sp >= 16) continue;
       Vec3f wi = frame.to_world(c->wi);
-      float p = ch[0] && ch[1] ? c->pdf : 1.f;
-      stack[sp++] = Item{Ray{offset_ray_origin(sh.p, sh.ng, wi), wi, kInf}, it.beta * c->weight * p, it.depth + 1};
+      const float p = ch[0] && ch[1] ? c->pdf : 1.f;
+      const RGB w = it.w * c->weight * p;
+      if (is_black(w)) continue;
+      const int32_t medium =
+          media ? medium_after_crossing(prim_medium_interface(s, sh.prim), wi, sh.ng, it.medium) : -1;
+      stack[sp++] =
+          Item{Ray{offset_ray_origin(sh.p, sh.ng, wi), wi, kInf}, it.beta * c->weight * p, w, it.depth + 1, medium};
     }
   }
   return n;

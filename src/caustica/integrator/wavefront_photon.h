@@ -23,11 +23,13 @@
 // are added in another order: images agree with the CPU integrator's to rounding (tests/cpp/
 // test_wavefront.cpp), except with stochastic hashing, where the photon kept in a cell is drawn among them
 // in another order (same distribution).
-// pppm and sppm in scenes with participating media (volumetric photon mapping, sppm.h and photon/trace.h):
-// photon paths start in their light's medium (locate_medium), the stored photons are split by a prefix sum
-// into surface photons and volume photons, each in a grid of its own, and volume visible points gather from
-// the second with the volume radius (pppm's global one, or sppm's per-pixel statistics of volume points), as
-// photon_render.cpp does.
+// ppm, pppm and sppm in scenes with participating media (volumetric photon mapping, sppm.h and
+// photon/trace.h): photon paths start in their light's medium (locate_medium), the stored photons are split
+// by a prefix sum into surface photons and volume photons, each in a grid of its own, and volume visible
+// points gather from the second with the volume radius (pppm's global one, or sppm's and ppm's per-pixel
+// statistics of volume points), as photon_render.cpp does. ppm's volume visible points are the pass's
+// camera rays that scatter (one per pixel, after the measurement points); with grid media its measurement
+// points are traced again every pass for a new estimate of their transmittance (trace_measurement_points).
 // Jensen's photon mapping (pm, Jensen 1996) runs here too, without visible points or grid: its first pass
 // traces the photons with the same stages (direct photons kept), builds the global and caustic maps (and in
 // media the two volume maps of Jensen & Christensen 1998) on the host as portable kd-trees
@@ -205,7 +207,11 @@ class WavefrontPhoton {
     if (p_.pm && p_.k > uint32_t(kWavefrontMaxK))
       throw InputError("--k: at most " + std::to_string(kWavefrontMaxK) + " photons per estimate on the wavefront, got " +
                        std::to_string(p_.k));
-    if (!p_.pm) vp_.resize(nk_);
+    vbase_ = p_.ppm ? nk_ : 0u;
+    if (p_.ppm && p_.media && uint64_t(nk_) + n_ > 0xffffffffull)
+      throw InputError("ppm on the wavefront in media: at most 477218588 pixels");
+    nvp_ = nk_ + (p_.ppm && p_.media ? n_ : 0u);
+    if (!p_.pm) vp_.resize(nvp_);
     lpass_.resize(3 * size_t(n_));
     direct_.resize(3 * size_t(n_));
     if (p_.pm) {
@@ -215,7 +221,7 @@ class WavefrontPhoton {
       N_.resize(nk_);
       tau_.resize(3 * size_t(nk_));
       R_.resize(nk_);
-      if (p_.media) {  // sppm in media: the volume visible points' statistics, one set per pixel (K_ is 1)
+      if (p_.media) {  // sppm, ppm in media: the volume visible points' statistics, one set per pixel
         Nv_.resize(n_);
         tauv_.resize(3 * size_t(n_));
         Rv_.resize(n_);
@@ -241,7 +247,7 @@ class WavefrontPhoton {
   struct PixelStats {
     double *direct, *indirect, *N, *tau;
     float* R;
-    double *Nv, *tauv;  // sppm in media: the volume visible points' statistics (per pixel)
+    double *Nv, *tauv;  // sppm, ppm in media: the volume visible points' statistics (per pixel)
     float* Rv;
   };
   PixelStats pixel_stats() {
@@ -250,7 +256,8 @@ class WavefrontPhoton {
 
   // No light, no flux, every radius r0 (a member function of its own: nvcc's device lambdas may not live
   // in constructors).
-  // Per visible point (ppm: K per pixel, pixel i's at i * K + k); direct light per pixel.
+  // Per visible point (ppm: K per pixel, pixel i's at i * K + k, in media then one volume point per pixel);
+  // direct light per pixel.
   void reset() {
     const PixelStats ps = pixel_stats();
     const bool pppm = p_.pppm;
@@ -260,18 +267,21 @@ class WavefrontPhoton {
     const bool volume_stats = !p_.pppm && !p_.pm && p_.media;
     const float rv0 = p_.volume_radius;
     VisiblePoint* vp = vp_.data();
-    b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t j) {
+    const uint32_t nk = nk_;
+    b_.parallel_for(nvp_, CAUSTICA_KERNEL(uint32_t j) {
+      if (!pm) vp[j] = VisiblePoint();
+      if (j >= nk) return;  // ppm's volume points: their statistics are per pixel, below
       if (j % K == 0)
         for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(j / K) + c] = 0.0;
       if (pm) return;
-      vp[j] = VisiblePoint();
       if (pppm) {
         for (int c = 0; c < 3; ++c) ps.indirect[3 * size_t(j) + c] = 0.0;
       } else {
         ps.N[j] = 0.0;
         for (int c = 0; c < 3; ++c) ps.tau[3 * size_t(j) + c] = 0.0;
         ps.R[j] = r0;
-        if (volume_stats) {
+        if (volume_stats && j % K == 0) {
+          j /= K;  // the pixel
           ps.Nv[j] = 0.0;
           for (int c = 0; c < 3; ++c) ps.tauv[3 * size_t(j) + c] = 0.0;
           ps.Rv[j] = rv0;
@@ -301,7 +311,9 @@ class WavefrontPhoton {
       VisiblePoint* vp = vp_.data();
       double* lpass = lpass_.data();
       const bool light_bvh = p_.light_bvh;
-      const bool ppm = p_.ppm, measure = p_.ppm && !measured_;
+      const bool ppm = p_.ppm, measure = p_.ppm && (!measured_ || p_.grid_media);
+      const bool volume_points = p_.ppm && p_.media;
+      const uint32_t vbase = vbase_;
       const int K = int(K_);
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
         PathState st;
@@ -310,9 +322,10 @@ class WavefrontPhoton {
         RGB L(0.f);
         const VisiblePoint v = trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L, light_bvh);
         if (!ppm) vp[i] = v;
+        if (volume_points) vp[vbase + i] = v.volume ? v : VisiblePoint();
         if (measure) {
           VisiblePoint* out = vp + size_t(i) * K;
-          const int m = trace_measurement_points(s, tracer, camera_ray, max_depth, out, K);
+          const int m = trace_measurement_points(s, tracer, camera_ray, max_depth, out, K, uint64_t(abs_pass) + 1);
           for (int k = m; k < K; ++k) out[k] = VisiblePoint();
         }
         bool ok = isfinite3(L);
@@ -376,17 +389,19 @@ class WavefrontPhoton {
       const bool pppm = p_.pppm;
       const float alpha = p_.alpha;
       const double inv_np = 1.0 / double(P);
-      const uint32_t K = K_;
-      b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t i) {  // i: the visible point (pixel i / K)
-        if (i % K == 0)
+      const uint32_t K = K_, nk = nk_, vbase = vbase_;
+      // i: the visible point (pixel i / K; ppm's volume points after nk, pixel i - vbase)
+      b_.parallel_for(nvp_, CAUSTICA_KERNEL(uint32_t i) {
+        if (i < nk && i % K == 0)
           for (int c = 0; c < 3; ++c) ps.direct[3 * size_t(i / K) + c] += lpass[3 * size_t(i / K) + c];
         if (!vp[i].valid) return;
         double phi[3];
         uint32_t M;
-        if (vp[i].volume) {  // pppm and sppm in media (sppm.h); K is 1 here
-          sppm_volume_gather(vp[i], s, vg, pppm ? rv : ps.Rv[i], phi, M);
-          if (pppm) pppm_add_volume(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, rv);
-          else sppm_update(ps.Nv[i], &ps.tauv[3 * size_t(i)], ps.Rv[i], vp[i].beta, phi, M, alpha, 3);
+        if (vp[i].volume) {  // in media (sppm.h): pixel j's (pppm and sppm: K is 1, j = i)
+          const uint32_t j = i - vbase;
+          sppm_volume_gather(vp[i], s, vg, pppm ? rv : ps.Rv[j], phi, M);
+          if (pppm) pppm_add_volume(&ps.indirect[3 * size_t(j)], vp[i].beta, phi, inv_np, rv);
+          else sppm_update(ps.Nv[j], &ps.tauv[3 * size_t(j)], ps.Rv[j], vp[i].beta, phi, M, alpha, 3);
           return;
         }
         float radius = pppm ? rmax : ps.R[i];
@@ -494,18 +509,18 @@ class WavefrontPhoton {
     AdaptiveVisibility visible;
     visible.set_radii(s.bounds, rmax, rv);
     {
-      if (point_flags_.size() < nk_) point_flags_.resize(nk_);
-      if (point_scan_.size() < nk_) point_scan_.resize(nk_);
+      if (point_flags_.size() < nvp_) point_flags_.resize(nvp_);
+      if (point_scan_.size() < nvp_) point_scan_.resize(nvp_);
       const VisiblePoint* vp = vp_.data();
       uint32_t* flags = point_flags_.data();
       uint32_t* scan = point_scan_.data();
-      b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t i) { flags[i] = vp[i].valid ? 1u : 0u; });
-      const uint32_t points = b_.exclusive_scan(flags, scan, nk_);
+      b_.parallel_for(nvp_, CAUSTICA_KERNEL(uint32_t i) { flags[i] = vp[i].valid ? 1u : 0u; });
+      const uint32_t points = b_.exclusive_scan(flags, scan, nvp_);
       if (points_.size() < points) points_.resize(points);
       if (point_vp_.size() < points) point_vp_.resize(points);
       Photon* pts = points_.data();
       uint32_t* pvp = point_vp_.data();
-      b_.parallel_for(nk_, CAUSTICA_KERNEL(uint32_t i) {
+      b_.parallel_for(nvp_, CAUSTICA_KERNEL(uint32_t i) {
         if (!flags[i]) return;
         Photon p;
         p.p = vp[i].p;
@@ -519,7 +534,8 @@ class WavefrontPhoton {
       visible.point_vp = point_vp_.data();
       visible.vp = vp;
       visible.R = p_.pppm ? nullptr : R_.data();
-      visible.Rv = p_.media && !p_.pppm ? Rv_.data() : nullptr;  // sppm: K_ is 1 in media
+      visible.Rv = p_.media && !p_.pppm ? Rv_.data() : nullptr;
+      visible.volume_base = vbase_;
     }
     if (cancelled()) return false;
 
@@ -724,7 +740,7 @@ class WavefrontPhoton {
 
   // The statistics, copied to the host: direct (3 per pixel), and tau (3), R (1) per visible point for sppm
   // and ppm (points_per_pixel() of them per pixel) or indirect (3 per pixel) for pppm.
-  // sppm in media also fills tau_v (3) and R_v (1) per pixel, its volume visible points' statistics.
+  // sppm and ppm in media also fill tau_v (3) and R_v (1) per pixel, their volume visible points' statistics.
   void statistics(std::vector<double>& direct, std::vector<double>& tau, std::vector<float>& R,
                   std::vector<double>& indirect, std::vector<double>& tau_v, std::vector<float>& R_v) const {
     direct.resize(3 * size_t(n_));
@@ -758,7 +774,9 @@ class WavefrontPhoton {
   PhotonWavefrontParams p_;
   uint32_t n_ = 0;   // pixels
   uint32_t K_ = 1;   // visible points per pixel (ppm: kPpmPointsPerPixel)
-  uint32_t nk_ = 0;  // visible points
+  uint32_t nk_ = 0;  // visible points per pass (ppm: its measurement points)
+  uint32_t nvp_ = 0;    // all visible points: nk_, and ppm in media one volume point per pixel after them
+  uint32_t vbase_ = 0;  // a volume visible point i is pixel i - vbase_'s (ppm: nk_; pppm, sppm: 0, K_ is 1)
   bool measured_ = false;  // ppm: the measurement points are traced (a pass has completed)
   bool maps_built_ = false;  // pm: the photon maps are built
   DeviceKnnTree global_, caustic_, volume_, volume_indirect_;  // pm's maps (pm.h)

@@ -90,9 +90,10 @@ struct PhotonWavefrontParams {
   bool stochastic_hash = false;
   bool light_bvh = false;  // the visible points' light sample chosen by the light BVH (--light-sampler bvh)
   bool adaptive = false;   // sppm, ppm, pppm: --photon-sampling adaptive (Hachisuka & Jensen 2011)
-  // pppm in a scene with media (volumetric photon mapping, sppm.h): volume photons in a second grid, their
-  // initial radius (resolved: > 0, photon_media_setup)
+  // In a scene with media (volumetric photon mapping, sppm.h, pm.h): volume photons in a second grid, their
+  // initial radius (resolved: > 0, photon_media_setup; pm: 0, it takes the k nearest)
   bool media = false;
+  bool grid_media = false;  // ppm: a medium is a grid, so the measurement points' weights are drawn every pass
   int32_t outer_medium = -1;  // where photon paths that meet no medium boundary start (outer_medium)
   float volume_radius = 0.f;
   // adaptive: the first sizes of a chain's regions (photons per payload, deposits per chain; 0: four per

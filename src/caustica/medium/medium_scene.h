@@ -10,6 +10,14 @@ namespace caustica {
 // The most null surfaces one ray crosses between two vertices, or one shadow ray on its way.
 constexpr uint32_t kMaxNullCrossings = 64;
 
+// Whether any medium of the scene is a grid (its transmittance an estimate, not exact). Host only: reads the
+// host view's media.
+inline bool scene_has_grid_media(const SceneView& s) {
+  for (uint32_t i = 0; i < s.num_media; ++i)
+    if (s.media[i].grid >= 0) return true;
+  return false;
+}
+
 // The medium interface of primitive `prim` (none when the scene has none).
 CHD MediumInterface prim_medium_interface(const SceneView& s, uint32_t prim) {
   return s.prim_medium ? s.prim_medium[prim] : MediumInterface{};
@@ -50,20 +58,24 @@ CHD MediumSample medium_sample(const SceneView& s, const Medium& md, Vec3f o, Ve
 }
 
 // The transmittance of medium md along o + t d (unit d), 0 <= t < len: exact for a homogeneous medium, by
-// ratio tracking for a grid medium, its random stream a hash of the segment (so the same query always gets
-// the same answer, on any thread or device).
+// ratio tracking for a grid medium, its random stream a hash of the segment and `salt` (so the same query
+// always gets the same answer, on any thread or device; ppm's fixed measurement points pass the pass number
+// to draw a new estimate for the same segment every pass).
 CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB medium_segment_transmittance_grid(const SceneView& s,
                                                                                    const Medium& md, Vec3f o,
-                                                                                   Vec3f d, float len) {
-  const uint64_t h = hash3(uint64_t(float_bits(o.x)) << 32 | float_bits(o.y),
-                           uint64_t(float_bits(o.z)) << 32 | float_bits(d.x),
-                           uint64_t(float_bits(d.y)) << 32 | float_bits(d.z));
+                                                                                   Vec3f d, float len,
+                                                                                   uint64_t salt) {
+  uint64_t h = hash3(uint64_t(float_bits(o.x)) << 32 | float_bits(o.y),
+                     uint64_t(float_bits(o.z)) << 32 | float_bits(d.x),
+                     uint64_t(float_bits(d.y)) << 32 | float_bits(d.z));
+  if (salt != 0) h = mix64(h ^ mix64(salt));
   PCG32 rng(h, mix64(h ^ float_bits(len)));
   return grid_transmittance(md, s.medium_grids, s.grid_values, o, d, len, rng);
 }
-CHD RGB medium_segment_transmittance(const SceneView& s, const Medium& md, Vec3f o, Vec3f d, float len) {
+CHD RGB medium_segment_transmittance(const SceneView& s, const Medium& md, Vec3f o, Vec3f d, float len,
+                                     uint64_t salt = 0) {
   if (md.grid < 0) return medium_transmittance(medium_sigma_t(md), len);
-  return medium_segment_transmittance_grid(s, md, o, d, len);
+  return medium_segment_transmittance_grid(s, md, o, d, len, salt);
 }
 
 // The fraction of a shadow ray's contribution that arrives: 0 or 1 from one occlusion query in scenes
