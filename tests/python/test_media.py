@@ -170,7 +170,7 @@ def test_wavefront_and_threads_give_the_same_image():
     assert np.array_equal(ref, wf)
 
 
-@pytest.mark.parametrize("integrator", ["ppm", "upg", "restir"])
+@pytest.mark.parametrize("integrator", ["upg", "restir"])
 def test_other_integrators_refuse_media(integrator):
     scene = medium_sphere({"sigma_a": 0.1, "sigma_s": 0.5}, width=8)
     with pytest.raises(caustica.InputError) as e:
@@ -182,7 +182,7 @@ def test_other_integrators_refuse_media(integrator):
 def test_cli_refuses_media_with_exit_code_2(tmp_path):
     f = tmp_path / "fog.json"
     f.write_text(json.dumps(medium_sphere({"sigma_a": 0.1, "sigma_s": 0.5}, width=8)))
-    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(f), "--integrator", "ppm", "--spp", "1",
+    r = subprocess.run([sys.executable, "-m", "caustica", "render", str(f), "--integrator", "upg", "--spp", "1",
                         "-o", str(tmp_path / "out.exr")], capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
     assert "does not render participating media" in r.stderr
@@ -301,15 +301,15 @@ def test_mitsuba_medium_errors(tmp_path, xml, message):
 
 def test_builtin_fog_scene():
     # smallvcm-fog: smallvcm-spheres with haze inside the box. The haze scatters light into the view of the
-    # dark opening's border and dims the walls; the same seed without the haze is another image. path, sppm
-    # and pppm render it (test_media_photons.py), ppm refuses it.
+    # dark opening's border and dims the walls; the same seed without the haze is another image. path and the
+    # photon mappers render it (test_media_photons.py, test_media_ppm.py), upg refuses it.
     assert caustica.describe("smallvcm-fog")["media"] == 1
     fog = caustica.render(caustica.load_scene("smallvcm-fog", width=32, height=32), spp=16, seed=1)
     clear = caustica.render(caustica.load_scene("smallvcm-spheres", width=32, height=32), spp=16, seed=1)
     assert np.isfinite(fog).all() and fog.mean() > 0
     assert np.abs(fog - clear).mean() > 0.05 * clear.mean()
     with pytest.raises(caustica.InputError):
-        caustica.render("smallvcm-fog", integrator="ppm", spp=1)
+        caustica.render("smallvcm-fog", integrator="upg", spp=1)
 
 
 

@@ -135,7 +135,7 @@ def test_blackbody_emission_grid(kelvin):
 def test_photon_mappers_and_light_tracing_refuse_emissive_media():
     # Their paths start at lights only (light tracing's camera paths end at their first non-delta vertex).
     s = medium_sphere({"sigma_a": 0.2, "sigma_s": 0.5, "emission": 1.0})
-    for integrator in ("pm", "pppm", "sppm", "light"):
+    for integrator in ("pm", "ppm", "pppm", "sppm", "light"):
         with pytest.raises(caustica.InputError) as e:
             caustica.render(s, integrator=integrator, spp=1, photons=100)
         assert str(e.value) == (f"integrator '{integrator}' does not render emissive media (medium 'm' emits); "
