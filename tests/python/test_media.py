@@ -170,7 +170,7 @@ def test_wavefront_and_threads_give_the_same_image():
     assert np.array_equal(ref, wf)
 
 
-@pytest.mark.parametrize("integrator", ["upg", "restir"])
+@pytest.mark.parametrize("integrator", ["upg"])
 def test_other_integrators_refuse_media(integrator):
     scene = medium_sphere({"sigma_a": 0.1, "sigma_s": 0.5}, width=8)
     with pytest.raises(caustica.InputError) as e:

@@ -78,6 +78,20 @@ struct ShadowRay {
   int32_t medium = -1;  // the medium the ray starts in (path_shadow_transmittance)
 };
 
+// The vertex path_shade made where it samples the next-event estimation (a non-delta surface or a scattering
+// event in a medium, within max_depth), for a driver that estimates the direct light there itself (restir.h's
+// shading point): the surface as make_surface_hit made it (before surface_material's normal mapping) or the
+// event's position (sh.p only), the direction towards the previous vertex, the throughput there (with sigma_s
+// at a medium event) and the medium the path arrived in.
+struct PathVertex {
+  SurfaceHit sh;
+  Vec3f wo;
+  RGB beta{0.f};
+  int32_t medium = -1;
+  bool volume = false;
+  bool valid = false;
+};
+
 // Whether the path tracer's drivers give path_shade a second shadow ray for equiangular sampling.
 CHD bool scene_wants_equiangular(const SceneView& s) { return s.num_media > 0 && s.num_point_lights > 0; }
 
@@ -264,9 +278,11 @@ CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathSt
 }
 
 // `eq` receives the equiangular shadow ray of a segment in a medium (path_equiangular); drivers pass it
-// where the scene has media and point or spot lights (scene_wants_equiangular), else null.
+// where the scene has media and point or spot lights (scene_wants_equiangular), else null. `vertex` (null for
+// the path tracer itself) receives the vertex where next-event estimation is sampled, if this step makes one
+// (PathVertex).
 CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, const Hit& hit, ShadowRay& sr,
-                    ShadowRay* eq = nullptr) {
+                    ShadowRay* eq = nullptr, PathVertex* vertex = nullptr) {
   sr.active = false;
   if (eq) eq->active = false;
   st.depth += 1;  // the segment just traced
@@ -301,6 +317,17 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     if (!medium_update_throughput(ms, st.beta, st.r_medium) || is_black(st.beta)) { st.active = false; return; }
     if (ms.scattered) {
       if (st.depth >= pp.max_depth) { st.active = false; return; }
+      // The emitters the ray reaches from here are this vertex's to estimate again (nee_only: a previous
+      // vertex's estimate covered only the segment's end).
+      st.nee_only = false;
+      if (vertex) {
+        vertex->sh.p = st.ray.o + st.ray.d * (ms.t / dlen);
+        vertex->wo = -d;
+        vertex->beta = st.beta;
+        vertex->medium = st.medium;
+        vertex->volume = true;
+        vertex->valid = true;
+      }
       path_scatter_in_medium(s, pp, st, md, ms.t / dlen, q, o, d, t_max, equiangular, sr);
       return;
     }
@@ -324,17 +351,18 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
 
   if (!st.nee_only) path_add_emission(s, pp, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
-  st.nee_only = false;
   if (is_null_surface(s, sh)) {
     // A null surface: the ray goes on unchanged, into the medium behind it, and no segment is counted
-    // (prev_p, prev_pdf and prev_delta stay those of the vertex that sampled the direction).
+    // (prev_p, prev_pdf, prev_delta and nee_only stay those of the vertex that sampled the direction).
     st.depth -= 1;
     if (!cross_null_surface(s, sh, st.ray, st.medium, st.null_crossings)) st.active = false;
     return;
   }
+  st.nee_only = false;
   st.null_crossings = 0;
   if (st.depth >= pp.max_depth) { st.active = false; return; }
 
+  if (vertex) vertex->sh = sh;  // before surface_material's normal mapping
   const Material m = surface_material(s, sh);
   Frame frame = shading_frame(s, sh, m);
   Vec3f wo = frame.to_local(wo_world);
@@ -344,6 +372,13 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   // point; so the light pdf that MIS evaluates for a BSDF-sampled hit (from
   // prev_p, the ray origin) matches what NEE would have used for that direction.
   Vec3f p_front = offset_ray_origin(sh.p, sh.ng, wo_world);
+  if (vertex && !material_is_delta(m)) {
+    vertex->wo = wo_world;
+    vertex->beta = st.beta;
+    vertex->medium = st.medium;
+    vertex->volume = false;
+    vertex->valid = true;
+  }
 
   // Next-event estimation: a path of depth + 1 segments.
   // One 2D sample chooses the light (u.x, then remapped) and the point on it.

@@ -37,6 +37,18 @@
 // direct light (GRIS), whatever the correlation between the inputs. Visibility is not in the target, so no
 // bias from a visibility-reuse shortcut is taken.
 //
+// Participating media. The camera path samples free-flight distances as the path tracer's (path_shade), so the
+// shading point is its first vertex where the path tracer would sample a light: a non-delta surface or a
+// scattering event in a medium (a volume shading point, throughput with sigma_s, the phase function in the
+// BSDF's place, no cosine: the target p_hat(y) = lum(beta p(wo, wi) Le J)). The shadow ray of the final
+// estimate carries the transmittance of the media it crosses, through null surfaces (shadow_transmittance;
+// ratio tracking in grid media, an unbiased estimate): like visibility it is left out of the target, so the
+// estimate stays unbiased. Spatial and temporal reuse combine only shading points of one kind (surface with
+// surface, volume with volume), which like the normal test looks at shading points alone. The path goes on
+// from a volume shading point with a phase sample whose emitters are not added again (nee_only, cleared at
+// the next vertex: a surface or another scattering event, not a null surface). Emissive media add their
+// emission along the path as in the path tracer (collisions, no light sampling), outside ReSTIR.
+//
 // Stage functions, host/device like the path tracer's: restir_primary and restir_spatial are one pixel's work
 // in the two per-pass stages of the driver (integrator/wavefront_restir.h), which runs on the CPU backend
 // (the default, and --wavefront) and on CUDA from this one source.
@@ -63,10 +75,12 @@ struct LightPoint {
 
 // The pixel's shading point as stored between stages and passes.
 struct RestirVertex {
-  SurfaceHit sh;     // as made by make_surface_hit (before normal mapping)
+  SurfaceHit sh;     // as made by make_surface_hit (before normal mapping); a volume point: sh.p only
   Vec3f wo;          // towards the camera, world space
   RGB beta{0.f};     // throughput from the camera (pixel filter weight excluded)
   float depth = 0.f; // path length from the camera (spatial reuse's similarity test)
+  int32_t medium = -1;  // the medium the camera path arrived in (-1: vacuum)
+  bool volume = false;  // a scattering event in that medium (header comment)
   bool valid = false;
 };
 
@@ -110,13 +124,29 @@ struct RestirShading {
   Vec3f p_front;  // the shadow rays' (and light densities') reference point on wo's side
   RGB beta{0.f};
   float depth = 0.f;
+  float g = 0.f;        // a volume point's phase function asymmetry
+  int32_t medium = -1;  // RestirVertex's
+  uint32_t prim = 0;    // a surface point's primitive (its medium interface)
+  bool volume = false;
   bool valid = false;
 };
 
 CHD RestirShading restir_shading(const SceneView& s, const RestirVertex& v) {
   RestirShading r;
   if (!v.valid) return r;
+  r.medium = v.medium;
+  if (v.volume) {
+    r.volume = true;
+    r.g = s.media[v.medium].g;
+    r.wo_world = v.wo;
+    r.p = r.p_front = v.sh.p;
+    r.beta = v.beta;
+    r.depth = v.depth;
+    r.valid = true;
+    return r;
+  }
   SurfaceHit sh = v.sh;
+  r.prim = sh.prim;
   r.m = surface_material(s, sh);
   r.frame = shading_frame(s, sh, r.m);
   r.wo_world = v.wo;
@@ -181,6 +211,7 @@ CHD RGB restir_contribution(const SceneView& s, const RestirShading& v, const Li
       break;
   }
   if (is_black(Le)) return RGB(0.f);
+  if (v.volume) return v.beta * Le * (hg_phase(dot(v.wo_world, wi), v.g) * J);
   Vec3f wl = v.frame.to_local(wi);
   RGB f = bsdf_eval(v.m, v.wo, wl);
   return v.beta * f * Le * (abs_cos_theta(wl) * J);
@@ -198,7 +229,7 @@ CHD float restir_target(const SceneView& s, const RestirShading& v, const LightP
 // wi's side of the surface (transmission: the other side), as the path tracer's next-event estimation.
 CHD Ray restir_shadow_ray(const SceneView& s, const RestirShading& v, const LightPoint& y, Vec3f wi) {
   const Light& l = s.lights[y.light];
-  Vec3f o = dot(wi, v.ng) * dot(v.wo_world, v.ng) > 0.f ? v.p_front : offset_ray_origin(v.p, v.ng, wi);
+  Vec3f o = v.volume ? v.p : dot(wi, v.ng) * dot(v.wo_world, v.ng) > 0.f ? v.p_front : offset_ray_origin(v.p, v.ng, wi);
   if (l.type == LightType::kTriangle || l.type == LightType::kSphere) return spawn_ray_to(o, y.p, y.n);
   if (l.type == LightType::kPoint || l.type == LightType::kSpot) return spawn_ray_to(o, l.p, Vec3f(0.f));
   Ray r;
@@ -206,6 +237,13 @@ CHD Ray restir_shadow_ray(const SceneView& s, const RestirShading& v, const Ligh
   r.d = wi;
   r.tmax = kInf;
   return r;
+}
+
+// The medium the shadow ray towards wi starts in: a volume point's own, or the one on wi's side of a surface
+// (a medium boundary's, else the path's), as the path tracer's next-event estimation decides.
+CHD int32_t restir_shadow_medium(const SceneView& s, const RestirShading& v, Vec3f wi) {
+  if (v.volume || !scene_has_media(s)) return v.medium;
+  return medium_after_crossing(prim_medium_interface(s, v.prim), wi, v.ng, v.medium);
 }
 
 // One light-sampling candidate at v: the point, its density in the domain's measure, and its unshadowed
@@ -245,6 +283,10 @@ CHD bool restir_candidate(const SceneView& s, const RestirShading& v, bool light
       break;
   }
   if (!(pdf > 0.f && pdf < kInf)) return false;
+  if (v.volume) {
+    g = v.beta * ls.Li * (hg_phase(dot(v.wo_world, ls.wi), v.g) * J);
+    return true;
+  }
   Vec3f wl = v.frame.to_local(ls.wi);
   g = v.beta * bsdf_eval(v.m, v.wo, wl) * ls.Li * (abs_cos_theta(wl) * J);
   return true;
@@ -300,11 +342,12 @@ struct RestirPass {
   bool temporal = false;  // the previous pass's history exists and is used
 };
 
-// Bitterli et al. 2020's neighbour test: normals within 25 degrees, distances from the camera within 10%. It
-// looks at shading points only (never at samples), so skipping a neighbour keeps the estimate unbiased.
+// Bitterli et al. 2020's neighbour test: normals within 25 degrees, distances from the camera within 10%; in
+// media, points of one kind only (two volume points: the distances alone). It looks at shading points only
+// (never at samples), so skipping a neighbour keeps the estimate unbiased.
 CHD bool restir_similar(const RestirShading& a, const RestirShading& b) {
-  return a.valid && b.valid && dot(a.frame.n, b.frame.n) >= 0.906307787f &&
-         std::fabs(a.depth - b.depth) <= 0.1f * a.depth;
+  if (!a.valid || !b.valid || a.volume != b.volume) return false;
+  return (a.volume || dot(a.frame.n, b.frame.n) >= 0.906307787f) && std::fabs(a.depth - b.depth) <= 0.1f * a.depth;
 }
 
 constexpr uint64_t kRestirStageTemporal = 1, kRestirStageSpatial = 2;
@@ -328,28 +371,41 @@ CHD void restir_primary(const SceneView& s, const Tracer& tracer, const RestirPa
     tracer.intersect(st.ray, hit);
     ++rays;
     ShadowRay sr;
-    if (!v.valid && hit.valid() && st.depth + 1 < p.pp.max_depth) {
-      SurfaceHit sh = make_surface_hit(s, st.ray, hit);
-      SurfaceHit shm = sh;
-      if (!material_is_delta(surface_material(s, shm))) {
-        v.sh = sh;
-        v.wo = -st.ray.d;
-        v.beta = st.beta * segment_transmittance(s, st.ray.d, hit.t, sh);
-        v.depth = travelled + hit.t;
+    if (!v.valid) {
+      // path_shade reports the vertex where it samples a light (PathVertex): the shading point.
+      const Vec3f o = st.ray.o;
+      const float dlen = length(st.ray.d);
+      PathVertex pv;
+      path_shade(s, p.pp, st, hit, sr, nullptr, &pv);
+      if (pv.valid) {
+        v.sh = pv.sh;
+        v.wo = pv.wo;
+        v.beta = pv.beta;
+        v.depth = travelled + (pv.volume ? length(pv.sh.p - o) / dlen : hit.t);
+        v.medium = pv.medium;
+        v.volume = pv.volume;
         v.valid = true;
-        // Emission here and the BSDF sample onwards as the path tracer; its light sample is not traced
-        // (ReSTIR estimates the direct light here), and the emitters the BSDF sample reaches through a
+        // Emission here and the BSDF (or phase) sample onwards as the path tracer; its light sample is not
+        // traced (ReSTIR estimates the direct light here), and the emitters the sample reaches through a
         // non-delta lobe are left to ReSTIR too.
-        path_shade(s, p.pp, st, hit, sr);
         st.nee_only = st.active && !st.prev_delta;
         continue;
       }
+      if (hit.valid()) travelled += hit.t;
+    } else {
+      // Past the shading point the path tracer's own estimators, equiangular sampling of point and spot
+      // lights in media included (not before: along the segments up to the shading point it would count
+      // single scattering that ReSTIR estimates at a volume shading point).
+      ShadowRay eq;
+      path_shade(s, p.pp, st, hit, sr, scene_wants_equiangular(s) ? &eq : nullptr);
+      if (eq.active) {
+        ++shadow_rays;
+        path_shadow(st, eq, path_shadow_transmittance(s, tracer, eq));
+      }
     }
-    if (hit.valid()) travelled += hit.t;
-    path_shade(s, p.pp, st, hit, sr);
     if (sr.active) {
       ++shadow_rays;
-      path_shadow(st, sr, tracer.occluded(sr.ray));
+      path_shadow(st, sr, path_shadow_transmittance(s, tracer, sr));
     }
   }
   L = st.L;
@@ -411,7 +467,10 @@ CHD void restir_spatial(const SceneView& s, const Tracer& tracer, const RestirPa
   RGB g = restir_contribution(s, shade[0], out.y, wi, dist);
   if (is_black(g)) return;
   ++shadow_rays;
-  if (!tracer.occluded(restir_shadow_ray(s, shade[0], out.y, wi))) L += g * out.W;
+  // Visibility, and in media the transmittance (header comment).
+  const RGB T = shadow_transmittance(s, tracer, restir_shadow_ray(s, shade[0], out.y, wi),
+                                     restir_shadow_medium(s, shade[0], wi));
+  if (!is_black(T)) L += g * out.W * T;
 }
 
 }  // namespace caustica
