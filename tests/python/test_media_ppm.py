@@ -30,7 +30,7 @@ def test_scattering_furnace(g):
     # without a surface behind it, so every measurement point is absent and the whole answer is the pass's
     # volume points: single scattering by NEE, the rest from the volume photons. As for pppm and sppm
     # (test_media_photons, volume radius 0.1): 12 seeds, 5 standard errors of their mean; measured at g = 0 over
-    # 4 other seeds 1.006 +- 0.003 / 0.503 +- 0.002 / 2.016 +- 0.019 of 1 / 0.5 / 2.
+    # seeds 0-3 1.006 +- 0.003 / 0.503 +- 0.002 / 2.016 +- 0.019 of 1 / 0.5 / 2.
     medium = {"sigma_a": 0.0, "sigma_s": [0.8, 1.0, 1.25], "g": g}
     means = np.array([caustica.render(medium_sphere(medium, width=16), integrator="ppm", spp=32, photons=50000,
                                       max_depth=-1, volume_radius=0.1, seed=s).reshape(-1, 3).mean(axis=0)
