@@ -213,11 +213,12 @@ def test_cuda_matches_the_cpu_driver(integrator):
     assert (np.abs(d.mean(axis=0)) < 5 * se + 1e-3 * np.abs(cpu.mean(axis=0))).all()
 
 
-def test_volume_radius_is_reported_and_sets_the_kernel():
+@pytest.mark.parametrize("integrator", ["pppm", "sppm", "ppm"])
+def test_volume_radius_is_reported_and_sets_the_kernel(integrator):
     scene = fog_box(width=16)
-    auto = caustica.render_job(scene, integrator="pppm", spp=1, photons=4000, seed=1)
+    auto = caustica.render_job(scene, integrator=integrator, spp=1, photons=4000, seed=1)
     assert auto.stats["volume_radius"] > 0
-    given = caustica.render_job(scene, integrator="pppm", spp=1, photons=4000, seed=1, volume_radius=0.3)
+    given = caustica.render_job(scene, integrator=integrator, spp=1, photons=4000, seed=1, volume_radius=0.3)
     assert given.stats["volume_radius"] == pytest.approx(0.3)
     assert not np.array_equal(auto.image, given.image)
 

@@ -41,14 +41,10 @@ def test_scattering_furnace(g):
         assert abs(m - LE[c]) < 5 * se, (c, m, LE[c], se)
 
 
-def test_cross_check_against_the_path_tracer(fog_reference):
-    # A point light in fog over a floor: the floor's measurement points carry exp(-sigma_t d) to the camera,
-    # the fog in front of them is the pass's volume points. The error falls from 4 to 64 passes (measured
-    # relMSE 0.024 -> 0.0036, as sppm's), and per 8 x 8 region the means over 4 seeds agree with the path
-    # tracer within 5 standard errors of their difference plus 2% for the kernels' bias (as sppm's test;
-    # measured -1.8% to +0.2%, bound used to 0.38).
-    scene = fog_box()
-    ref, se_r = fog_reference
+def converges_and_agrees(scene, ref, se_r):
+    """ppm's relMSE against the reference falls from 4 to 64 passes by half or more, and per 8 x 8 region its
+    means over 4 seeds of 64 passes agree with the reference within 5 standard errors of their difference plus
+    2% for the kernels' bias (the bounds of sppm's tests in test_media_photons and test_media_grid)."""
     e = {p: relmse(caustica.render(scene, integrator="ppm", spp=p, photons=20000, seed=5, max_depth=-1), ref)
          for p in (4, 64)}
     assert e[64] < 0.5 * e[4], e
@@ -56,19 +52,19 @@ def test_cross_check_against_the_path_tracer(fog_reference):
     assert_regions_agree(m, se_p, region_means(ref), se_r, 0.02)
 
 
+def test_cross_check_against_the_path_tracer(fog_reference):
+    # A point light in fog over a floor: the floor's measurement points carry exp(-sigma_t d) to the camera,
+    # the fog in front of them is the pass's volume points. Measured relMSE 0.024 -> 0.0036 from 4 to 64
+    # passes (as sppm's), regions -1.8% to +0.2% of the path tracer's, bound used to 0.38.
+    converges_and_agrees(fog_box(), *fog_reference)
+
+
 def test_cross_check_against_the_path_tracer_in_smoke(smoke_reference):
     # The heterogeneous blob: the measurement points' transmittance is a ratio-tracking estimate drawn every
-    # pass, the camera rays' free flights are delta tracking. Error falls from 4 to 64 passes (measured relMSE
-    # 0.066 -> 0.0069, as sppm's 0.064 -> 0.0068; with the points' estimate drawn once and kept, 0.0076 at 64
-    # passes and 0.0045 against sppm's 0.0037 at 256). Per region within 5 standard errors plus 2% (measured
-    # -2.3% to +2.7%, bound used to 0.29).
-    s = smoke_box()
-    ref, se_r = smoke_reference
-    e = {p: relmse(caustica.render(s, integrator="ppm", spp=p, photons=20000, seed=5, max_depth=-1), ref)
-         for p in (4, 64)}
-    assert e[64] < 0.5 * e[4], e
-    m, se_p = seed_regions(s, "ppm", range(4), spp=64, photons=20000)
-    assert_regions_agree(m, se_p, region_means(ref), se_r, 0.02)
+    # pass, the camera rays' free flights are delta tracking. Measured relMSE 0.066 -> 0.0069 (sppm's 0.064 ->
+    # 0.0068; with the points' estimate drawn once and kept, 0.0076 at 64 passes and 0.0045 against sppm's
+    # 0.0037 at 256), regions -2.3% to +2.7%, bound used to 0.29.
+    converges_and_agrees(smoke_box(), *smoke_reference)
 
 
 def test_volumetric_caustic_against_bdpt():
@@ -117,13 +113,8 @@ def test_threads_and_wavefront_give_the_same_image(scene):
     np.testing.assert_allclose(w.image, ref.image, rtol=1e-5, atol=1e-9)
 
 
-def test_volume_radius_sets_the_kernel_and_the_cli_reports_it(tmp_path):
-    scene = fog_box(width=16)
-    auto = caustica.render_job(scene, integrator="ppm", spp=1, photons=4000, seed=1)
-    assert auto.stats["volume_radius"] > 0
-    given = caustica.render_job(scene, integrator="ppm", spp=1, photons=4000, seed=1, volume_radius=0.3)
-    assert given.stats["volume_radius"] == pytest.approx(0.3)
-    assert not np.array_equal(auto.image, given.image)
+def test_cli_reports_the_volume_radius(tmp_path):
+    # (test_media_photons.test_volume_radius_is_reported_and_sets_the_kernel checks the option for ppm.)
     f = tmp_path / "fog.json"
     f.write_text(json.dumps(fog_box(width=8)))
     out = tmp_path / "out.exr"
