@@ -4,7 +4,9 @@ on two scenes:
   many-lights  tests/data/json/many-lights.json: 20 small emissive disks (2560 emitting triangles), a two-sided
                rectangle, two sphere lights, a point and a spot light and an environment map over a floor with
                occluders;
-  cornell      the built-in Cornell box (one rectangular light).
+  cornell      the built-in Cornell box (one rectangular light);
+  hazy-many-lights  many-lights inside a null box of haze (sigma_s 0.12, sigma_a 0.02, g 0.3; tests/python/
+               test_media_restir.py): shading points in the haze too (--scenes hazy-many-lights).
 
 Two questions. Offline: relMSE of the accumulated image against an --ref-spp path-traced reference at equal time
 (mean over --seeds seeds), and the median per-pixel squared relative error (the relMSE's mean is decided by a
@@ -15,6 +17,7 @@ passes), its median per-pixel squared relative error (the mean is decided by a f
 the milliseconds per pass.
 
     .venv/bin/python bench/bench_restir.py [--res 128] [--budgets 2 8] [--seeds 3] [--radius 10]
+        [--scenes many-lights cornell hazy-many-lights]
 
 Appends a block to bench/RESULTS.md."""
 from __future__ import annotations
@@ -45,6 +48,8 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--radius", type=float, default=10.0)
     ap.add_argument("--ref-spp", type=int, default=8192)
+    ap.add_argument("--scenes", nargs="+", default=["many-lights", "cornell"],
+                    choices=["many-lights", "cornell", "hazy-many-lights"])
     ap.add_argument("--no-append", action="store_true")
     a = ap.parse_args()
     configs = {
@@ -55,8 +60,18 @@ def main() -> int:
         "restir, both": ("restir", dict(restir_radius=a.radius)),
     }
     ml = os.path.join(ROOT, "tests", "data", "json", "many-lights.json")
-    scenes = {"many-lights": caustica.load_scene(ml, width=a.res, height=a.res * 3 // 4),
-              "cornell": caustica.load_scene("cornell", width=a.res, height=a.res)}
+
+    def hazy():
+        sys.path.insert(0, os.path.join(ROOT, "tests", "python"))
+        from test_media_restir import hazy_many_lights
+        d = hazy_many_lights()
+        d["camera"].update(width=a.res, height=a.res * 3 // 4)
+        return d
+
+    make = {"many-lights": lambda: caustica.load_scene(ml, width=a.res, height=a.res * 3 // 4),
+            "cornell": lambda: caustica.load_scene("cornell", width=a.res, height=a.res),
+            "hazy-many-lights": hazy}
+    scenes = {n: make[n]() for n in a.scenes}
     rows = []
     for name, scene in scenes.items():
         ref = caustica.render(scene, spp=a.ref_spp, seed=12345, max_depth=2).astype(np.float64)
@@ -85,12 +100,13 @@ def main() -> int:
         return 0
     date = dt.datetime.now(dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     cmd = (f".venv/bin/python bench/bench_restir.py --res {a.res} --budgets {' '.join(f'{b:g}' for b in a.budgets)} "
-           f"--seeds {a.seeds} --radius {a.radius:g} --ref-spp {a.ref_spp}")
+           f"--seeds {a.seeds} --radius {a.radius:g} --ref-spp {a.ref_spp} --scenes {' '.join(a.scenes)}")
     head = " | ".join(f"relMSE {T:g} s | median {T:g} s (passes)" for T in a.budgets)
     lines = [f"\n## ReSTIR DI vs path tracing, direct light, {date}, commit {_provenance_commit(ROOT)}\n",
              f"Command: `{cmd}`  ",
              f"Machine: {machine()}; load average {os.getloadavg()[0]:.2f} at the end  ",
-             f"max_depth 2 (direct light); many-lights at {a.res}x{a.res * 3 // 4}, cornell at {a.res}x{a.res}; "
+             f"max_depth 2 (direct light); many-lights (and hazy-many-lights) at {a.res}x{a.res * 3 // 4}, cornell at "
+             f"{a.res}x{a.res}; "
              f"relMSE of the accumulated image against {a.ref_spp}-spp path tracing at equal time, mean over "
              f"{a.seeds} seeds, and the median per-pixel squared relative error; single pass: pass 16 alone, median per-pixel squared relative error; ms per pass "
              f"(CPU). restir defaults (32 candidates, 5 neighbours, history 20) with radius {a.radius:g} px.\n",
