@@ -183,7 +183,7 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
         if (kind_ != Kind::kPPM) vp_[i] = vp;
         else {
           // The pass's volume visible point (media): the camera rays that scatter before a surface.
-          if (media_) vp_[size_t(W_) * H_ * K_ + i] = vp.volume ? vp : VisiblePoint();
+          if (media_) vp_[volume_base() + i] = vp.volume ? vp : VisiblePoint();
           if (abs_pass == opt_.pass_offset || remeasure_)
             trace_measurement_points(v, accel, camera_ray, max_depth_, &vp_[i * K_], K_, uint64_t(abs_pass) + 1);
         }
@@ -262,7 +262,6 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
   const float rv = !media_                ? 0.f
                    : kind_ == Kind::kPPPM ? pppm_volume_radius(rv0_, opt_.alpha, abs_pass)
                                           : *std::max_element(Rv_.begin(), Rv_.end());
-  const size_t volume_base = kind_ == Kind::kPPM ? size_t(W_) * H_ * K_ : 0;  // a volume point's Rv_ index: i - it
   std::vector<Photon> photons =
       adaptive_ ? trace_photons_adaptive(abs_pass, photon_depth, rmax, rv, cancel)
                 : trace_photons(v, scene_->cpu_accel(opt_.accel), opt_.seed, uint32_t(abs_pass), photons_per_pass_,
@@ -294,8 +293,8 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
       if (!vp.valid) continue;
       double phi[3];
       uint32_t M;
-      if (vp.volume) {  // in media (sppm.h): pixel j's, j = i - volume_base (pppm and sppm: K_ is 1, j = i)
-        const size_t j = i - volume_base;
+      if (vp.volume) {  // in media (sppm.h): pixel j's (volume_base)
+        const size_t j = i - volume_base();
         sppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[j], phi, M);
         if (kind_ == Kind::kPPPM) pppm_add_volume(&indirect_[3 * j], vp.beta, phi, inv_np, rv);
         else sppm_update(Nv_[j], &tauv_[3 * j], Rv_[j], vp.beta, phi, M, opt_.alpha, 3);
@@ -334,7 +333,7 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
   visible.vp = vp_.data();
   visible.R = kind_ == Kind::kPPPM ? nullptr : R_.data();
   visible.Rv = media_ && kind_ != Kind::kPPPM ? Rv_.data() : nullptr;
-  visible.volume_base = kind_ == Kind::kPPM ? uint32_t(size_t(W_) * H_ * K_) : 0u;
+  visible.volume_base = uint32_t(volume_base());
   const uint64_t n = photons_per_pass_;
   const uint32_t chains = adaptive_chain_count(n);
   const float d = chains_.mutation_size;

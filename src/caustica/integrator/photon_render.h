@@ -123,6 +123,9 @@ class PhotonIntegrator {
   // K_ per pixel (pixel i's at i * K_ + k); ppm in media then one per-pass volume visible point per pixel
   // (pixel i's at W_ H_ K_ + i; invalid when its camera ray reached a surface).
   std::vector<VisiblePoint> vp_;
+  // Where a volume visible point's per-pixel statistics start: volume point i is pixel i - volume_base()'s
+  // (ppm: after its measurement points; pppm and sppm: 0, a pixel's one visible point).
+  size_t volume_base() const { return kind_ == Kind::kPPM ? size_t(W_) * H_ * K_ : 0; }
   std::vector<double> direct_;    // 3 per pixel: sum over passes of emitted + NEE direct radiance
   std::vector<double> N_, tau_;   // ppm/sppm: photon count and flux per visible point (tau: 3 each)
   std::vector<float> R_;          // ppm/sppm: radius per visible point

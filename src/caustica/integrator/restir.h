@@ -160,6 +160,19 @@ CHD RestirShading restir_shading(const SceneView& s, const RestirVertex& v) {
   return r;
 }
 
+// How shading point v scatters light arriving from wi (world) towards the camera, as f * c: on a surface the
+// BSDF f and c = |cos theta|, at a volume point f = 1 and c the phase function (no cosine). Callers multiply
+// beta * f * Le * (c * J) in that order.
+CHD float restir_scatter(const RestirShading& v, Vec3f wi, RGB& f) {
+  if (v.volume) {
+    f = RGB(1.f);
+    return hg_phase(dot(v.wo_world, wi), v.g);
+  }
+  const Vec3f wl = v.frame.to_local(wi);
+  f = bsdf_eval(v.m, v.wo, wl);
+  return abs_cos_theta(wl);
+}
+
 // The unshadowed contribution of light point y at shading point v per unit of y's measure (0 where v's
 // candidates cannot reach y); wi and dist give the shadow ray's direction and length (kInf: distant).
 CHD RGB restir_contribution(const SceneView& s, const RestirShading& v, const LightPoint& y, Vec3f& wi,
@@ -211,10 +224,9 @@ CHD RGB restir_contribution(const SceneView& s, const RestirShading& v, const Li
       break;
   }
   if (is_black(Le)) return RGB(0.f);
-  if (v.volume) return v.beta * Le * (hg_phase(dot(v.wo_world, wi), v.g) * J);
-  Vec3f wl = v.frame.to_local(wi);
-  RGB f = bsdf_eval(v.m, v.wo, wl);
-  return v.beta * f * Le * (abs_cos_theta(wl) * J);
+  RGB f;
+  const float c = restir_scatter(v, wi, f);
+  return v.beta * f * Le * (c * J);
 }
 
 CHD float restir_target(const SceneView& s, const RestirShading& v, const LightPoint& y) {
@@ -283,12 +295,9 @@ CHD bool restir_candidate(const SceneView& s, const RestirShading& v, bool light
       break;
   }
   if (!(pdf > 0.f && pdf < kInf)) return false;
-  if (v.volume) {
-    g = v.beta * ls.Li * (hg_phase(dot(v.wo_world, ls.wi), v.g) * J);
-    return true;
-  }
-  Vec3f wl = v.frame.to_local(ls.wi);
-  g = v.beta * bsdf_eval(v.m, v.wo, wl) * ls.Li * (abs_cos_theta(wl) * J);
+  RGB f;
+  const float c = restir_scatter(v, ls.wi, f);
+  g = v.beta * f * ls.Li * (c * J);
   return true;
 }
 
@@ -373,15 +382,14 @@ CHD void restir_primary(const SceneView& s, const Tracer& tracer, const RestirPa
     ShadowRay sr;
     if (!v.valid) {
       // path_shade reports the vertex where it samples a light (PathVertex): the shading point.
-      const Vec3f o = st.ray.o;
-      const float dlen = length(st.ray.d);
+      const Ray segment = st.ray;
       PathVertex pv;
       path_shade(s, p.pp, st, hit, sr, nullptr, &pv);
       if (pv.valid) {
         v.sh = pv.sh;
         v.wo = pv.wo;
         v.beta = pv.beta;
-        v.depth = travelled + (pv.volume ? length(pv.sh.p - o) / dlen : hit.t);
+        v.depth = travelled + (pv.volume ? length(pv.sh.p - segment.o) / length(segment.d) : hit.t);
         v.medium = pv.medium;
         v.volume = pv.volume;
         v.valid = true;
