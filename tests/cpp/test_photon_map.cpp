@@ -47,7 +47,7 @@ Photon random_photon(PCG32& rng, Vec3f p) {
   ph.p = p;
   ph.wi = uniform_sphere(rng);
   ph.power = RGB(uni(rng, 0.f, 2.f), uni(rng, 0.f, 2.f), uni(rng, 0.f, 2.f));
-  ph.flags = rng.next_u32() & 3u;
+  ph.flags = (rng.next_u32() & 3u) | photon_segment_bits(1 + rng.next_u32() % 40);
   return ph;
 }
 
@@ -232,7 +232,10 @@ TEST(PhotonCompact, RoundTripWithinTheStatedBounds) {
                        std::pow(10.f, e) * uni(rng, 0.f, 1.f));
       }
     }
-    ph.flags = uint32_t(i) & 7u;  // bit 2 is not a photon flag and must be dropped
+    // Bit 2 (kPhotonVolume) is dropped; the segments go through every value of the 11 bits, and above them
+    // they saturate at 2047 (compact_photon.h).
+    const uint32_t segments = uint32_t(i) % 2100 + (i % 97 == 0 ? 70000 : 0);
+    ph.flags = (uint32_t(i) & 7u) | photon_segment_bits(segments);
     Photon d = decode_photon(encode_photon(ph, qz), qz);
 
     for (int a = 0; a < 3; ++a) {
@@ -254,7 +257,8 @@ TEST(PhotonCompact, RoundTripWithinTheStatedBounds) {
     if (is_black(ph.power)) {
       ASSERT_TRUE(is_black(d.power));
     }
-    ASSERT_EQ(d.flags, ph.flags & 3u);
+    ASSERT_EQ(d.flags & kPhotonFlagBits, ph.flags & 3u);
+    ASSERT_EQ(photon_segments(d), std::min(std::min(segments, 65535u), kCompactMaxSegments)) << segments;
   }
   std::printf("[ measured ] max direction error %.3g rad (bound %.3g), max position error %.4f steps (bound 0.516),"
               " max power error %.5f of the largest channel (bound %.5f)\n",
@@ -455,12 +459,12 @@ TEST(PhotonHashGrid, StochasticKeepsOnePhotonPerCell) {
 
   // The cells of the input (from the decoded positions, as the grid files them) and their photons' records.
   std::map<uint64_t, size_t> count;
-  std::map<uint64_t, std::set<std::array<uint16_t, 6>>> members;
+  std::map<uint64_t, std::set<std::array<uint32_t, 6>>> members;
   for (const Photon& ph : photons) {
     CompactPhoton c = encode_photon(ph, qz);
     uint64_t cell = v.cell_of(decode_position(c.q, qz));
     ++count[cell];
-    members[cell].insert({c.q[0], c.q[1], c.q[2], c.oct[0], c.oct[1], uint16_t(compact_flags(c))});
+    members[cell].insert({c.q[0], c.q[1], c.q[2], c.oct[0], c.oct[1], compact_flags(c)});
   }
   ASSERT_EQ(grid.size(), count.size());
   // The table is sized for the kept photons, not the input: the smallest power of two >= 2 x kept.
@@ -472,7 +476,7 @@ TEST(PhotonHashGrid, StochasticKeepsOnePhotonPerCell) {
     uint64_t cell = v.cell_of(decode_position(c.q, qz));
     ASSERT_TRUE(seen.insert(cell).second) << "two photons kept in one cell";
     ASSERT_TRUE(count.count(cell));
-    ASSERT_TRUE(members[cell].count({c.q[0], c.q[1], c.q[2], c.oct[0], c.oct[1], uint16_t(compact_flags(c))}))
+    ASSERT_TRUE(members[cell].count({c.q[0], c.q[1], c.q[2], c.oct[0], c.oct[1], compact_flags(c)}))
         << "the kept photon is not one of its cell's photons";
     RGB kept = compact_power(c);
     RGB want = phi * float(count[cell]);

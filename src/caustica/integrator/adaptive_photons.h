@@ -30,7 +30,8 @@ namespace caustica {
 // test here, on exact positions, takes R_i + margin with twice that error, so it is never 0 for a photon
 // that would be gathered (a larger V costs efficiency, not bias). The BSDF is evaluated as sppm_gather
 // does, on the direction the grid will store (the octahedral encoding), so a photon on the far side of a
-// thin wall, whose one-sided BSDF there is 0, does not make its path visible.
+// thin wall, whose one-sided BSDF there is 0, does not make its path visible, and a photon too deep for a
+// visible point's path budget (max_depth, photon.h's photon_budget) is not visible to it.
 struct AdaptiveVisibility {
   PhotonGridView points;               // the valid visible points' positions; ids index point_vp
   const uint32_t* point_vp = nullptr;  // a grid id's visible point
@@ -42,6 +43,7 @@ struct AdaptiveVisibility {
   const float* Rv = nullptr;
   uint32_t volume_base = 0;
   float rmax = 0.f, rvmax = 0.f, margin = 0.f, query_radius = 0.f;
+  uint32_t max_depth = 0xffffffffu;  // the render's (0xffffffff: unlimited)
 
   // margin and query_radius for the scene's bounds and the pass's largest radii (surface, volume); the
   // query radius also covers the quantization of the visible points' own positions in the grid over them
@@ -63,6 +65,7 @@ struct AdaptiveVisibility {
     return points.query_any(ph.p, query_radius, [&](uint32_t id, const Photon&) {
       const uint32_t i = point_vp[id];
       if (vp[i].volume != volume) return false;
+      if (photon_segments(ph) > photon_budget(max_depth, vp[i].depth)) return false;
       const float r = (volume ? (Rv ? Rv[i - volume_base] : rvmax) : (R ? R[i] : rmax)) + margin;
       if (photon_dist2(ph.p, vp[i].p) > r * r) return false;
       if (volume) return true;

@@ -295,13 +295,13 @@ bool PhotonIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel
       uint32_t M;
       if (vp.volume) {  // in media (sppm.h): pixel j's (volume_base)
         const size_t j = i - volume_base();
-        sppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[j], phi, M);
+        sppm_volume_gather(vp, v, vgv, kind_ == Kind::kPPPM ? rv : Rv_[j], max_depth_, phi, M);
         if (kind_ == Kind::kPPPM) pppm_add_volume(&indirect_[3 * j], vp.beta, phi, inv_np, rv);
         else sppm_update(Nv_[j], &tauv_[3 * j], Rv_[j], vp.beta, phi, M, opt_.alpha, 3);
         continue;
       }
       float radius = kind_ == Kind::kPPPM ? rmax : R_[i];
-      sppm_gather(vp, gv, radius, phi, M);
+      sppm_gather(vp, gv, radius, max_depth_, phi, M);
       if (kind_ == Kind::kPPPM) pppm_add(&indirect_[3 * i], vp.beta, phi, inv_np, radius);
       else sppm_update(N_[i], &tau_[3 * i], R_[i], vp.beta, phi, M, opt_.alpha);
     }
@@ -326,6 +326,7 @@ std::vector<Photon> PhotonIntegrator::trace_photons_adaptive(int64_t abs_pass, u
     }
   AdaptiveVisibility visible;
   visible.set_radii(v.bounds, rmax, rv);
+  visible.max_depth = max_depth_;
   PhotonHashGrid point_grid;
   if (!points.empty()) point_grid.build(points, v.bounds, 2.f * visible.query_radius, false, 0, true);
   visible.points = point_grid.view();

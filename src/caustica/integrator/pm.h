@@ -42,10 +42,11 @@ namespace caustica {
 constexpr uint32_t kWavefrontMaxK = 256;
 
 // In-scattered radiance towards wo (world space) at p in a medium of asymmetry g from the k nearest photons
-// of the volume map `map` (header comment); idx and d2 hold k entries of scratch.
+// of the volume map `map` (header comment), those of more than `budget` segments left out (below); idx and d2
+// hold k entries of scratch.
 template <class Map>
-CHD RGB pm_volume_estimate(const Map& map, uint64_t paths, uint32_t k, float g, Vec3f wo, Vec3f p, uint32_t* idx,
-                           float* d2) {
+CHD RGB pm_volume_estimate(const Map& map, uint64_t paths, uint32_t k, uint32_t budget, float g, Vec3f wo, Vec3f p,
+                           uint32_t* idx, float* d2) {
   const uint32_t n = uint32_t(map.knn(p, k, kInf, idx, d2));
   if (n == 0) return RGB(0.f);
   const float r2 = d2[n - 1];
@@ -53,16 +54,19 @@ CHD RGB pm_volume_estimate(const Map& map, uint64_t paths, uint32_t k, float g, 
   RGB sum(0.f);
   for (uint32_t j = 0; j < n; ++j) {
     const Photon& ph = map.photon(idx[j]);
-    sum += ph.power * hg_phase(dot(wo, ph.wi), g);
+    if (photon_segments(ph) <= budget) sum += ph.power * hg_phase(dot(wo, ph.wi), g);
   }
   return sum / (4.f / 3.f * kPi * r2 * std::sqrt(r2) * float(paths));
 }
 
 // Radiance towards wo at p from the k nearest photons of `map` (paths: photon paths emitted for it); idx and
-// d2 hold k entries of scratch.
+// d2 hold k entries of scratch. The photons of more than `budget` segments (photon.h's photon_budget: the
+// paths they would close are longer than max_depth) add nothing but still set the radius, as in Mitsuba's
+// photon mapper: the estimate is the density of the photons that fit within the k nearest of all, a kernel
+// estimate whose radius does not depend on which of them fit.
 template <class Map>
-CHD RGB pm_estimate(const Map& map, uint64_t paths, uint32_t k, const Material& m, const Frame& frame, Vec3f wo,
-                    Vec3f p, uint32_t* idx, float* d2) {
+CHD RGB pm_estimate(const Map& map, uint64_t paths, uint32_t k, uint32_t budget, const Material& m,
+                    const Frame& frame, Vec3f wo, Vec3f p, uint32_t* idx, float* d2) {
   const uint32_t n = uint32_t(map.knn(p, k, kInf, idx, d2));
   if (n == 0) return RGB(0.f);
   const float r2 = d2[n - 1];
@@ -71,6 +75,7 @@ CHD RGB pm_estimate(const Map& map, uint64_t paths, uint32_t k, const Material& 
   RGB sum(0.f);
   for (uint32_t j = 0; j < n; ++j) {
     const Photon& ph = map.photon(idx[j]);
+    if (photon_segments(ph) > budget) continue;
     const float w = 1.f - std::sqrt(d2[j]) / r;
     sum += bsdf_eval(m, wo, frame.to_local(ph.wi)) * ph.power * w;
   }
@@ -114,17 +119,22 @@ CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const PmMaps<Map>& 
   RGB L(0.f);
   const VisiblePoint vp = trace_camera(v, accel, ray, RGB(1.f), smp, max_depth, L, light_bvh);
   if (!vp.valid) return L;
+  const uint32_t budget = photon_budget(max_depth, vp.depth);
   if (vp.volume) {  // single scattering came by NEE; the rest from the volume photons after a bounce
-    L += vp.beta * pm_volume_estimate(maps.volume_indirect, paths, k, v.media[vp.medium].g, vp.wo, vp.p, idx, d2);
+    L += vp.beta *
+         pm_volume_estimate(maps.volume_indirect, paths, k, budget, v.media[vp.medium].g, vp.wo, vp.p, idx, d2);
     return L;
   }
   const Material& m = vp.material;
   const Frame frame = tangent_frame(vp.ns, vp.tangent);
   const Vec3f wo = frame.to_local(vp.wo);
-  L += vp.beta * pm_estimate(maps.caustic, paths, k, m, frame, wo, vp.p, idx, d2);
+  L += vp.beta * pm_estimate(maps.caustic, paths, k, budget, m, frame, wo, vp.p, idx, d2);
   // Final gathering: one BSDF-sampled ray; radiance at its first non-specular hit or scattering event
   // (through specular bounces, kPmGatherDepth segments at most) from the global or volume map. Emission and
-  // light sources seen by it are direct light, already counted by NEE (trace_camera with direct false).
+  // light sources seen by it are direct light, already counted by NEE (trace_camera with direct false). The
+  // gather point is vp.depth + gp.depth segments from the camera, and its photons must close the path within
+  // max_depth: with fewer than two segments left (the gather's and a photon's) it adds nothing.
+  if (budget < 2) return L;
   BSDFSample bs;
   const float uc = smp.next_1d();
   const Vec2f u = smp.next_2d();
@@ -133,13 +143,17 @@ CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const PmMaps<Map>& 
   const int32_t medium =
       scene_has_media(v) ? medium_after_crossing(prim_medium_interface(v, uint32_t(vp.prim)), wi, vp.ng, vp.medium) : -1;
   RGB unused(0.f);
-  const VisiblePoint gp = trace_camera(v, accel, Ray{offset_ray_origin(vp.p, vp.ng, wi), wi, kInf},
-                                       vp.beta * bs.weight, smp, kPmGatherDepth + 1, unused, false, false, medium);
+  const VisiblePoint gp =
+      trace_camera(v, accel, Ray{offset_ray_origin(vp.p, vp.ng, wi), wi, kInf}, vp.beta * bs.weight, smp,
+                   budget < kPmGatherDepth + 1 ? budget : kPmGatherDepth + 1, unused, false, false, medium);
   if (!gp.valid) return L;
+  const uint32_t gather_budget = photon_budget(max_depth, vp.depth + gp.depth);
   if (gp.volume)
-    return L + gp.beta * pm_volume_estimate(maps.volume, paths, k, v.media[gp.medium].g, gp.wo, gp.p, idx, d2);
+    return L + gp.beta * pm_volume_estimate(maps.volume, paths, k, gather_budget, v.media[gp.medium].g, gp.wo,
+                                            gp.p, idx, d2);
   const Frame gf = tangent_frame(gp.ns, gp.tangent);
-  return L + gp.beta * pm_estimate(maps.global, paths, k, gp.material, gf, gf.to_local(gp.wo), gp.p, idx, d2);
+  return L + gp.beta * pm_estimate(maps.global, paths, k, gather_budget, gp.material, gf, gf.to_local(gp.wo),
+                                   gp.p, idx, d2);
 }
 
 }  // namespace caustica

@@ -47,6 +47,9 @@ struct VisiblePoint {
   // final gathering).
   int32_t medium = -1;
   int32_t prim = -1;
+  // Segments from the camera to the point (the camera segment is 1): its photons may have at most
+  // max_depth - depth (photon.h's photon_budget).
+  uint32_t depth = 0;
 };
 
 // Follows a camera ray through specular bounces to the first non-specular
@@ -107,6 +110,7 @@ CHD_ALWAYS_INLINE VisiblePoint trace_camera(const SceneView& s, const Tracer& ac
         vp.beta = w;
         vp.volume = true;
         vp.medium = medium;
+        vp.depth = depth;
         vp.valid = depth < max_depth;
         return vp;
       }
@@ -171,6 +175,7 @@ CHD_ALWAYS_INLINE VisiblePoint trace_camera(const SceneView& s, const Tracer& ac
       vp.material = m;
       vp.medium = medium;
       vp.prim = int32_t(sh.prim);
+      vp.depth = depth;
       vp.valid = depth < max_depth;  // a photon adds at least one more segment
       return vp;
     }
@@ -257,6 +262,7 @@ CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ra
         vp.material = m;
         vp.medium = it.medium;
         vp.prim = int32_t(sh.prim);
+        vp.depth = it.depth;
         vp.valid = true;
       }
       continue;
@@ -287,14 +293,18 @@ CHD int trace_measurement_points(const SceneView& s, const Tracer& accel, Ray ra
 }
 
 // Sums f(wo, wi) * power over the photons of `grid` within `radius` of the point (photons on the far side of
-// a thin wall arrive from below its surface and are filtered by the one-sided BSDF); M counts them.
-CHD void sppm_gather(const VisiblePoint& vp, const PhotonGridView& grid, float radius, double phi[3], uint32_t& M) {
+// a thin wall arrive from below its surface and are filtered by the one-sided BSDF); M counts them. Only the
+// photons that close a path of at most max_depth segments count (photon.h's photon_budget).
+CHD void sppm_gather(const VisiblePoint& vp, const PhotonGridView& grid, float radius, uint32_t max_depth,
+                     double phi[3], uint32_t& M) {
   const Material& m = vp.material;
   const Frame frame = tangent_frame(vp.ns, vp.tangent);
   Vec3f wo = frame.to_local(vp.wo);
+  const uint32_t budget = photon_budget(max_depth, vp.depth);
   phi[0] = phi[1] = phi[2] = 0.0;
   M = 0;
   grid.query(vp.p, radius, [&](const Photon& ph) {
+    if (photon_segments(ph) > budget) return;
     RGB f = bsdf_eval(m, wo, frame.to_local(ph.wi), TransportMode::kRadiance);
     ++M;
     for (int c = 0; c < 3; ++c) phi[c] += double(f[c]) * ph.power[c];
@@ -333,13 +343,16 @@ inline float pppm_radius(float r0, float alpha, int64_t abs_pass) {
 }
 
 // Volumetric photon mapping (header comment): the sum of p(wo, wi) * power over the volume photons of
-// `grid` within `radius` of the volume visible point; M counts them.
+// `grid` within `radius` of the volume visible point that close a path of at most max_depth segments; M
+// counts them.
 CHD void sppm_volume_gather(const VisiblePoint& vp, const SceneView& s, const PhotonGridView& grid, float radius,
-                            double phi[3], uint32_t& M) {
+                            uint32_t max_depth, double phi[3], uint32_t& M) {
   const float g = s.media[vp.medium].g;
+  const uint32_t budget = photon_budget(max_depth, vp.depth);
   phi[0] = phi[1] = phi[2] = 0.0;
   M = 0;
   grid.query(vp.p, radius, [&](const Photon& ph) {
+    if (photon_segments(ph) > budget) return;
     const double f = hg_phase(dot(vp.wo, ph.wi), g);
     ++M;
     for (int c = 0; c < 3; ++c) phi[c] += f * ph.power[c];

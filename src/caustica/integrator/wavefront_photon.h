@@ -389,7 +389,7 @@ class WavefrontPhoton {
       const bool pppm = p_.pppm;
       const float alpha = p_.alpha;
       const double inv_np = 1.0 / double(P);
-      const uint32_t K = K_, nk = nk_, vbase = vbase_;
+      const uint32_t K = K_, nk = nk_, vbase = vbase_, max_depth = p_.max_depth;
       // i: the visible point (pixel i / K; ppm's volume points after nk, pixel i - vbase)
       b_.parallel_for(nvp_, CAUSTICA_KERNEL(uint32_t i) {
         if (i < nk && i % K == 0)
@@ -399,13 +399,13 @@ class WavefrontPhoton {
         uint32_t M;
         if (vp[i].volume) {  // in media (sppm.h): pixel j's (pppm and sppm: K is 1, j = i)
           const uint32_t j = i - vbase;
-          sppm_volume_gather(vp[i], s, vg, pppm ? rv : ps.Rv[j], phi, M);
+          sppm_volume_gather(vp[i], s, vg, pppm ? rv : ps.Rv[j], max_depth, phi, M);
           if (pppm) pppm_add_volume(&ps.indirect[3 * size_t(j)], vp[i].beta, phi, inv_np, rv);
           else sppm_update(ps.Nv[j], &ps.tauv[3 * size_t(j)], ps.Rv[j], vp[i].beta, phi, M, alpha, 3);
           return;
         }
         float radius = pppm ? rmax : ps.R[i];
-        sppm_gather(vp[i], g, radius, phi, M);
+        sppm_gather(vp[i], g, radius, max_depth, phi, M);
         if (pppm) pppm_add(&ps.indirect[3 * size_t(i)], vp[i].beta, phi, inv_np, radius);
         else sppm_update(ps.N[i], &ps.tau[3 * size_t(i)], ps.R[i], vp[i].beta, phi, M, alpha);
       });
@@ -508,6 +508,7 @@ class WavefrontPhoton {
     // their ids.
     AdaptiveVisibility visible;
     visible.set_radii(s.bounds, rmax, rv);
+    visible.max_depth = p_.max_depth;
     {
       if (point_flags_.size() < nvp_) point_flags_.resize(nvp_);
       if (point_scan_.size() < nvp_) point_scan_.resize(nvp_);

@@ -10,7 +10,12 @@
 //             field widened from 5 to 8 bits (bias 127). Plain RGB9E5 tops out at 65408, and photon powers
 //             in caustica are a light's whole flux (and the stochastic hash grid multiplies them by a
 //             photon count), so they exceed it; with 8 bits the range is [2^-137, 3.4e38], about float's;
-//   flags     the two bits of PhotonFlags (kPhotonCaustic, kPhotonDirect); higher flag bits are dropped.
+//   flags     the two bits of PhotonFlags (kPhotonCaustic, kPhotonDirect); kPhotonVolume is dropped (volume
+//             photons have maps of their own);
+//   segments  the photon's segments from the light (photon.h's photon_segments) in 11 bits, the six of the
+//             exponent word's top and the five above the mantissas, saturating at 2047: exact for every
+//             photon of a render with max depth up to 2048 (its photon paths are shorter), and beyond that a
+//             photon of more than 2047 segments reads 2047.
 //
 // Worst-case errors of a round trip (each is checked on random photons in tests/cpp/test_photon_map.cpp):
 //
@@ -81,8 +86,8 @@ CHD float photon_dist2(Vec3f a, Vec3f b) {
 struct CompactPhoton {
   uint16_t q[3];       // quantized position
   uint16_t oct[2];     // octahedral direction, snorm16 stored as value + 32767 (0..65534)
-  uint16_t exp_flags;  // bits 0-7: shared exponent of the power; bits 8-9: PhotonFlags
-  uint32_t rgb;        // power mantissas: r bits 0-8, g bits 9-17, b bits 18-26
+  uint16_t exp_flags;  // bits 0-7: shared exponent of the power; bits 8-9: PhotonFlags; 10-15: segments' low 6
+  uint32_t rgb;        // power mantissas: r bits 0-8, g bits 9-17, b bits 18-26; bits 27-31: segments' high 5
 };
 static_assert(sizeof(CompactPhoton) <= 16, "CompactPhoton must fit in 16 bytes");
 
@@ -228,6 +233,9 @@ CHD float exp2_int(int e) {
 #endif
 }
 
+// The most segments a record keeps (header comment).
+constexpr uint32_t kCompactMaxSegments = 2047;
+
 CHD RGB decode_shared_exp(uint32_t rgb, uint32_t exp) {
   int shift = int(exp) - kSharedExpBias - kSharedExpMantissaBits;
   // m 2^shift is exact either way (m < 2^9, and the result is >= 2^-136 > float's smallest denormal).
@@ -243,12 +251,17 @@ CHD CompactPhoton encode_photon(const Photon& ph, const PhotonQuantizer& qz) {
   encode_position(ph.p, qz, c.q);
   oct_encode(ph.wi, c.oct);
   SharedExpRGB s = encode_shared_exp(ph.power);
-  c.rgb = s.rgb;
-  c.exp_flags = uint16_t(s.exp | ((ph.flags & 3u) << 8));
+  const uint32_t seg = photon_segments(ph) < kCompactMaxSegments ? photon_segments(ph) : kCompactMaxSegments;
+  c.rgb = s.rgb | (seg >> 6) << 27;
+  c.exp_flags = uint16_t(s.exp | ((ph.flags & 3u) << 8) | (seg & 63u) << 10);
   return c;
 }
 
-CHD uint32_t compact_flags(const CompactPhoton& c) { return uint32_t(c.exp_flags >> 8) & 3u; }
+// Photon::flags of a record: its PhotonFlags bits and its segments.
+CHD uint32_t compact_flags(const CompactPhoton& c) {
+  const uint32_t seg = (uint32_t(c.exp_flags) >> 10) | (c.rgb >> 27) << 6;
+  return ((uint32_t(c.exp_flags) >> 8) & 3u) | photon_segment_bits(seg);
+}
 CHD RGB compact_power(const CompactPhoton& c) { return decode_shared_exp(c.rgb, c.exp_flags & 255u); }
 
 CHD Photon decode_photon(const CompactPhoton& c, const PhotonQuantizer& qz) {

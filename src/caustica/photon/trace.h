@@ -105,7 +105,7 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
       ph.p = p;
       ph.wi = -d;
       ph.power = st.beta;
-      ph.flags = kPhotonVolume | (st.depth == 1 ? kPhotonDirect : 0u);
+      ph.flags = kPhotonVolume | (st.depth == 1 ? kPhotonDirect : 0u) | photon_segment_bits(st.depth);
       st.active = false;
       if (st.depth >= max_depth) return true;
       const float u_rr = st.rng.next_float();
@@ -141,7 +141,8 @@ CHD bool photon_bounce(const SceneView& s, uint32_t max_depth, PhotonPathStateT<
     ph.p = sh.p;
     ph.wi = wo_world;
     ph.power = st.beta;
-    ph.flags = (st.depth == 1 ? kPhotonDirect : 0u) | ((st.specular_seen && !st.diffuse_seen) ? kPhotonCaustic : 0u);
+    ph.flags = (st.depth == 1 ? kPhotonDirect : 0u) | ((st.specular_seen && !st.diffuse_seen) ? kPhotonCaustic : 0u) |
+               photon_segment_bits(st.depth);
     stored = true;
   }
   st.active = false;
