@@ -35,6 +35,10 @@ int g_medium_rule = 0;
 
 float g_rev_scale = 1.f;  // perturbation for the sensitivity test
 bool g_upg_rules = true;  // false: upg's merge terms as vcm's (for the sensitivity test)
+// false: upg's gathers still only where both vertices are surfaces, but the bookkeeping without the two rules
+// that came with them (vcm_upg_medium_vertex, vcm_connect_light_vm), as before upg rendered media (for the
+// sensitivity test)
+bool g_upg_media_rules = true;
 bool g_nee_ratio = true;  // false: NEE's emission density without pick / nee_pick (for the sensitivity test)
 
 struct TestPath {
@@ -68,8 +72,13 @@ float vm_rel(const VcmParams& p, const TestPath& P, int i) {
   if (!P.x[i].medium) return 1.f;
   return g_medium_rule == 1 ? 0.f : g_medium_rule == 2 ? 1.f : vcm_medium_vm_rel_of(p, P.x[i].sigma_t);
 }
-// The light side's merge term of a connection at light vertex x_a (vcm_camera_connect).
-float light_vm(const VcmParams& p, const TestPath& P, int a) { return p.vm_factor * vm_rel(p, P, a); }
+// The light side's merge term of a connection of light vertex x_a to camera vertex x_b (vcm_camera_connect).
+float light_vm(const VcmParams& p, const TestPath& P, int a, int b) {
+  return vcm_connect_light_vm(p, vm_rel(p, P, a), g_upg_media_rules && P.x[b].medium);
+}
+// upg: whether a gather samples the path by the connection of x_a and x_b (both non-delta): only where both
+// are surface vertices (upg.h).
+bool upg_gathers(const TestPath& P, int a, int b) { return !P.x[a].medium && !P.x[b].medium; }
 float dist(const TestPath& P, int i, int j) { return length(P.x[i].p - P.x[j].p); }
 float camera_pdf_w(const TestPath& P, Vec3f dir) {
   float c = dot(dir, P.forward);
@@ -89,6 +98,7 @@ VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
                                  P.point_light ? 1.f : cosv(P, 0, P.x[1].p), P.point_light);
   for (int i = 1; i <= j; ++i) {
     vcm_after_segment(p, m, dist(P, i - 1, i), cosv(P, i, P.x[i - 1].p), true);
+    if (P.x[i].medium && g_upg_media_rules) vcm_upg_medium_vertex(p, m);  // vcm_light_hit, vcm_scatter_medium
     if (i < j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i + 1].p), pdf_w(P, i, P.x[i + 1].p),
                         pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta, vm_rel(p, P, i),
@@ -102,7 +112,8 @@ VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
 // x_{j+1} is a non-delta surface vertex, not the camera (VcmPathState::vm_ok).
 bool camera_vm_ok(const VcmParams& p, const TestPath& P, int j) {
   int k = int(P.x.size()) - 1;
-  return p.mode != VcmMode::kUpg || !g_upg_rules || (j + 1 < k && !P.x[j + 1].delta);
+  return p.mode != VcmMode::kUpg || !g_upg_rules ||
+         (j + 1 < k && !P.x[j + 1].delta && !P.x[j + 1].medium);  // vcm_scatter_medium: vm_ok false
 }
 float cam_vm(const VcmParams& p, const TestPath& P, int j) {
   return camera_vm_ok(p, P, j) ? p.vm_factor * vm_rel(p, P, j) : 0.f;
@@ -155,9 +166,10 @@ double weight_sum(const VcmParams& p, const TestPath& P, int* used = nullptr) {
       float cam_dir_a = pdf_w(P, b, P.x[a].p) * cosv(P, a, P.x[b].p) / d2;
       float light_dir_a = pdf_w(P, a, P.x[b].p) * cosv(P, b, P.x[a].p) / d2;
       float wc = vcm_weight_connect(p, l, c, cam_dir_a, pdf_w(P, b, P.x[b + 1].p), light_dir_a,
-                                    pdf_w(P, a, P.x[a - 1].p), cam_vm(p, P, b), light_vm(p, P, a));
+                                    pdf_w(P, a, P.x[a - 1].p), cam_vm(p, P, b), light_vm(p, P, a, b));
       sum += wc, ++n;
-      if (p.mode == VcmMode::kUpg) sum += wc * p.vm_factor * vcm_mis(p, cam_dir_a), ++n;  // the gather of x_a at x_b
+      if (p.mode == VcmMode::kUpg && upg_gathers(P, a, b))
+        sum += wc * p.vm_factor * vcm_mis(p, cam_dir_a), ++n;  // the gather of x_a at x_b
     }
   }
   if (p.use_lt() && !P.x[k - 1].delta) {  // s = k: light vertex x_{k-1} to the camera
@@ -336,12 +348,13 @@ TEST(VcmMis, LightBvhPicksWeightsSumToOne) {
 }
 
 // Medium vertices (phase function, |cos| 1, merged by bpm and vcm with rel = mis(4/3 r_v^3 sigma_t / r^2)) among
-// surface and delta vertices: bdpt's, bpm's and vcm's weights still sum to one (radius over four decades, the
-// volume radius the same or within a decade of it, sigma_t over four decades).
+// surface and delta vertices: bdpt's, bpm's, vcm's and upg's (gathers at surface pairs only) weights still sum
+// to one (radius over four decades, the volume radius the same or within a decade of it, sigma_t over four
+// decades).
 TEST(VcmMis, WeightsSumToOneWithMediumVertices) {
   PCG32 r(23, 7);
   int with_media = 0;
-  for (VcmMode mode : {VcmMode::kBpt, VcmMode::kBpm, VcmMode::kVcm}) {
+  for (VcmMode mode : {VcmMode::kBpt, VcmMode::kBpm, VcmMode::kVcm, VcmMode::kUpg}) {
     for (int trial = 0; trial < 3000; ++trial) {
       int k = 2 + int(r.next_u32() % 6);
       bool point = r.next_float() < 0.3f, balance = r.next_float() < 0.3f;
@@ -355,7 +368,31 @@ TEST(VcmMis, WeightsSumToOneWithMediumVertices) {
       EXPECT_NEAR(s, 1.0, 1e-4) << "mode " << int(mode) << " trial " << trial << " k " << k << " radius " << radius;
     }
   }
-  EXPECT_GT(with_media, 4500);
+  EXPECT_GT(with_media, 6000);
+}
+
+// Sensitivity: upg's gathers at surface pairs only, but the bookkeeping kept as before upg rendered media (a
+// light vertex's pending term committed at a medium vertex after it, a connection to a camera vertex in a
+// medium given the light side's term): the sum breaks on the paths where a surface vertex meets a medium
+// vertex in a way that matters (measured: 130 of the 358 paths with medium vertices).
+TEST(VcmMis, UpgMediumRulesAreDetected) {
+  PCG32 r(31, 9);
+  int broken = 0, n = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    TestPath P = random_path(r, 6, false, true, true);
+    bool any = false;
+    for (const V& v : P.x) any = any || v.medium;
+    if (!any) continue;
+    VcmParams p = params(VcmMode::kUpg, false, 0.3f);
+    EXPECT_NEAR(weight_sum(p, P), 1.0, 1e-4);
+    g_upg_media_rules = false;
+    const double bad = weight_sum(p, P);
+    g_upg_media_rules = true;
+    broken += std::fabs(bad - 1.0) > 1e-3;
+    ++n;
+  }
+  EXPECT_GT(n, 200);
+  EXPECT_GT(broken, n / 4) << broken << " of " << n;
 }
 
 // Sensitivity: with merges at medium vertices, running quantities and connections that leave out their merge

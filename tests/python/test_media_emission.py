@@ -139,7 +139,7 @@ def test_photon_mappers_and_light_tracing_refuse_emissive_media():
         with pytest.raises(caustica.InputError) as e:
             caustica.render(s, integrator=integrator, spp=1, photons=100)
         assert str(e.value) == (f"integrator '{integrator}' does not render emissive media (medium 'm' emits); "
-                                "use --integrator path, restir, bdpt, vcm or bpm")
+                                "use --integrator path, restir, bdpt, vcm, bpm or upg")
 
 
 def test_threads_wavefront_export_and_describe(tmp_path):

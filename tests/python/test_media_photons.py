@@ -224,7 +224,7 @@ def test_volume_radius_is_reported_and_sets_the_kernel(integrator):
 
 
 @pytest.mark.parametrize("opts,message", [
-    (dict(integrator="upg"), "integrator 'upg' does not render participating media or null surfaces"),
+    (dict(integrator="upg", volume_radius=0.5), "--volume-radius applies to integrators"),
     (dict(integrator="pppm", volume_radius=-1.0), "volume_radius must be a positive number"),
     (dict(integrator="path", volume_radius=0.5),
      "--volume-radius applies to integrators 'ppm', 'pppm', 'sppm', 'bpm' and 'vcm' in scenes with participating "

@@ -195,28 +195,30 @@ RenderJob::RenderJob(std::shared_ptr<Scene> scene, RenderOptions opt)
                      " pixels, the render " + std::to_string(scene_->view().camera.width) + "x" +
                      std::to_string(scene_->view().camera.height));
   // Participating media and null surfaces: the path tracer and restir (integrator/restir.h), pm, ppm, pppm and
-  // sppm (volumetric photon mapping, integrator/pm.h and sppm.h), and light, bdpt, bpm and vcm (medium
-  // vertices, volumetric merging, integrator/vcm.h), on every driver. Emissive media: path, restir, bdpt, bpm
-  // and vcm, whose camera paths score the emission (the others' paths start at lights).
+  // sppm (volumetric photon mapping, integrator/pm.h and sppm.h), and light, bdpt, bpm, vcm and upg (medium
+  // vertices, volumetric merging, integrator/vcm.h; upg's gathers at surfaces, upg.h), on every driver.
+  // Emissive media: path, restir, bdpt, bpm, vcm and upg, whose camera paths score the emission (the others'
+  // paths start at lights).
   const bool media_kernels =
       opt_.integrator == "ppm" || opt_.integrator == "pppm" || opt_.integrator == "sppm";  // a volume radius
   const bool media_photons = media_kernels || opt_.integrator == "pm";
   const bool media_bidir = opt_.integrator == "light" || opt_.integrator == "bdpt" || opt_.integrator == "bpm" ||
-                           opt_.integrator == "vcm";
-  const bool emissive_ok = opt_.integrator == "bdpt" || opt_.integrator == "bpm" || opt_.integrator == "vcm";
+                           opt_.integrator == "vcm" || opt_.integrator == "upg";
+  const bool emissive_ok =
+      opt_.integrator == "bdpt" || opt_.integrator == "bpm" || opt_.integrator == "vcm" || opt_.integrator == "upg";
   if (scene_has_media(scene_->view()) && opt_.integrator != "path" && opt_.integrator != "restir") {
     const SceneView& v = scene_->view();
     const std::string what = " (" + std::to_string(v.num_media) + " media in scene '" + scene_->desc().name + "')";
     if (!media_photons && !media_bidir)
       throw InputError("integrator '" + opt_.integrator + "' does not render participating media or null surfaces" +
-                       what + "; use --integrator path, restir, bdpt, vcm, bpm, light, pm, ppm, sppm or pppm");
+                       what + "; use --integrator path, restir, bdpt, vcm, bpm, upg, light, pm, ppm, sppm or pppm");
     if (media_bidir && v.num_media > 32767u)  // VcmMergeVertex keeps a medium in 16 bits
       throw InputError("integrator '" + opt_.integrator + "' renders at most 32767 media" + what);
     for (size_t i = 0; i < scene_->desc().media.size() && !emissive_ok; ++i)
       if (medium_emits(scene_->desc().media[i]))
         throw InputError("integrator '" + opt_.integrator + "' does not render emissive media (medium '" +
                          (i < scene_->desc().medium_names.size() ? scene_->desc().medium_names[i] : std::to_string(i)) +
-                         "' emits); use --integrator path, restir, bdpt, vcm or bpm");
+                         "' emits); use --integrator path, restir, bdpt, vcm, bpm or upg");
   }
   if (opt_.volume_radius < 0.f || !std::isfinite(opt_.volume_radius))
     throw InputError("--volume-radius must be a positive number");

@@ -41,6 +41,22 @@
 // Cost control: the trials of a low-weighted gather are skipped by Russian
 // roulette, survival q = min(1, kUpgRrScale * w_gather), dividing by q
 // (unbiased). The expected trial count of a kept photon is 1/P.
+//
+// Participating media. The paper gathers at surfaces; here too: a gather runs at an eye hit z_t on a surface
+// (not at a scattering event in a medium) from a previous eye vertex z_{t-1} that is a non-delta surface
+// vertex, and takes the light vertices on surfaces only. The segment between them may cross media and null
+// surfaces. Then the eye's sampling from z_{t-1} lands within r of y_s when its direction (BSDF sample and
+// roulette, as without media) leads there *and* its free-flight sampling passes every medium on the way
+// without scattering, crossing null surfaces; P includes that, and so must the trials (upg_trial_reaches):
+// each replays the eye's free-flight sampling with its hero channel (vcm_medium_segment's estimator; a hero
+// drawn per trial where the eye has none yet, as its continuation would draw one), so E[N] = 1/P still. The
+// connection carries the segment's transmittance (vcm_visibility) like any other, so the contribution is
+// f(x) / (p_light p_eye P N_light) as before, f with the exact transmittance of the joining segment. In the
+// MIS, a gather exists only where both of its vertices are surfaces: medium vertices have no merge term
+// (vcm_medium_vm_rel is 0 for upg), a light vertex's pending term is dropped at a medium vertex after it
+// (vcm_upg_medium_vertex), a camera vertex after a medium vertex has none (VcmPathState::vm_ok), and a
+// connection to a camera vertex in a medium has no light-side term (vcm_connect_light_vm). The weights'
+// densities leave out transmittance, as all of vcm.h's do; they still sum to one (tests/cpp/test_vcm_mis.cpp).
 #pragma once
 #include "vcm.h"
 
@@ -114,6 +130,41 @@ CHD bool upg_trial_lands(const SceneView& s, const VcmParams& p, const Ray& ray,
   if (!hit.valid()) return false;
   SurfaceHit sh = make_surface_hit(s, ray, hit);
   return length_sq(sh.p - photon) < p.radius * p.radius;
+}
+
+// One trial's landing test (header comment, participating media): the eye's continuation from `prev` along
+// `ray` reaches a surface within r of the photon. In scenes with media it samples a free-flight distance on
+// each segment in a medium as vcm_medium_segment does (prev's hero channel, or one drawn now) and fails where
+// that scatters; null surfaces are crossed. `rays` counts the intersections.
+template <class Tracer>
+CHD bool upg_trial_reaches(const SceneView& s, const VcmParams& p, const VcmPathState& prev, Ray ray, Vec3f photon,
+                           PCG32& rng, const Tracer& tracer, uint32_t& rays) {
+  Hit hit;
+  ++rays;
+  tracer.intersect(ray, hit);
+  if (!scene_has_media(s)) return upg_trial_lands(s, p, ray, hit, photon);
+  int32_t medium = vcm_medium_towards(s, prev, ray.d);
+  int32_t hero = prev.hero;
+  uint32_t null_crossings = 0;
+  for (;;) {
+    if (medium >= 0) {
+      const Medium& md = s.media[medium];
+      const float dlen = length(ray.d);
+      const uint64_t track_seed = md.grid >= 0 ? (uint64_t(rng.next_u32()) << 32 | rng.next_u32()) : 0;
+      const float u_hero = rng.next_float(), u_dist = rng.next_float();
+      if (hero < 0) hero = medium_hero_channel(u_hero);
+      const MediumSample ms =
+          medium_sample(s, md, ray.o, ray.d / dlen, hit.valid() ? hit.t * dlen : kInf, hero, u_dist, track_seed);
+      if (ms.scattered) return false;
+    }
+    if (!hit.valid()) return false;
+    SurfaceHit sh = make_surface_hit(s, ray, hit);
+    if (!is_null_surface(s, sh)) return length_sq(sh.p - photon) < p.radius * p.radius;
+    if (!cross_null_surface(s, sh, ray, medium, null_crossings)) return false;
+    hit = Hit();
+    ++rays;
+    tracer.intersect(ray, hit);
+  }
 }
 
 // Estimates of 1/P, P = P(the eye's sampling at `prev` lands within r of `photon`),
@@ -248,10 +299,27 @@ struct UpgGatherCounts {
   uint32_t capped = 0;  // gathers whose trials reached the cap
 };
 
+// Whether the gather runs at the eye hit that vcm_camera_hit just processed: a surface vertex (not a null
+// surface crossed, not a scattering event in a medium before the surface) reached from a previous eye vertex
+// (have_prev, kept by upg_track_prev).
+CHD bool upg_gathers_at(const VcmPathState& st, const Hit& hit, bool have_prev) {
+  return have_prev && hit.valid() && !st.crossing && !st.in_medium;
+}
+
+// After the stages at an eye hit: the next gather's previous vertex is this one where it is a non-delta
+// surface vertex; a null surface crossed keeps the one before (the eye's segment goes on), any other vertex
+// (delta, or a scattering event in a medium) leaves none.
+CHD void upg_track_prev(const VcmPathState& st, bool& have_prev, VcmPathState& prev) {
+  if (st.crossing) return;
+  have_prev = st.vertex_valid && !st.in_medium;
+  if (have_prev) prev = st;
+}
+
 // The gather at eye hit `st` (z_t) from the previous non-delta eye vertex `prev` (z_{t-1}): every light
-// vertex of `grid` (queried with radius `query_r`, reporting indices into `verts`) inside the disc,
-// connected to prev with its trial estimate of 1/P, added to st.L in the grid's order. `tracer` answers
-// intersect(Ray, Hit&) and occluded(Ray). Shared by the CPU driver and the wavefront.
+// vertex on a surface of `grid` (queried with radius `query_r`, reporting indices into `verts`) inside the
+// disc, connected to prev (with the transmittance of the segment in scenes with media) with its trial
+// estimate of 1/P, added to st.L in the grid's order. `tracer` answers intersect(Ray, Hit&) and occluded(Ray).
+// Shared by the CPU driver and the wavefront.
 template <class Tracer>
 CHD UpgGatherCounts upg_gather_all(const SceneView& s, const VcmParams& p, const VcmPathState& prev,
                                    VcmPathState& st, const PhotonGridView& grid, float query_r,
@@ -260,25 +328,24 @@ CHD UpgGatherCounts upg_gather_all(const SceneView& s, const VcmParams& p, const
   if (grid.num_photons == 0) return c;
   grid.query_indexed(st.sh.p, query_r, [&](uint32_t id, const Photon&) {
     const VcmLightVertex& v = verts[id];
-    if (!upg_in_disc(p, st.sh.p, v.sh.p)) return;
+    if (v.in_medium() || !upg_in_disc(p, st.sh.p, v.sh.p)) return;
     PCG32 rng = upg_trial_rng(p, pixel, prev.length, id);
     UpgGather g;
     upg_gather(s, p, prev, v, rng.next_float(), g);
     if (!g.active) return;
     ++c.rays;
-    if (tracer.occluded(g.conn.ray)) return;
-    uint32_t cast = 0;
-    float inv_p = upg_inv_p(p, prev, v.sh.p, rng, cast, [&](const Ray& tr) {
-      Hit th;
-      tracer.intersect(tr, th);
-      return upg_trial_lands(s, p, tr, th, v.sh.p);
+    const RGB tr = vcm_visibility(s, tracer, g.conn.ray, g.conn.medium);
+    if (is_black(tr)) return;
+    uint32_t cast = 0, trial_rays = 0;
+    float inv_p = upg_inv_p(p, prev, v.sh.p, rng, cast, [&](const Ray& ray) {
+      return upg_trial_reaches(s, p, prev, ray, v.sh.p, rng, tracer, trial_rays);
     });
-    c.trials += cast;
+    c.trials += trial_rays;
     if (!(inv_p > 0.f)) {
       ++c.capped;
       return;
     }
-    st.L += g.conn.contrib * inv_p;
+    st.L += g.conn.contrib * tr * inv_p;
   });
   return c;
 }

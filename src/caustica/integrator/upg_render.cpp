@@ -27,6 +27,7 @@ UpgIntegrator::UpgIntegrator(std::shared_ptr<Scene> scene, const RenderOptions& 
   // Default: one median pixel footprint of first hits, as vcm (docs/integrators.md: on the
   // SmallVCM scenes twice that cost 1.6-2.9x more time for the same variance).
   r_ = vcm_initial_radius(*scene_, opt);
+  if (scene_has_media(v)) outer_medium_ = vcm_outer_medium(*scene_, scene_->cpu_accel(opt.accel), opt);
 }
 
 bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
@@ -36,6 +37,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
   VcmParams p = vcm_pass_params(opt_, VcmMode::kUpg, max_depth_, pass, n);
   const uint32_t nl = vcm_light_paths(opt_, n);  // exact (p.n_light is a float)
   vcm_set_radius(p, r_);
+  p.outer_medium = outer_medium_;
 
   // 1. Light subpaths in fixed chunks (trace_light_subpaths in vcm_render.cpp).
   LightSubpaths lp;
@@ -70,7 +72,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
       if (cancel.load(std::memory_order_relaxed)) break;
       for (int x = 0; x < W_; ++x) {
         VcmPathState st, prev;
-        bool have_prev = false;  // prev: the previous eye vertex, a non-delta surface vertex
+        bool have_prev = false;  // prev: the previous eye vertex, a non-delta surface vertex (upg_track_prev)
         vcm_camera_start(s, p, uint32_t(x), uint32_t(y), st);
         const uint32_t pix = st.pixel;
         while (st.active) {
@@ -78,9 +80,10 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
           accel.intersect(st.ray, hit);
           ++nrays;
           vcm_camera_hit(s, p, st, hit);
-          // Gather at this eye hit z_t (whatever its material) from z_{t-1} = prev, in the grid's order
-          // (a fixed order: the grid and its query are deterministic; the wavefront driver sums the same way).
-          if (have_prev && hit.valid()) {
+          // Gather at this eye hit z_t (whatever its material; a surface, upg.h) from z_{t-1} = prev, in the
+          // grid's order (a fixed order: the grid and its query are deterministic; the wavefront driver sums
+          // the same way).
+          if (upg_gathers_at(st, hit, have_prev)) {
             UpgGatherCounts c = upg_gather_all(s, p, prev, st, gv, r_ + slack, verts.data(), pix, accel);
             nrays += c.rays;
             ntrials += c.trials;
@@ -101,8 +104,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
                 vcm_shadow(st, sr, vcm_visibility(s, accel, sr.ray, sr.medium));
               }
             }
-          have_prev = st.vertex_valid;
-          if (have_prev) prev = st;
+          upg_track_prev(st, have_prev, prev);
           vcm_camera_continue(s, p, st);
         }
         if (isfinite3(st.L)) pass_L[pix] = st.L;

@@ -4,7 +4,8 @@
 // chunk order), builds the hash grid of light vertices, then one camera subpath
 // per pixel with BDPT's strategies (connections to the light subpath of the same
 // index) and, at every eye hit after a non-delta vertex, the gather of all light
-// vertices within the fixed radius with the trial estimate of 1/P. Random
+// vertices within the fixed radius with the trial estimate of 1/P (in scenes with media at surface vertices,
+// with free-flight sampling in the trials: upg.h). Random
 // numbers depend on (seed, pass, pixel / subpath index, vertex, photon) only, so
 // images do not depend on the thread count.
 #pragma once
@@ -32,6 +33,7 @@ class UpgIntegrator {
   RenderOptions opt_;
   uint32_t max_depth_;
   float r_ = 0.f;
+  int32_t outer_medium_ = -1;  // where light subpaths start when their first ray meets no medium boundary
   int W_, H_;
   uint64_t traced_ = 0, rays_ = 0, trials_ = 0, capped_ = 0;
   std::vector<double> sum_;

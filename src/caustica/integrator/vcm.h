@@ -42,7 +42,7 @@
 // point, each with h(d) and its own MIS weight using p(d) as the camera's
 // raster density (box and tent: p = h; gaussian: p is the untruncated shape).
 //
-// Participating media (`light`, `bdpt`, `bpm`, `vcm`; the drivers refuse them for `upg`). Both subpaths
+// Participating media (`light`, `bdpt`, `bpm`, `vcm`, `upg`; upg's gathers in media: upg.h). Both subpaths
 // sample free-flight distances in the medium their ray is in with the path tracer's estimator (medium/medium.h:
 // a hero channel per subpath, spectral MIS over the subpath; delta tracking in grid media), so a subpath's
 // throughput is unbiased per channel however its hero was drawn, and a connection of two independent
@@ -161,7 +161,7 @@ struct VcmMis {
 
 // A medium vertex's merge term relative to a surface vertex's (header comment: rel = mis(4/3 r_v^3 sigma_t(x) /
 // r^2), the ball's volume over the disc's area times sigma_t(x), the mean over channels at x); 0 where no merge
-// runs (light, bdpt; upg does not render media).
+// runs (light, bdpt, and upg, which gathers at surface vertices only: upg.h).
 CHD float vcm_medium_vm_rel_of(const VcmParams& p, float sigma_t) {
   return p.merges() ? vcm_mis(p, (4.f / 3.f) * p.radius_v * p.radius_v * p.radius_v * sigma_t /
                                      (p.radius * p.radius))
@@ -172,6 +172,13 @@ CHD float vcm_medium_vm_rel(const SceneView& s, const VcmParams& p, int32_t medi
   const Medium& md = s.media[medium];
   const RGB st = md.grid >= 0 ? grid_coefficients(md, s.medium_grids, s.grid_values, x).sigma_t : medium_sigma_t(md);
   return vcm_medium_vm_rel_of(p, (st.x + st.y + st.z) * (1.f / 3.f));
+}
+
+// upg at a medium vertex: a gather joins its photon to the photon's neighbour on the camera side only where
+// that is a non-delta surface vertex (upg.h), so the pending term of the light vertex before a medium vertex is
+// dropped, as before a delta vertex (vcm_after_scatter). Both subpaths' medium vertices pass through here.
+CHD void vcm_upg_medium_vertex(const VcmParams& p, VcmMis& m) {
+  if (p.mode == VcmMode::kUpg) m.pend = 0.f;
 }
 
 CHD VcmMis vcm_mis_commit(const VcmParams& p, VcmMis m) {
@@ -283,6 +290,12 @@ CHD float vcm_weight_camera(const VcmParams& p, const VcmMis& light, float camer
   float w_light = vcm_mis(p, camera_pdf_a / p.n_light) *
                   (vcm_lt_vm(p, vm_rel) + light.dVCM + light.dVC * vcm_mis(p, bsdf_rev_pdf_w));
   return 1.f / (w_light + 1.f);
+}
+
+// The light side's merge term of a connection of light vertex v (its vm_rel) to a camera vertex: the merge
+// of v, or upg's gather of v joined to the camera vertex, which needs that vertex to be a surface (upg.h).
+CHD float vcm_connect_light_vm(const VcmParams& p, float light_vm_rel, bool camera_in_medium) {
+  return p.mode == VcmMode::kUpg && camera_in_medium ? 0.f : p.vm_factor * light_vm_rel;
 }
 
 // Light vertex to camera vertex (Eqs. 40-41). *_dir_pdf_a: each side's BSDF
@@ -771,7 +784,8 @@ CHD bool vcm_light_hit(const SceneView& s, const VcmParams& p, VcmPathState& st,
   v.wi = st.wo_world;
   v.beta = st.beta;
   v.length = st.length;
-  v.mis = vcm_mis_commit(p, st.mis);  // the vertex ends subpaths here: upg's pending term holds
+  if (st.in_medium) vcm_upg_medium_vertex(p, st.mis);
+  v.mis = vcm_mis_commit(p, st.mis);  // the vertex ends subpaths here: upg's pending term holds (at a surface)
   v.medium = st.in_medium ? st.medium : -1;
   v.vm_rel = st.vm_rel;
   return true;
@@ -867,6 +881,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_scatter_medium(const Scen
   const float u_rr = st.sampler.next_1d();
   float pdf;
   const Vec3f wi = hg_sample(st.wo_world, s.media[st.medium].g, u, &pdf);
+  vcm_upg_medium_vertex(p, st.mis);
   vcm_after_scatter(p, st.mis, 1.f, pdf, pdf, false, st.vm_rel);
   st.vm_ok = false;
   st.specular = false;
@@ -1124,7 +1139,7 @@ CHD void vcm_camera_connect(const SceneView& s, const VcmParams& p, const VcmPat
   float cam_dir_a = ec.pdf_fwd * cos_l / d2;
   float light_dir_a = el.pdf_fwd * cos_c / d2;
   float mw = vcm_weight_connect(p, v.mis, st.mis, cam_dir_a, ec.pdf_rev, light_dir_a, el.pdf_rev, vcm_cam_vm(p, st),
-                                p.vm_factor * v.vm_rel);
+                                vcm_connect_light_vm(p, v.vm_rel, st.in_medium));
   sr.contrib = st.beta * ec.f * el.f * v.beta * (G * mw);
   sr.weight = mw;
   Vec3f o = vcm_origin_towards(st, w);

@@ -250,7 +250,7 @@ class WavefrontVcm {
         if (st.active) {
           vcm_camera_hit(s, p, st, hits[i]);
           // upg: the gather at this eye hit from the previous non-delta eye vertex (upg_render.cpp's order).
-          if (upg && have_prev[i] && hits[i].valid()) {
+          if (upg && upg_gathers_at(st, hits[i], have_prev[i] != 0)) {
             UpgGatherCounts c = upg_gather_all(s, p, prev[i], st, gv, query_r, verts, st.pixel, tracer);
             r += c.rays + c.trials;
           }
@@ -273,8 +273,9 @@ class WavefrontVcm {
             }
             if (st.vertex_valid && p.merges()) vcm_camera_merge(s, p, st, gv, mv, gvv, mvv);
             if (upg) {
-              have_prev[i] = st.vertex_valid ? 1u : 0u;
-              if (st.vertex_valid) prev[i] = st;
+              bool hp = have_prev[i] != 0;
+              upg_track_prev(st, hp, prev[i]);
+              have_prev[i] = hp ? 1u : 0u;
             }
             vcm_camera_continue(s, p, st);
           }

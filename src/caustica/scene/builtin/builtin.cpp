@@ -13,9 +13,9 @@ const std::vector<std::pair<std::string, std::string>>& builtin_scenes() {
       {"smallvcm-point", "SmallVCM scene 2: glossy floor, mirror and glass spheres, point light"},
       {"smallvcm-env", "SmallVCM scene 3: glossy floor, mirror and glass spheres, constant environment"},
       {"point-in-glass", "SDS: SmallVCM's box lit only by a point light inside a glass sphere (path tracing renders it black)"},
-      {"smallvcm-fog", "SmallVCM's spheres and area light in a box filled with haze (participating media: every integrator but upg)"},
+      {"smallvcm-fog", "SmallVCM's spheres and area light in a box filled with haze (participating media: every integrator)"},
       {"smallvcm-smoke",
-       "SmallVCM's box and area light with a plume of smoke (a heterogeneous medium, a density grid: every integrator but upg)"},
+       "SmallVCM's box and area light with a plume of smoke (a heterogeneous medium, a density grid: every integrator)"},
       {"fog-lens", "a point light focused by a glass ball into fog: a volumetric caustic (the photon mappers and the bidirectional integrators; path tracing cannot render it)"},
   };
   return s;
