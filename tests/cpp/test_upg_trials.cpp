@@ -3,13 +3,17 @@
 // numerically. The photon lies on a plane that the trial rays hit; a ray lands
 // when it hits the plane within r of the photon. Plain trials (the paper's) and
 // cone trials (rejection inside the cone around the photon) must both have mean 1/P,
-// within 4 standard errors of their own sample means.
+// within 4 standard errors of their own sample means; also through a medium, where a
+// trial lands only if its free-flight sampling passes (ThroughAMedium).
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
+#include "caustica/backend/cpu/cpu_accel.h"
 #include "caustica/base/rng.h"
 #include "caustica/integrator/upg.h"
+#include "caustica/scene/scene.h"
 
 using namespace caustica;
 
@@ -50,8 +54,9 @@ bool lands(const TrialSetup& s, const Ray& ray) {
   return length_sq(ray.o + ray.d * t - s.photon) < s.radius * s.radius;
 }
 
-// P = Int_disc p_bsdf(w(x)) q(w(x)) |cos_x| / d^2 dA by a polar midpoint rule (double precision).
-double exact_p(const VcmParams& p, const TrialSetup& s) {
+// P = Int_disc p_bsdf(w(x)) q(w(x)) |cos_x| / d^2 tr(d) dA by a polar midpoint rule (double precision); tr is
+// the probability of passing a medium over the distance d (none: 1).
+double exact_p(const VcmParams& p, const TrialSetup& s, const std::function<double(double)>& tr = nullptr) {
   const VcmPathState& st = s.prev;
   Frame pf(s.plane_n);
   const int nr = 400, nphi = 400;
@@ -72,7 +77,7 @@ double exact_p(const VcmParams& p, const TrialSetup& s) {
         RGB beta = st.beta * bsdf_eval(st.m, st.wo, wl) * (std::fabs(wl.z) / float(pdf));
         q = std::min(1.f, max_component(beta) / max_component(st.beta));
       }
-      sum += pdf * q * std::fabs(dot(w, s.plane_n)) / d2 * dA;
+      sum += pdf * q * std::fabs(dot(w, s.plane_n)) / d2 * dA * (tr ? tr(std::sqrt(d2)) : 1.0);
     }
   return sum;
 }
@@ -169,4 +174,73 @@ TEST(UpgTrials, NoBoundMeansPlainTrials) {
   m.specular = RGB(0.9f);
   TrialSetup s = make_setup(m, Vec3f(0, 0, 1), Vec3f(-0.3f, 0.f, 1.f), Vec3f(0.3f, 0.f, 1.f), Vec3f(0, 0, -1), 0.1f, 1);
   check(s, params(0.1f), 20000, 0, false);
+}
+
+// Trials through a medium (upg.h, participating media): the photon's plane is a diffuse rectangle in a
+// homogeneous medium that fills the scene (the camera's; no boundary). A trial lands only when its free-flight
+// sampling also passes the medium up to the plane (upg_trial_reaches), so P gains the pass probability in its
+// integrand: T_hero(d) = exp(-sigma_t,hero d) with the subpath's hero channel, d from the ray's origin, and
+// where the subpath has drawn no hero yet, the mean of the three channels' (each trial draws one, as the eye's
+// continuation would). Plain and cone trials against that P, 4 standard errors as above; the channels'
+// answers differ by a factor of 3 or more, so a trial that ignored the medium, or used another channel, fails.
+TEST(UpgTrials, ThroughAMedium) {
+  SceneDesc d;
+  d.name = "upg-medium";
+  d.camera.position = {0, 0, 3};
+  d.camera.target = {0, 0, 0};
+  Medium fog;
+  fog.sigma_a = RGB(0.05f);
+  fog.sigma_s = RGB(0.25f, 0.5f, 1.f);
+  d.media.push_back(fog);
+  d.medium_names.push_back("fog");
+  d.camera.medium = 0;
+  ShapeDesc plane;
+  plane.type = ShapeType::kRectangle;
+  plane.material = d.add_material("wall", make_diffuse(RGB(0.5f)));
+  for (int i = 0; i < 2; ++i) plane.to_world.m[i][i] = 3.f;  // [-3, 3]^2 at z = -1.5, facing +z
+  plane.to_world.m[2][3] = -1.5f;
+  d.shapes.push_back(plane);
+  auto sc = Scene::build(d);
+  const SceneView& v = sc->view();
+  ASSERT_TRUE(scene_has_media(v));
+
+  Material m;
+  m.type = MaterialType::kDiffuse;
+  m.diffuse = RGB(0.5f);
+  TrialSetup s = make_setup(m, Vec3f(0, 0, -1), Vec3f(0.2f, 0.1f, -1.f), Vec3f(0.3f, -0.2f, -1.5f),
+                            Vec3f(0, 0, 1), 0.15f, 1);
+  s.prev.medium = 0;
+  s.prev.sh.prim = 0;  // the vertex's surface: one without a medium interface (the medium stays the same)
+  const VcmParams p = params(0.15f);
+  const RGB sigma_t = fog.sigma_a + fog.sigma_s;
+  UpgCone cone;
+  ASSERT_TRUE(upg_cone(p, s.prev, s.photon, upg_pdf_bound(m), cone));
+  double inv_ps[4];
+  int k = 0;
+  for (int hero : {0, 1, 2, -1}) {
+    s.prev.hero = hero;
+    const double inv_p = 1.0 / exact_p(p, s, [&](double dist) {
+      if (hero >= 0) return std::exp(-double(sigma_t[hero]) * dist);
+      double t = 0.0;
+      for (int c = 0; c < 3; ++c) t += std::exp(-double(sigma_t[c]) * dist) / 3.0;
+      return t;
+    });
+    inv_ps[k++] = inv_p;
+    auto reaches = [&](PCG32& rng, uint32_t& rays) {
+      return [&](const Ray& r) { return upg_trial_reaches(v, p, s.prev, r, s.photon, rng, sc->accel(), rays); };
+    };
+    Stats plain = run(3000, [&](uint64_t i, uint32_t& cast) {
+      PCG32 rng(7000 + i, 11);
+      uint32_t rays = 0;
+      return upg_inv_p_plain(p, s.prev, rng, cast, reaches(rng, rays));
+    });
+    EXPECT_NEAR(plain.mean, inv_p, 4.0 * plain.se) << "plain trials, hero " << hero << ", exact 1/P " << inv_p;
+    Stats c = run(6000, [&](uint64_t i, uint32_t& cast) {
+      PCG32 rng(9000 + i, 13);
+      uint32_t rays = 0;
+      return upg_inv_p_cone(p, s.prev, cone, rng, cast, reaches(rng, rays));
+    });
+    EXPECT_NEAR(c.mean, inv_p, 4.0 * c.se) << "cone trials, hero " << hero << ", exact 1/P " << inv_p;
+  }
+  EXPECT_GT(inv_ps[2], 3.0 * inv_ps[0]);  // the channels' answers are far apart
 }
