@@ -300,10 +300,11 @@ struct UpgGatherCounts {
 };
 
 // Whether the gather runs at the eye hit that vcm_camera_hit just processed: a surface vertex (not a null
-// surface crossed, not a scattering event in a medium before the surface) reached from a previous eye vertex
-// (have_prev, kept by upg_track_prev).
-CHD bool upg_gathers_at(const VcmPathState& st, const Hit& hit, bool have_prev) {
-  return have_prev && hit.valid() && !st.crossing && !st.in_medium;
+// surface crossed, not a scattering event in a medium before the surface) reached from the previous eye vertex
+// `prev` (have_prev, kept by upg_track_prev), one segment after it. The length test also refuses a path that a
+// medium ended on the way (its throughput black: vcm_camera_hit then leaves st.sh at the previous vertex).
+CHD bool upg_gathers_at(const VcmPathState& st, const Hit& hit, bool have_prev, const VcmPathState& prev) {
+  return have_prev && hit.valid() && !st.crossing && !st.in_medium && st.length == prev.length + 1;
 }
 
 // After the stages at an eye hit: the next gather's previous vertex is this one where it is a non-delta

@@ -83,7 +83,7 @@ bool UpgIntegrator::render_pass(int64_t pass, const std::atomic<bool>& cancel) {
           // Gather at this eye hit z_t (whatever its material; a surface, upg.h) from z_{t-1} = prev, in the
           // grid's order (a fixed order: the grid and its query are deterministic; the wavefront driver sums
           // the same way).
-          if (upg_gathers_at(st, hit, have_prev)) {
+          if (upg_gathers_at(st, hit, have_prev, prev)) {
             UpgGatherCounts c = upg_gather_all(s, p, prev, st, gv, r_ + slack, verts.data(), pix, accel);
             nrays += c.rays;
             ntrials += c.trials;

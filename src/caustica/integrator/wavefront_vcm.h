@@ -250,7 +250,7 @@ class WavefrontVcm {
         if (st.active) {
           vcm_camera_hit(s, p, st, hits[i]);
           // upg: the gather at this eye hit from the previous non-delta eye vertex (upg_render.cpp's order).
-          if (upg && upg_gathers_at(st, hits[i], have_prev[i] != 0)) {
+          if (upg && upg_gathers_at(st, hits[i], have_prev[i] != 0, prev[i])) {
             UpgGatherCounts c = upg_gather_all(s, p, prev[i], st, gv, query_r, verts, st.pixel, tracer);
             r += c.rays + c.trials;
           }
