@@ -98,7 +98,7 @@ VcmMis light_state(const VcmParams& p, const TestPath& P, int j) {
                                  P.point_light ? 1.f : cosv(P, 0, P.x[1].p), P.point_light);
   for (int i = 1; i <= j; ++i) {
     vcm_after_segment(p, m, dist(P, i - 1, i), cosv(P, i, P.x[i - 1].p), true);
-    if (P.x[i].medium && g_upg_media_rules) vcm_upg_medium_vertex(p, m);  // vcm_light_hit, vcm_scatter_medium
+    if (P.x[i].medium && g_upg_media_rules) vcm_upg_medium_vertex(p, m);  // as vcm_light_hit
     if (i < j)
       vcm_after_scatter(p, m, cosv(P, i, P.x[i + 1].p), pdf_w(P, i, P.x[i + 1].p),
                         pdf_w(P, i, P.x[i - 1].p) * g_rev_scale, P.x[i].delta, vm_rel(p, P, i),

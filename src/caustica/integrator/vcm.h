@@ -176,7 +176,8 @@ CHD float vcm_medium_vm_rel(const SceneView& s, const VcmParams& p, int32_t medi
 
 // upg at a medium vertex: a gather joins its photon to the photon's neighbour on the camera side only where
 // that is a non-delta surface vertex (upg.h), so the pending term of the light vertex before a medium vertex is
-// dropped, as before a delta vertex (vcm_after_scatter). Both subpaths' medium vertices pass through here.
+// dropped, as before a delta vertex (vcm_after_scatter). Only light subpaths defer that term, so only their medium
+// vertices need it, once, where vcm_light_hit reaches them (before they are stored or scattered from).
 CHD void vcm_upg_medium_vertex(const VcmParams& p, VcmMis& m) {
   if (p.mode == VcmMode::kUpg) m.pend = 0.f;
 }
@@ -881,7 +882,6 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_scatter_medium(const Scen
   const float u_rr = st.sampler.next_1d();
   float pdf;
   const Vec3f wi = hg_sample(st.wo_world, s.media[st.medium].g, u, &pdf);
-  vcm_upg_medium_vertex(p, st.mis);
   vcm_after_scatter(p, st.mis, 1.f, pdf, pdf, false, st.vm_rel);
   st.vm_ok = false;
   st.specular = false;
