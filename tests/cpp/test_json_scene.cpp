@@ -247,6 +247,16 @@ TEST(JsonRoundTrip, FloatsUseTheFewestDigits) {
   EXPECT_NE(text.find("\"fov\": 39.3077"), std::string::npos);
 }
 
+TEST(JsonRoundTrip, LongNamesStayStrings) {
+  // A string longer than a line (names made from file paths, as the XML loader's) is written as a string: it
+  // once fell through to the array branch and came out as [].
+  SceneDesc d = builtin_scene("cornell");
+  std::string long_name = "instance@/a/rather/long/path/to/a/scene/file/" + std::string(120, 'x') + ".xml:20/shape";
+  d.shapes[0].name = long_name;
+  SceneDesc back = load_json_scene_text(scene_desc_to_json(d), "long.json");
+  EXPECT_EQ(back.shapes[0].name, long_name);
+}
+
 TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   TempDir dir("kinds");
   SceneDesc d;

@@ -108,7 +108,8 @@ void dump(const JV& v, std::string& out, int indent) {
   const size_t width = 110;
   std::string one;
   size_t room = width > size_t(indent) + 20 ? width - indent : 20;
-  if (inline_text(v, one, room)) {
+  // A scalar goes on its line however long (a long string, such as a name with a file's path in it).
+  if (inline_text(v, one, room) || v.scalar()) {
     out += one;
     return;
   }
