@@ -23,12 +23,15 @@ principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Dis
 metallic-roughness mapping), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
 cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
-box whose albedo is a gridvolume).
+box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
+instanced three times, a checkerboard texture with a to_uv, a cylinder light), and direct (Mitsuba's `direct`
+integrator) and ptracer (Mitsuba's particle tracer; caustica renders it with its light tracer).
 
-`--integrator bdpt` (or light, vcm, sppm, ...) renders caustica's side with that integrator instead of `path`, against
+caustica renders each scene with the integrator its XML names (path for path, volpath and direct; light for ptracer).
+`--integrator bdpt` (or light, vcm, sppm, ...) renders caustica's side with that integrator instead, against
 the same Mitsuba renders (e.g. bdpt with medium vertices on foggy, smoky and tinted against Mitsuba's volpath).
 
-usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--integrator path] [--only NAME ...]
+usage: .venv/bin/python bench/compare_mitsuba_xml.py [--spp 256] [--res 128] [--integrator NAME] [--only NAME ...]
        [--rows]
 (needs Mitsuba 3 from PyPI: bench/install-mitsuba.sh)
 """
@@ -433,6 +436,92 @@ def write_scenes(res):
     <bsdf type="null"/><ref name="interior" id="side"/></shape>
 {stage}</scene>
 """)
+    # Serialized meshes, shapegroups and instances, cylinders and a checkerboard: a floor from a serialized file
+    # (with UVs, under a checkerboard with a to_uv), and a shapegroup (a serialized icosphere without normals,
+    # smoothed by both renderers, and a rough-gold cylinder) instanced three times, turned and scaled; a
+    # cylinder light; Mitsuba's `direct` integrator (max depth 2).
+    sys.path.insert(0, os.path.join(ROOT, "tests", "python"))
+    from serialized_mesh import write_serialized
+    t = (1 + 5 ** 0.5) / 2
+    ico = np.array([(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t), (0, 1, -t),
+                    (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)], np.float64)
+    faces = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
+             (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+             (8, 6, 7), (9, 8, 1)]
+    verts = [tuple(v / np.linalg.norm(v)) for v in ico]
+    for _ in range(2):  # two subdivisions: 320 triangles
+        cache, nf = {}, []
+        def mid(a, b):
+            k = (min(a, b), max(a, b))
+            if k not in cache:
+                m = np.add(verts[a], verts[b])
+                verts.append(tuple(m / np.linalg.norm(m)))
+                cache[k] = len(verts) - 1
+            return cache[k]
+        for a, b, c in faces:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            nf += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        faces = nf
+    floor = dict(positions=[(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)], indices=[(0, 2, 1), (0, 3, 2)],
+                 normals=[(0, 1, 0)] * 4, uvs=[(0, 0), (1, 0), (1, 1), (0, 1)], name="floor")
+    write_serialized(os.path.join(OUT, "meshes.serialized"),
+                     [floor, dict(positions=verts, indices=faces, name="ball")])
+    with open(os.path.join(OUT, "instanced.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="5"/></integrator>
+  {sensor}
+  <shape type="serialized"><string name="filename" value="meshes.serialized"/>
+    <transform name="to_world"><scale value="3"/></transform>
+    <bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.8, 0.8, 0.7"/>
+      <rgb name="color1" value="0.2, 0.3, 0.5"/><transform name="to_uv"><scale value="4"/><rotate z="1" angle="20"/>
+      </transform></texture></bsdf></shape>
+  <shape type="shapegroup" id="thing">
+    <shape type="serialized"><string name="filename" value="meshes.serialized"/><integer name="shape_index" value="1"/>
+      <transform name="to_world"><scale value="0.35"/><translate y="0.35"/></transform>
+      <bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.6, 0.15, 0.1"/></bsdf></shape>
+    <shape type="cylinder"><point name="p0" x="0.5" y="0" z="0"/><point name="p1" x="0.5" y="0.9" z="0.1"/>
+      <float name="radius" value="0.15"/>
+      <bsdf type="roughconductor"><string name="material" value="Au"/><string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.2"/></bsdf></shape>
+  </shape>
+  <shape type="instance"><ref id="thing"/><transform name="to_world"><translate x="-1.2"/></transform></shape>
+  <shape type="instance"><ref id="thing"/><transform name="to_world"><rotate y="1" angle="70"/>
+    <scale value="1.3"/><translate x="0.2" z="-0.6"/></transform></shape>
+  <shape type="instance"><ref id="thing"/><transform name="to_world"><rotate y="1" angle="-40"/>
+    <scale x="0.8" y="1.2" z="0.8"/><translate x="1.3" z="0.5"/></transform></shape>
+  <shape type="cylinder"><point name="p0" x="-1.5" y="2.5" z="-1"/><point name="p1" x="1.5" y="2.5" z="-1"/>
+    <float name="radius" value="0.06"/><emitter type="area"><rgb name="radiance" value="40, 36, 30"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.1, 0.12, 0.15"/></emitter>
+</scene>
+""")
+    with open(os.path.join(OUT, "direct.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="direct"/>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0" y="0.8" z="0"/><float name="radius" value="0.8"/>
+    <bsdf type="roughconductor"><string name="material" value="Cu"/><string name="distribution" value="ggx"/>
+      <float name="alpha" value="0.1"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate y="3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.2, 0.25"/></emitter>
+</scene>
+""")
+    with open(os.path.join(OUT, "ptracer.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="ptracer"><integer name="max_depth" value="4"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0" y="0.8" z="0"/><float name="radius" value="0.8"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.5, 0.3"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate y="3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
@@ -440,10 +529,12 @@ def write_scenes(res):
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
-            "tinted": os.path.join(OUT, "tinted.xml")}
+            "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
+            "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml")}
 
 
-def render_caustica(path, res, spp, seed, integrator="path"):
+def render_caustica(path, res, spp, seed, integrator=None):
+    """integrator None: the one the XML names (path for path/volpath/direct, light for ptracer)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s = caustica.load_scene(path, width=res, height=res)
@@ -478,7 +569,8 @@ def main():
     ap.add_argument("--res", type=int, default=128)
     ap.add_argument("--rows", action="store_true", help="print bench/RESULTS.md rows")
     ap.add_argument("--only", nargs="*", help="render only these scenes (names as printed)")
-    ap.add_argument("--integrator", default="path", help="caustica's integrator (default path)")
+    ap.add_argument("--integrator", default=None,
+                    help="caustica's integrator (default: the XML's, as caustica maps it: path, or light for ptracer)")
     args = ap.parse_args()
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() else "scalar_rgb")
@@ -499,7 +591,7 @@ def main():
         print(f"{name:9s} mean caustica {c1.mean():.4f} mitsuba {m1.mean():.4f}  relMSE(c,m) {cross:.5f}  "
               f"relMSE(c1,c2) {noise:.5f}  relMSE(m1,m2) {mnoise:.5f}  ratio {ratio:.2f}  "
               f"worst 16x16 region {worst:.1f} standard errors")
-        how = "" if args.integrator == "path" else f" --integrator {args.integrator}"
+        how = "" if args.integrator is None else f" --integrator {args.integrator}"
         rows.append(f"| {datetime.date.today()} | {machine} | {commit} | `bench/compare_mitsuba_xml.py --spp "
                     f"{args.spp} --res {args.res}{how}` | {name}: mean {c1.mean():.4f} vs Mitsuba {mi.__version__} "
                     f"{m1.mean():.4f}; relMSE(caustica, Mitsuba) / mean relMSE(two seeds of each) = "

@@ -392,9 +392,9 @@ TEST(MitsubaBsdf, Textures) {
   EXPECT_EQ(error_of(g), g + ":4: <string name=\"filename\">: texture file '" + (tmp_dir() / "missing.png").string() +
                              "' does not exist");
   g = scene_file("tex_type.xml", "<shape type=\"cube\"><bsdf type=\"diffuse\">\n"
-                                 "<texture type=\"checkerboard\" name=\"reflectance\"/></bsdf></shape>\n");
-  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"checkerboard\" name=\"reflectance\">: unsupported texture type "
-                             "(supported: bitmap)");
+                                 "<texture type=\"mesh_attribute\" name=\"reflectance\"/></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"mesh_attribute\" name=\"reflectance\">: unsupported texture type "
+                             "(supported: bitmap, checkerboard)");
   g = scene_file("tex_slot.xml", "<shape type=\"cube\"><bsdf type=\"dielectric\">\n"
                                  "<texture type=\"bitmap\" name=\"specular_reflectance\"><string name=\"filename\" "
                                  "value=\"tex/t.pfm\"/></texture></bsdf></shape>\n");
@@ -672,9 +672,9 @@ TEST(MitsubaShape, Meshes) {
 }
 
 TEST(MitsubaShape, Errors) {
-  std::string f = scene_file("shape_err1.xml", "<shape type=\"cylinder\"/>\n");
-  EXPECT_EQ(error_of(f), f + ":2: <shape type=\"cylinder\">: unsupported shape type (supported: obj, ply, rectangle, "
-                             "cube, sphere, disk)");
+  std::string f = scene_file("shape_err1.xml", "<shape type=\"bsplinecurve\"/>\n");
+  EXPECT_EQ(error_of(f), f + ":2: <shape type=\"bsplinecurve\">: unsupported shape type (supported: obj, ply, "
+                             "serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance)");
   f = scene_file("shape_err2.xml", "<shape type=\"obj\">\n<string name=\"filename\" value=\"no/such.obj\"/></shape>\n");
   EXPECT_EQ(error_of(f), f + ":3: <string name=\"filename\">: mesh file '" + (tmp_dir() / "no/such.obj").string() +
                              "' does not exist");
@@ -878,7 +878,8 @@ TEST(MitsubaSensor, Errors) {
        "scale here either)"},
       {"<sensor type=\"thinlens\">\n</sensor>\n", ":2: <sensor type=\"thinlens\">: missing <float name=\"aperture_radius\">"},
       {"<integrator type=\"bdpt\"/>\n",
-       ":2: <integrator type=\"bdpt\">: unsupported integrator (supported: path, volpath, volpathmis)"},
+       ":2: <integrator type=\"bdpt\">: unsupported integrator (supported: path, volpath, volpathmis, direct, "
+       "ptracer)"},
       {"<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"0\"/></integrator>\n",
        ":3: <integer name=\"max_depth\">: expected a positive max_depth or -1 (unlimited)"},
       {"<integrator type=\"path\">\n<boolean name=\"hide_emitters\" value=\"true\"/></integrator>\n",

@@ -1,4 +1,4 @@
-// Mesh-file loaders: OBJ + MTL (tinyobjloader) and PLY (ASCII and binary).
+// Mesh-file loaders: OBJ + MTL (tinyobjloader), PLY (ASCII and binary) and Mitsuba's serialized meshes.
 // Each can append a file's geometry to a scene (for JSON "mesh" shapes and
 // Mitsuba XML obj/ply shapes) or load a file alone as a whole scene (with a
 // default camera and light, see load.h). The conventions (normals, material
@@ -35,5 +35,24 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
 // counter-clockwise winding. Vertices used by no (non-degenerate) triangle get
 // (0, 0, 1).
 std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& positions, const std::vector<uint32_t>& indices);
+
+// Mitsuba's serialized format (the `serialized` shape of Mitsuba 0.6 and 3): a file of zlib-compressed meshes,
+// versions 3 and 4, single or double precision; `shape_index` picks one (0 = the first). Positions, optional
+// normals and UVs (as in the file: Mitsuba's v points down), triangles; vertex colours are skipped. Errors
+// throw InputError "<path>: what"; what was skipped or repaired goes to `warnings` (as load_ply_mesh).
+MeshDesc load_serialized_mesh(const std::string& path, size_t shape_index, std::vector<std::string>* warnings);
+
+// What a mesh loader skipped or repaired, counted for its warnings.
+struct MeshRepairs {
+  size_t degenerate = 0;    // triangles of zero area or with a repeated vertex, skipped
+  size_t nan = 0;           // triangles with non-finite vertex coordinates, skipped
+  size_t bad_vertices = 0;  // vertices with non-finite coordinates
+  size_t normals = 0;       // zero or non-finite normals replaced by computed ones
+};
+// The last step of the PLY and serialized loaders: normals normalized (zero or non-finite ones, or all of them
+// when the file has none, computed by area_weighted_normals; counted in r.normals) and non-finite UVs set to 0.
+void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r);
+// One warning line per kind of repair, naming `path`.
+void report_mesh_repairs(const std::string& path, const MeshRepairs& r, std::vector<std::string>& warnings);
 
 }  // namespace caustica

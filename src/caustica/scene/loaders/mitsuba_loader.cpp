@@ -297,6 +297,11 @@ class Loader {
   std::set<std::string> warned;
   int default_material = -1;
   bool have_integrator = false, have_environment = false;
+  // Shapegroups (their shapes, each with its own to_world before an instance's) and the state while one is read.
+  using ShapeGroup = std::vector<std::pair<ShapeDesc, M4>>;
+  std::vector<ShapeGroup> groups_;
+  bool in_shapegroup_ = false;
+  M4 shape_to_world_;  // the to_world of the shapes parse_shape added last
   int anonymous_bsdfs = 0;
 
   // ---- messages ----
@@ -563,10 +568,51 @@ class Loader {
   // ---- textures ----
   // A <texture type="bitmap">; colour textures are decoded from sRGB unless
   // raw="true" (Mitsuba linearises 8-bit images whatever the use).
+  // A Mitsuba to_uv (translations, rotations and scales of the uv plane) as caustica's uv transform.
+  void uv_transform(xml_node n, const M4& uv, Vec2f& scale, Vec2f& offset, float& rotation) {
+    // uv' = R(rotation) S uv + offset: the 2-D linear part's columns must be orthogonal.
+    double a = uv.a[0][0], b = uv.a[0][1], c = uv.a[1][0], e = uv.a[1][1];
+    double sx = std::hypot(a, c), sy = std::hypot(b, e);
+    if (sx == 0 || sy == 0 || std::fabs(a * b + c * e) > 1e-6 * sx * sy || a * e - b * c < 0)
+      fail(n, "to_uv: only translations, rotations and scales of the uv plane are supported");
+    // Mitsuba looks textures up with v down (row = v); caustica with v up (row =
+    // 1 - v), and its meshes carry v_c = 1 - v_m. So the transform caustica
+    // applies is F T F with F(u, v) = (u, 1 - v): rotation -r, the same scales,
+    // offset (o_u - s_v sin r, 1 - o_v - s_v cos r).
+    double r = std::atan2(c, a), ou = uv.a[0][3], ov = uv.a[1][3];
+    rotation = float(-r);
+    scale = Vec2f(float(sx), float(sy));
+    offset = Vec2f(float(ou - sy * std::sin(r)), float(1.0 - ov - sy * std::cos(r)));
+  }
+
+  // <texture type="checkerboard">: Mitsuba's color0 where the fractional parts of u and v lie in the same half of
+  // [0, 1), color1 elsewhere; exactly a 2 x 2 image looked up with nearest texels and repeat (its top-left and
+  // bottom-right texels color0, as Mitsuba's v points down), which is how caustica renders it.
+  int checkerboard_texture(xml_node n, bool top_level) {
+    Props p(*this, n);
+    p.declare({"color0", "color1", "to_uv"});
+    RGB c0 = p.get_color("color0", RGB(0.4f)), c1 = p.get_color("color1", RGB(0.2f));
+    bool has_uv = false;
+    M4 uv = p.get_transform("to_uv", &has_uv);
+    p.finish();
+    TextureDesc t;
+    t.name = "checkerboard@" + where(n);
+    t.width = t.height = 2;
+    for (RGB c : {c0, c1, c1, c0}) t.rgba.insert(t.rgba.end(), {c.x, c.y, c.z, 1.f});  // rows from the top
+    t.nearest = true;
+    t.wrap = TexWrap::kRepeat;
+    if (has_uv) uv_transform(n, uv, t.uv_scale, t.uv_offset, t.uv_rotation);
+    d.textures.push_back(std::move(t));
+    int idx = int(d.textures.size()) - 1;
+    if (top_level) register_id(n, "texture", idx);
+    return idx;
+  }
+
   int parse_texture(xml_node n, bool top_level) {
     check_attrs(n, {"type", "id", "name"});
     std::string type = attr(n, "type");
-    if (type != "bitmap") fail(n, "unsupported texture type (supported: bitmap)");
+    if (type == "checkerboard") return checkerboard_texture(n, top_level);
+    if (type != "bitmap") fail(n, "unsupported texture type (supported: bitmap, checkerboard)");
     Props p(*this, n);
     p.declare({"filename", "raw", "filter_type", "wrap_mode", "to_uv"});
     xml_node fnode = p.get("filename");
@@ -591,21 +637,7 @@ class Loader {
     else fail(n, "unknown filter_type '" + filter + "' (allowed: bilinear, nearest)");
     Vec2f scale(1.f, 1.f), offset(0.f, 0.f);
     float rotation = 0.f;
-    if (has_uv) {
-      // uv' = R(rotation) S uv + offset: the 2-D linear part's columns must be orthogonal.
-      double a = uv.a[0][0], b = uv.a[0][1], c = uv.a[1][0], e = uv.a[1][1];
-      double sx = std::hypot(a, c), sy = std::hypot(b, e);
-      if (sx == 0 || sy == 0 || std::fabs(a * b + c * e) > 1e-6 * sx * sy || a * e - b * c < 0)
-        fail(n, "to_uv: only translations, rotations and scales of the uv plane are supported");
-      // Mitsuba looks textures up with v down (row = v); caustica with v up (row =
-      // 1 - v), and its meshes carry v_c = 1 - v_m. So the transform caustica
-      // applies is F T F with F(u, v) = (u, 1 - v): rotation -r, the same scales,
-      // offset (o_u - s_v sin r, 1 - o_v - s_v cos r).
-      double r = std::atan2(c, a), ou = uv.a[0][3], ov = uv.a[1][3];
-      rotation = float(-r);
-      scale = Vec2f(float(sx), float(sy));
-      offset = Vec2f(float(ou - sy * std::sin(r)), float(1.0 - ov - sy * std::cos(r)));
-    }
+    if (has_uv) uv_transform(n, uv, scale, offset, rotation);
     TextureDesc& td = d.textures[t];
     bool same = td.wrap == w && td.nearest == nearest && td.uv_scale.x == scale.x && td.uv_scale.y == scale.y &&
                 td.uv_offset.x == offset.x && td.uv_offset.y == offset.y && td.uv_rotation == rotation;
@@ -1090,17 +1122,105 @@ class Loader {
   }
 
   // ---- shapes ----
+  static bool zero_scale(const M4& m) {
+    return len3(column(m, 0)) == 0 && len3(column(m, 1)) == 0 && len3(column(m, 2)) == 0;
+  }
+  static bool uniform_scale(const M4& m) {
+    double l0 = len3(column(m, 0)), l1 = len3(column(m, 1)), l2 = len3(column(m, 2));
+    return l0 > 0 && std::fabs(l0 - l1) <= 1e-4 * l0 && std::fabs(l0 - l2) <= 1e-4 * l0;
+  }
+
+  // Mitsuba's cylinder in its own space: the unit tube x^2 + y^2 = 1, 0 <= z <= 1, normals out, as a mesh of
+  // kCylinderSegments quads around with smooth (radial) normals; uv = (phi / 2 pi, z) in Mitsuba's terms, so
+  // caustica's v = 1 - z. The seam at phi = 0 has two columns of vertices (u = 0 and u = 1).
+  static constexpr int kCylinderSegments = 256;  // the chords stay within r (1 - cos(pi / 256)) = 7.5e-5 r
+  static MeshDesc unit_cylinder_mesh(const std::string& name) {
+    MeshDesc m;
+    m.name = name;
+    const int n = kCylinderSegments;
+    for (int i = 0; i <= n; ++i) {
+      double phi = 2.0 * kPi * double(i) / n;
+      float c = float(std::cos(phi)), sn = float(std::sin(phi));
+      if (i == n) c = 1.f, sn = 0.f;
+      for (int z = 0; z <= 1; ++z) {
+        m.positions.push_back(Vec3f(c, sn, float(z)));
+        m.normals.push_back(Vec3f(c, sn, 0.f));
+        m.uvs.push_back(Vec2f(float(i) / n, 1.f - float(z)));
+      }
+    }
+    for (uint32_t i = 0; i < uint32_t(n); ++i) {
+      uint32_t a = 2 * i, b = 2 * i + 1, c = 2 * i + 2, e = 2 * i + 3;  // (phi_i, 0), (phi_i, 1), (phi_i+1, 0), ...
+      m.indices.insert(m.indices.end(), {a, c, e, a, e, b});                // counter-clockwise seen from outside
+    }
+    return m;
+  }
+
+  // <shape type="shapegroup" id="...">: shapes kept aside for <shape type="instance">, not rendered themselves.
+  void parse_shapegroup(xml_node n) {
+    if (in_shapegroup_) fail(n, "a shapegroup inside a shapegroup is not supported (nested instancing, as in Mitsuba)");
+    if (!has_attr(n, "id")) fail(n, "a shapegroup needs an id (instances refer to it)");
+    Props p(*this, n);
+    ShapeGroup group;
+    in_shapegroup_ = true;
+    for (xml_node c : p.take_objects("shape")) {
+      std::string t = attr(c, "type");
+      if (t == "instance") fail(c, "an instance inside a shapegroup is not supported (nested instancing, as in Mitsuba)");
+      size_t before = d.shapes.size();
+      parse_shape(c);
+      for (size_t i = before; i < d.shapes.size(); ++i) group.push_back({d.shapes[i], shape_to_world_});
+      d.shapes.resize(before);
+    }
+    in_shapegroup_ = false;
+    p.finish();
+    if (group.empty()) warn(n, "empty-shapegroup", "an empty shapegroup: its instances add nothing");
+    groups_.push_back(std::move(group));
+    register_id(n, "shapegroup", int(groups_.size()) - 1);
+  }
+
+  // <shape type="instance">: a <ref> to a shapegroup and a to_world, which is applied after each shape's own.
+  // Meshes are shared between instances (ShapeDesc::mesh), not copied.
+  void parse_instance(xml_node n) {
+    if (in_shapegroup_) fail(n, "an instance inside a shapegroup is not supported (nested instancing, as in Mitsuba)");
+    Props p(*this, n);
+    p.declare({"to_world"});
+    M4 to_world = p.get_transform("to_world");
+    std::vector<xml_node> refs = p.take_objects("ref");
+    if (refs.size() != 1) fail(n, "an instance takes one <ref id=\"...\"/> to a shapegroup");
+    const ShapeGroup& group = groups_[size_t(lookup(refs[0], "shapegroup").index)];
+    p.finish();
+    std::string name = has_attr(n, "id") ? attr(n, "id") : "instance@" + where(n);
+    for (const auto& [shape, local] : group) {
+      ShapeDesc s = shape;
+      M4 m = mul(to_world, local);
+      if (s.type == ShapeType::kSphere) {
+        if (zero_scale(m)) continue;
+        if (!uniform_scale(m))
+          fail(n, "the instance's to_world scales the sphere '" + s.name + "' unevenly (caustica's spheres are exact spheres)");
+      }
+      s.to_world = to_affine(m);
+      s.name = name + "/" + s.name;
+      d.shapes.push_back(std::move(s));
+    }
+  }
+
   void parse_shape(xml_node n) {
     check_attrs(n, {"type", "id", "name"});
     std::string type = attr(n, "type");
-    static const char* kShapes = "supported: obj, ply, rectangle, cube, sphere, disk";
-    if (type != "obj" && type != "ply" && type != "rectangle" && type != "cube" && type != "sphere" && type != "disk")
+    static const char* kShapes =
+        "supported: obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
+    const bool file_mesh = type == "obj" || type == "ply" || type == "serialized";
+    if (type == "shapegroup") return parse_shapegroup(n);
+    if (type == "instance") return parse_instance(n);
+    if (!file_mesh && type != "rectangle" && type != "cube" && type != "sphere" && type != "disk" && type != "cylinder")
       fail(n, std::string("unsupported shape type (") + kShapes + ")");
     Props p(*this, n);
     p.declare({"to_world", "flip_normals"});
     if (type == "sphere") p.declare({"center", "radius"});
-    if (type == "obj" || type == "ply") p.declare({"filename", "face_normals"});
+    if (type == "cylinder") p.declare({"p0", "p1", "radius"});
+    if (file_mesh) p.declare({"filename", "face_normals"});
+    if (type == "serialized") p.declare({"shape_index"});
     M4 to_world = p.get_transform("to_world");
+    shape_to_world_ = to_world;
     Affine tw = to_affine(to_world);
     bool flip = p.get_bool("flip_normals", false);
     // Material.
@@ -1123,6 +1243,7 @@ class Loader {
       check_attrs(e, {"type", "id", "name"});
       std::string et = attr(e, "type");
       if (et != "area") fail(e, "only an area emitter can be attached to a shape");
+      if (in_shapegroup_) fail(e, "an emitter inside a shapegroup is not supported (Mitsuba does not instance emitters)");
       Props ep(*this, e);
       ep.declare({"radiance"});
       ColorOrTexture r = ep.get_color_tex("radiance", RGB(1.f));
@@ -1159,7 +1280,38 @@ class Loader {
       s.interior = interior;
       s.exterior = exterior;
     };
-    if (type == "obj" || type == "ply") {
+    if (type == "cylinder") {
+      // Mitsuba's cylinder: the open tube of `radius` from p0 to p1 (no caps), its to_world composed with
+      // translate(p0) * to_frame(Frame(axis)) * scale(radius, radius, length) about the unit tube along z.
+      Vec3f pa = p.get_point("p0", Vec3f(0.f)), pb = p.get_point("p1", Vec3f(0.f, 0.f, 1.f));
+      V3 a{pa.x, pa.y, pa.z}, b{pb.x, pb.y, pb.z};
+      double radius = p.get_float("radius", 1.f), length = len3(sub(b, a));
+      if (!(radius > 0)) fail(p.get("radius"), "expected a positive radius");
+      if (!(length > 0)) fail(n, "p0 and p1 are the same point (a cylinder needs a length)");
+      V3 axis = scale3(sub(b, a), 1.0 / length);
+      Frame f(Vec3f(float(axis.x), float(axis.y), float(axis.z)));
+      M4 local;
+      for (int i = 0; i < 3; ++i) {
+        const float fs[3] = {f.s.x, f.s.y, f.s.z}, ft[3] = {f.t.x, f.t.y, f.t.z};
+        local.a[i][0] = fs[i] * radius;
+        local.a[i][1] = ft[i] * radius;
+        local.a[i][2] = (i == 0 ? axis.x : i == 1 ? axis.y : axis.z) * length;
+        local.a[i][3] = i == 0 ? a.x : i == 1 ? a.y : a.z;
+      }
+      shape_to_world_ = to_world = mul(to_world, local);
+      tw = to_affine(to_world);
+      d.meshes.push_back(unit_cylinder_mesh(shape_name));
+      ShapeDesc s;
+      s.name = shape_name;
+      s.type = ShapeType::kMesh;
+      s.mesh = int(d.meshes.size()) - 1;
+      s.to_world = tw;
+      finish_shape(s);
+      p.finish();
+      d.shapes.push_back(s);
+      return;
+    }
+    if (file_mesh) {
       xml_node fnode = p.get("filename");
       if (!fnode) fail(n, "missing <string name=\"filename\">");
       std::string fname = p.get_string("filename", "");
@@ -1170,12 +1322,15 @@ class Loader {
         added = append_obj(d, path.string(), tw, material, where(fnode));
       } else {
         MeshDesc mesh;
+        int index = type == "serialized" ? p.get_int("shape_index", 0) : 0;
+        if (index < 0) fail(p.get("shape_index"), "expected a shape_index >= 0");
         try {
-          mesh = load_ply_mesh(path.string(), &d.warnings);
+          mesh = type == "ply" ? load_ply_mesh(path.string(), &d.warnings)
+                               : load_serialized_mesh(path.string(), size_t(index), &d.warnings);
         } catch (const InputError& e) {
           throw InputError(where(fnode) + ": " + e.what());
         }
-        // Mitsuba reads PLY texture coordinates as they are (v down, its texture
+        // Mitsuba reads PLY and serialized texture coordinates as they are (v down, its texture
         // convention), caustica's v is up: flip (OBJ needs nothing, Mitsuba flips OBJ's v itself).
         for (Vec2f& t : mesh.uvs) t.y = 1.f - t.y;
         mesh.name = shape_name;
@@ -1206,14 +1361,12 @@ class Loader {
       s.center = p.get_point("center", Vec3f(0.f));
       s.radius = p.get_float("radius", 1.f);
       if (!(s.radius > 0.f)) fail(p.get("radius"), "expected a positive radius");
-      double l0 = len3(column(to_world, 0)), l1 = len3(column(to_world, 1)), l2 = len3(column(to_world, 2));
-      if (l0 == 0 && l1 == 0 && l2 == 0) {
+      if (zero_scale(to_world)) {
         warn(n, "zero-sphere", "a sphere scaled to zero size has no effect on the image; skipped");
         p.finish();
         return;
       }
-      if (std::fabs(l0 - l1) > 1e-4 * l0 || std::fabs(l0 - l2) > 1e-4 * l0 || l0 == 0)
-        fail(n, "a sphere's to_world must scale uniformly (caustica's spheres are exact spheres)");
+      if (!uniform_scale(to_world)) fail(n, "a sphere's to_world must scale uniformly (caustica's spheres are exact spheres)");
     } else if (type == "rectangle") {
       s.type = ShapeType::kRectangle;
     } else if (type == "cube") {
@@ -1477,18 +1630,33 @@ class Loader {
     if (have_integrator) fail(n, "a scene takes one integrator");
     have_integrator = true;
     std::string type = attr(n, "type");
-    if (type != "path" && type != "volpath" && type != "volpathmis")
-      fail(n, "unsupported integrator (supported: path, volpath, volpathmis)");
+    if (type != "path" && type != "volpath" && type != "volpathmis" && type != "direct" && type != "ptracer")
+      fail(n, "unsupported integrator (supported: path, volpath, volpathmis, direct, ptracer)");
     Props p(*this, n);
-    p.declare({"max_depth", "rr_depth", "hide_emitters"});
-    int md = p.get_int("max_depth", -1);
-    if (md == 0 || md < -1) fail(p.get("max_depth"), "expected a positive max_depth or -1 (unlimited)");
-    d.max_depth = md;
-    int rr = p.get_int("rr_depth", 5);
-    if (rr <= 0) fail(p.get("rr_depth"), "expected a positive rr_depth");
-    d.integrator.rr_depth = rr;
+    p.declare({"hide_emitters"});
+    if (type == "direct") {
+      // Mitsuba's direct: emitters seen from the camera and direct light at the first surface, i.e. paths of at
+      // most two segments: caustica's path tracer with max depth 2 (its emitter/BSDF sample counts only change
+      // the noise).
+      p.declare({"emitter_samples", "bsdf_samples", "shading_samples"});
+      for (const char* k : {"emitter_samples", "bsdf_samples", "shading_samples"})
+        if (p.has(k) && p.get_int(k, 1) < 0) fail(p.get(k), std::string("expected ") + k + " >= 0");
+      d.max_depth = 2;
+      d.integrator.type = "path";
+    } else {
+      p.declare({"max_depth", "rr_depth"});
+      if (type == "ptracer") p.declare({"samples_per_pass"});
+      int md = p.get_int("max_depth", -1);
+      if (md == 0 || md < -1) fail(p.get("max_depth"), "expected a positive max_depth or -1 (unlimited)");
+      d.max_depth = md;
+      int rr = p.get_int("rr_depth", 5);
+      if (rr <= 0) fail(p.get("rr_depth"), "expected a positive rr_depth");
+      d.integrator.rr_depth = rr;
+      // Mitsuba's ptracer traces from the lights and splats onto the film: caustica's light tracer.
+      d.integrator.type = type == "ptracer" ? "light" : "path";
+    }
     if (p.get_bool("hide_emitters", false)) fail(p.get("hide_emitters"), "hide_emitters=true is not supported");
-    p.finish();
+    p.finish({"samples_per_pass"});
   }
 
   // Mitsuba's default sensor: fov 45 degrees along x, looking along +z at the

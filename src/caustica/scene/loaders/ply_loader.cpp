@@ -248,6 +248,39 @@ std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& p, const std:
   return n;
 }
 
+void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r) {
+  if (has_normals) {
+    std::vector<Vec3f> computed;
+    for (size_t i = 0; i < m.normals.size(); ++i) {
+      Vec3f n = m.normals[i];
+      float l = length(n);
+      if (l > 0.f && std::isfinite(l)) {
+        m.normals[i] = n / l;
+      } else {
+        if (computed.empty()) computed = area_weighted_normals(m.positions, m.indices);
+        m.normals[i] = computed[i];
+        ++r.normals;
+      }
+    }
+  } else {
+    m.normals = area_weighted_normals(m.positions, m.indices);
+  }
+  for (Vec2f& t : m.uvs)
+    if (!std::isfinite(t.x) || !std::isfinite(t.y)) t = Vec2f(0.f, 0.f);
+}
+
+void report_mesh_repairs(const std::string& path, const MeshRepairs& r, std::vector<std::string>& warnings) {
+  if (r.degenerate)
+    warnings.push_back(path + ": skipped " + plural(r.degenerate, "degenerate triangle", "degenerate triangles"));
+  if (r.nan)
+    warnings.push_back(path + ": skipped " + plural(r.nan, "triangle", "triangles") +
+                       " with non-finite (NaN or infinite) vertex coordinates (" +
+                       plural(r.bad_vertices, "such vertex", "such vertices") + ")");
+  if (r.normals)
+    warnings.push_back(path + ": replaced " + plural(r.normals, "zero or non-finite normal", "zero or non-finite normals") +
+                       " by computed ones");
+}
+
 MeshDesc load_ply_mesh(const std::string& path) { return load_ply_mesh(path, nullptr); }
 
 MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnings) {
@@ -555,40 +588,16 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
   if (!rd.binary() && rd.ascii_trailing())
     fail(path, rd.where() + "unexpected data after the last element (the header's counts are too small?)");
 
-  // ---- normals ----
-  size_t repaired_normals = 0;
-  if (has_n) {
-    std::vector<Vec3f> computed;
-    for (size_t i = 0; i < m.normals.size(); ++i) {
-      Vec3f n = m.normals[i];
-      float l = length(n);
-      if (l > 0.f && std::isfinite(l)) {
-        m.normals[i] = n / l;
-      } else {
-        if (computed.empty()) computed = area_weighted_normals(m.positions, m.indices);
-        m.normals[i] = computed[i];
-        ++repaired_normals;
-      }
-    }
-  } else {
-    m.normals = area_weighted_normals(m.positions, m.indices);
-  }
-  if (has_uv)
-    for (Vec2f& t : m.uvs)
-      if (!std::isfinite(t.x) || !std::isfinite(t.y)) t = Vec2f(0.f, 0.f);
+  MeshRepairs repairs;
+  repairs.degenerate = skipped_degenerate;
+  repairs.nan = skipped_nan;
+  repairs.bad_vertices = n_bad_vertices;
+  finish_mesh_attributes(m, has_n, repairs);
 
   if (warnings) {
-    if (skipped_degenerate)
-      warnings->push_back(path + ": skipped " + plural(skipped_degenerate, "degenerate triangle", "degenerate triangles"));
-    if (skipped_nan)
-      warnings->push_back(path + ": skipped " +
-                          plural(skipped_nan, "triangle", "triangles") + " with non-finite (NaN or infinite) vertex coordinates (" +
-                          plural(n_bad_vertices, "such vertex", "such vertices") + ")");
+    report_mesh_repairs(path, repairs, *warnings);
     if (skipped_small)
       warnings->push_back(path + ": skipped " + plural(skipped_small, "face", "faces") + " with fewer than 3 vertices");
-    if (repaired_normals)
-      warnings->push_back(path + ": replaced " + plural(repaired_normals, "zero or non-finite normal", "zero or non-finite normals") +
-                          " by computed ones");
     if (!ignored.empty()) {
       std::string list;
       for (const std::string& s : ignored) list += (list.empty() ? "'" : ", '") + s + "'";
