@@ -879,7 +879,7 @@ TEST(MitsubaSensor, Errors) {
       {"<sensor type=\"thinlens\">\n</sensor>\n", ":2: <sensor type=\"thinlens\">: missing <float name=\"aperture_radius\">"},
       {"<integrator type=\"bdpt\"/>\n",
        ":2: <integrator type=\"bdpt\">: unsupported integrator (supported: path, volpath, volpathmis, direct, "
-       "ptracer)"},
+       "ptracer, and the differentiable prb, prb_basic, prbvolpath, prb_projective, direct_projective)"},
       {"<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"0\"/></integrator>\n",
        ":3: <integer name=\"max_depth\">: expected a positive max_depth or -1 (unlimited)"},
       {"<integrator type=\"path\">\n<boolean name=\"hide_emitters\" value=\"true\"/></integrator>\n",

@@ -360,6 +360,22 @@ def test_direct_is_path_with_max_depth_2(tmp_path):
     assert a.mean() < render(p, spp=4, seed=1).mean()  # more bounces add light: the default is unlimited
 
 
+@pytest.mark.parametrize("kind,depth", [("prb", 4), ("prb_basic", 4), ("prbvolpath", 4), ("prb_projective", 4),
+                                        ("direct_projective", None)])
+def test_differentiable_integrators_render_their_primal_image(tmp_path, kind, depth):
+    """Mitsuba's differentiable integrators map to what renders their primal image: path (max_depth kept), or
+    path with max depth 2 for direct_projective; projective sampling options only warn."""
+    depth_xml = f'<integer name="max_depth" value="{depth}"/>' if depth else ""
+    extra = '<integer name="sppc" value="8"/>' if "projective" in kind else ""
+    f = scene_xml(tmp_path, "", "k.xml", f'<integrator type="{kind}">{depth_xml}{extra}</integrator>')
+    with warnings.catch_warnings(record=True):
+        s = caustica.load_scene(str(f))
+    assert s.integrator_defaults["integrator"] == "path"
+    assert s.integrator_defaults["max_depth"] == (depth or 2)
+    if extra:
+        assert any("sppc" in w and "ignored" in w for w in s.warnings), s.warnings
+
+
 def test_ptracer_is_the_light_tracer(tmp_path):
     body = """<shape type="sphere"><point name="center" x="0" y="0.8" z="0"/><float name="radius" value="0.8"/>
       </shape>"""

@@ -1630,15 +1630,24 @@ class Loader {
     if (have_integrator) fail(n, "a scene takes one integrator");
     have_integrator = true;
     std::string type = attr(n, "type");
-    if (type != "path" && type != "volpath" && type != "volpathmis" && type != "direct" && type != "ptracer")
-      fail(n, "unsupported integrator (supported: path, volpath, volpathmis, direct, ptracer)");
+    // Mitsuba's differentiable integrators render the same primal image as their forward counterparts:
+    // prb, prb_basic, prbvolpath and prb_projective as path/volpath, direct_projective as direct. Their options
+    // for gradients (projective sampling and guiding) cannot change the image: warnings.
+    const bool path_like = type == "path" || type == "volpath" || type == "volpathmis" || type == "prb" ||
+                           type == "prb_basic" || type == "prbvolpath" || type == "prb_projective";
+    const bool direct_like = type == "direct" || type == "direct_projective";
+    if (!path_like && !direct_like && type != "ptracer")
+      fail(n, "unsupported integrator (supported: path, volpath, volpathmis, direct, ptracer, and the differentiable "
+              "prb, prb_basic, prbvolpath, prb_projective, direct_projective)");
     Props p(*this, n);
     p.declare({"hide_emitters"});
-    if (type == "direct") {
+    if (type == "prb_projective" || type == "direct_projective")
+      p.declare({"sppc", "sppp", "sppi", "guiding", "guiding_proj", "guiding_rounds"});
+    if (direct_like) {
       // Mitsuba's direct: emitters seen from the camera and direct light at the first surface, i.e. paths of at
       // most two segments: caustica's path tracer with max depth 2 (its emitter/BSDF sample counts only change
       // the noise).
-      p.declare({"emitter_samples", "bsdf_samples", "shading_samples"});
+      if (type == "direct") p.declare({"emitter_samples", "bsdf_samples", "shading_samples"});
       for (const char* k : {"emitter_samples", "bsdf_samples", "shading_samples"})
         if (p.has(k) && p.get_int(k, 1) < 0) fail(p.get(k), std::string("expected ") + k + " >= 0");
       d.max_depth = 2;
@@ -1656,7 +1665,7 @@ class Loader {
       d.integrator.type = type == "ptracer" ? "light" : "path";
     }
     if (p.get_bool("hide_emitters", false)) fail(p.get("hide_emitters"), "hide_emitters=true is not supported");
-    p.finish({"samples_per_pass"});
+    p.finish({"samples_per_pass", "sppc", "sppp", "sppi", "guiding", "guiding_proj", "guiding_rounds"});
   }
 
   // Mitsuba's default sensor: fov 45 degrees along x, looking along +z at the
