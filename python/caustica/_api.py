@@ -296,12 +296,13 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
                     time: Optional[float] = None, rr_depth: Optional[int] = None, sampler: Optional[str] = None,
                     photons: Optional[int] = None, radius: Optional[float] = None, alpha: Optional[float] = None,
                     k: Optional[int] = None, photon_sampling: Optional[str] = None,
-                    light_sampler: Optional[str] = None) -> dict:
+                    light_sampler: Optional[str] = None, hide_emitters: Optional[bool] = None) -> dict:
     """Options given explicitly win; the rest come from the scene's integrator defaults (JSON
     "integrator"), then from caustica's own defaults (path, 16 spp, rr_depth 5, sobol, alpha 0.7
     (0.75 for bpm and vcm, Georgiev et al. 2012), k 50, photon_sampling "uniform"). spp and time go
     together: giving either ignores both of the scene's. The scene's photon_sampling applies to ppm,
-    sppm and pppm only, its light_sampler to LIGHT_SAMPLER_INTEGRATORS only (default "power")."""
+    sppm and pppm only, its light_sampler to LIGHT_SAMPLER_INTEGRATORS only (default "power"); hide_emitters
+    (default False) to every integrator."""
     dflt = scene.integrator_defaults
     if spp is None and time is None:
         spp, time = dflt.get("spp"), dflt.get("time")
@@ -314,7 +315,8 @@ def resolve_options(scene: "_native.Scene", integrator: Optional[str] = None, sp
                 photon_sampling=photon_sampling if photon_sampling is not None else
                 dflt.get("photon_sampling", "uniform") if integrator in ("ppm", "sppm", "pppm") else "uniform",
                 light_sampler=light_sampler if light_sampler is not None else
-                dflt.get("light_sampler", "power") if integrator in LIGHT_SAMPLER_INTEGRATORS else "power")
+                dflt.get("light_sampler", "power") if integrator in LIGHT_SAMPLER_INTEGRATORS else "power",
+                hide_emitters=pick(hide_emitters, "hide_emitters", False))
 
 
 PHOTON_SAMPLINGS = ("uniform", "adaptive")
@@ -376,7 +378,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                lanes: bool = True, photon_sampling: Optional[str] = None,
                restir_candidates: Optional[int] = None, restir_neighbors: Optional[int] = None,
                restir_radius: Optional[float] = None, restir_history: Optional[float] = None,
-               light_sampler: Optional[str] = None, volume_radius: Optional[float] = None) -> RenderResult:
+               light_sampler: Optional[str] = None, volume_radius: Optional[float] = None,
+               hide_emitters: Optional[bool] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -405,6 +408,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     paths (and restir's candidates) chooses a light: "power" (default: the scene's, else in proportion to its power) or
     "bvh" (by a light BVH's importance from the shading point, pbrt-v4's BVHLightSampler: far fewer wasted
     samples in scenes of many lights). Photons and light subpaths still leave the lights in proportion to power.
+    `hide_emitters` (every integrator; default the scene's, else False): emitters seen directly from the camera
+    (area lights and the environment at the end of the camera ray, through null boundaries) add nothing, as
+    Mitsuba's hide_emitters; they still hide what is behind them, and their light, reflections and refractions
+    stay.
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
     Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
     `target_error` with `reference` (a path to an .exr/.pfm or an (H, W, 3) array) stops when
@@ -437,7 +444,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     scene = load_scene(scene)
     until_target = spp is None and time is None and (target_error is not None or target_noise is not None)
     o = resolve_options(scene, integrator, spp, time, rr_depth, sampler, photons, radius, alpha, k, photon_sampling,
-                        light_sampler)
+                        light_sampler, hide_emitters)
     integrator, spp, time, rr_depth, sampler = o["integrator"], o["spp"], o["time"], o["rr_depth"], o["sampler"]
     if until_target:  # a target alone renders until it is met (not the scene's default spp)
         spp = time = None
@@ -481,7 +488,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             sort_materials=bool(sort_materials), cache_first_bounce=bool(cache_first_bounce),
                             jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(o["photon_sampling"]),
                             light_sampler=_light_sampler(o["light_sampler"]),
-                            volume_radius=float(volume_radius or 0.0), **restir, **targets)
+                            volume_radius=float(volume_radius or 0.0),
+                            hide_emitters=_boolean("hide_emitters", o["hide_emitters"]), **restir, **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -511,6 +519,12 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
 
 
 LIGHT_SAMPLERS = ("power", "bvh")
+
+
+def _boolean(name, v) -> bool:
+    if not isinstance(v, (bool, np.bool_)):
+        raise InputError(f"{name} must be True or False, got {v!r}")
+    return bool(v)
 
 
 def _light_sampler(v) -> str:
@@ -591,7 +605,7 @@ def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, t
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,
     pass_offset=, stochastic_hash=, photon_sampling=, and ppm/pppm/sppm in media volume_radius=; stop on quality: target_error= with reference=, and
-    target_noise= (see render_job)."""
+    target_noise=; hide_emitters= (every integrator: emitters seen directly add nothing) (see render_job)."""
     r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
                    **photon_options)
     if r.interrupted:

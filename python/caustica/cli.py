@@ -168,6 +168,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "restir's candidates) chooses a light: power (in proportion to power) or bvh (a "
                         "light BVH's importance from the shading point; for scenes of many lights) (default: the "
                         "scene's, else power)")
+    r.add_argument("--hide-emitters", action=argparse.BooleanOptionalAction, default=None,
+                   help="every integrator: emitters seen directly from the camera (area lights, the environment) add "
+                        "nothing; they still block what is behind them, and their light and reflections stay "
+                        "(Mitsuba's hide_emitters) (default: the scene's, else shown)")
     r.add_argument("--restir-candidates", type=_positive_int("--restir-candidates"), default=None,
                    help="restir: light candidates per pixel and pass (default 32)")
     r.add_argument("--restir-neighbors", type=_nonneg_int("--restir-neighbors"), default=None,
@@ -352,7 +356,7 @@ def cmd_render(a) -> int:
                               jitter=not a.no_jitter, lanes=not a.no_lanes, photon_sampling=a.photon_sampling,
                               restir_candidates=a.restir_candidates, restir_neighbors=a.restir_neighbors,
                               restir_radius=a.restir_radius, restir_history=a.restir_history,
-                              light_sampler=a.light_sampler)
+                              light_sampler=a.light_sampler, hide_emitters=a.hide_emitters)
     except _api.RenderError as e:
         failed = e
     finally:

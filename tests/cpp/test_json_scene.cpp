@@ -664,7 +664,10 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /integrator/max_depth: give max_depth once (here or at /max_depth)"},
       {scene_with(R"("integrator": {"seed": 4})"),
        "s.json: /integrator/seed: unknown key (allowed: type, spp, time, max_depth, rr_depth, sampler, photons, radius, "
-       "alpha, k, photon_sampling, restir_candidates, restir_neighbors, restir_radius, restir_history, light_sampler)"},
+       "alpha, k, photon_sampling, restir_candidates, restir_neighbors, restir_radius, restir_history, light_sampler, "
+       "hide_emitters)"},
+      {scene_with(R"("integrator": {"hide_emitters": 1})"),
+       "s.json: /integrator/hide_emitters: expected true or false, got number"},
       {scene_with(R"("integrator": {"photon_sampling": "smart"})"),
        "s.json: /integrator/photon_sampling: unknown photon sampling 'smart' (allowed: uniform, adaptive)"},
       {R"({"camera": "top", "cameras": {"front": {}, "side": {"position": [1, 0, 0]}}, "shapes": [{"type": "cube"}]})",

@@ -838,6 +838,12 @@ TEST(MitsubaSensor, DefaultCameraAndIntegrator) {
                                  "the scene)"))
       << all_warnings(d);
   EXPECT_EQ(d.integrator.rr_depth, 10);  // the scene's default Russian-roulette depth
+  EXPECT_EQ(d.integrator.hide_emitters, -1);  // not given
+  for (const char* v : {"true", "false"}) {
+    std::string g = scene_file("hide.xml", std::string("<integrator type=\"path\"><boolean name=\"hide_emitters\" "
+                                                       "value=\"") + v + "\"/></integrator>\n<shape type=\"cube\"/>\n");
+    EXPECT_EQ(load_mitsuba_scene(g).integrator.hide_emitters, std::string(v) == "true" ? 1 : 0) << v;
+  }
   EXPECT_TRUE(d.lights.empty());  // no light is invented: the image is black, as in Mitsuba
 }
 
@@ -882,8 +888,8 @@ TEST(MitsubaSensor, Errors) {
        "ptracer, and the differentiable prb, prb_basic, prbvolpath, prb_projective, direct_projective)"},
       {"<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"0\"/></integrator>\n",
        ":3: <integer name=\"max_depth\">: expected a positive max_depth or -1 (unlimited)"},
-      {"<integrator type=\"path\">\n<boolean name=\"hide_emitters\" value=\"true\"/></integrator>\n",
-       ":3: <boolean name=\"hide_emitters\">: hide_emitters=true is not supported"},
+      {"<integrator type=\"path\">\n<boolean name=\"hide_emitters\" value=\"yes\"/></integrator>\n",
+       ":3: <boolean name=\"hide_emitters\">: expected true or false, got 'yes'"},
       {"<integrator type=\"path\"/>\n<integrator type=\"path\"/>\n",
        ":3: <integrator type=\"path\">: a scene takes one integrator"},
   };

@@ -42,6 +42,12 @@ struct PathParams {
   SamplerType sampler = SamplerType::kSobol;
   bool jitter = true;  // false: every sample through the pixel centre, weight 1 (camera rays repeat per pass)
   bool light_bvh = false;  // choose lights by the light BVH (light/light_bvh.h) instead of by power alone
+  // Emitters seen directly from the camera (area lights and the environment at the end of the camera segment,
+  // null boundaries crossed on the way) add nothing; they still block what lies behind them (Mitsuba's
+  // hide_emitters). Emissive media, and emitters seen through a reflection or refraction, stay visible.
+  bool hide_emitters = false;
+  // Whether the emission reached at the end of segment `depth` (1: the camera's) is added.
+  CHD bool shows_emission(uint32_t depth) const { return !hide_emitters || depth > 1; }
 };
 
 // The probability that next-event estimation from reference point p chooses `light`.
@@ -333,7 +339,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     }
   }
   if (!hit.valid()) {
-    if (s.environment_light >= 0 && !st.nee_only) {
+    if (s.environment_light >= 0 && !st.nee_only && pp.shows_emission(st.depth)) {
       const Light& env = s.lights[s.environment_light];
       float w = 1.f;
       if (!st.prev_delta) {
@@ -350,7 +356,8 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   Vec3f wo_world = -st.ray.d;
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
 
-  if (!st.nee_only) path_add_emission(s, pp, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
+  if (!st.nee_only && pp.shows_emission(st.depth))
+    path_add_emission(s, pp, sh, wo_world, st.prev_p, st.prev_pdf, st.prev_delta, st.beta, st.L);
   if (is_null_surface(s, sh)) {
     // A null surface: the ray goes on unchanged, into the medium behind it, and no segment is counted
     // (prev_p, prev_pdf, prev_delta and nee_only stay those of the vertex that sampled the direction).

@@ -183,7 +183,7 @@ void trace_avx2(const SceneView& s, const Accel& accel, const PathParams& pp, ui
         sphere_ng.set(i, sh.ng);
         sphere_ns.set(i, sh.ns);
       }
-      if (light[i] >= 0) {
+      if (light[i] >= 0 && pp.shows_emission(depth[i])) {
         SurfaceHit sh = make_surface_hit(s, r, h);
         RGB Li = get(L, i);
         path_add_emission(s, pp, sh, -r.d, get(prev_p, i), prev_pdf[i], prev_delta[i] != 0, get(beta, i), Li);

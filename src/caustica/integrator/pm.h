@@ -115,9 +115,11 @@ constexpr uint32_t kPmGatherDepth = 8;
 // One camera sample's radiance along `ray` (the pixel's camera ray; smp its sampler after path_start).
 template <class Tracer, class Map>
 CHD RGB pm_radiance(const SceneView& v, const Tracer& accel, const PmMaps<Map>& maps, uint64_t paths, uint32_t k,
-                    Ray ray, Sampler& smp, uint32_t max_depth, bool light_bvh, uint32_t* idx, float* d2) {
+                    Ray ray, Sampler& smp, uint32_t max_depth, bool light_bvh, uint32_t* idx, float* d2,
+                    bool hide_emitters = false) {
   RGB L(0.f);
-  const VisiblePoint vp = trace_camera(v, accel, ray, RGB(1.f), smp, max_depth, L, light_bvh);
+  const VisiblePoint vp =
+      trace_camera(v, accel, ray, RGB(1.f), smp, max_depth, L, light_bvh, true, kCameraMedium, hide_emitters);
   if (!vp.valid) return L;
   const uint32_t budget = photon_budget(max_depth, vp.depth);
   if (vp.volume) {  // single scattering came by NEE; the rest from the volume photons after a bounce

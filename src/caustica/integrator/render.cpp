@@ -303,6 +303,7 @@ void RenderJob::make_integrator() {
     p.stochastic_hash = opt_.stochastic_hash;
     p.light_bvh = opt_.light_sampler == "bvh";
     p.adaptive = opt_.photon_sampling == "adaptive";
+    p.hide_emitters = opt_.hide_emitters;
     p.media = scene_has_media(v);  // pm, ppm, pppm or sppm (validated above)
     p.grid_media = scene_has_grid_media(v);
     if (p.media) {
@@ -341,6 +342,7 @@ PathParams RenderJob::path_params() const {
   pp.sampler = opt_.sampler;
   pp.jitter = opt_.jitter;
   pp.light_bvh = opt_.light_sampler == "bvh";
+  pp.hide_emitters = opt_.hide_emitters;
   return pp;
 }
 

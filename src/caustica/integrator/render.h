@@ -39,6 +39,8 @@ struct RenderOptions {
   // path on the CPU: trace eight paths in lockstep where the lane-parallel driver covers the scene
   // (integrator/path_lanes.h; the image is bit-identical either way); false = one path at a time.
   bool lanes = true;
+  // Every integrator: emitters seen directly from the camera add nothing (Mitsuba's hide_emitters; PathParams).
+  bool hide_emitters = false;
   // Photon mapping (ppm, sppm, pppm)
   int64_t photons = 0;       // photon paths per pass; 0 = one per pixel
   float radius = 0.f;        // initial gather radius; 0 = automatic (twice the median pixel footprint)

@@ -59,12 +59,14 @@ struct VisiblePoint {
 // ray starts in the camera's medium (or in `start_medium` unless that is kCameraMedium) and may end at a
 // volume visible point instead (header comment). With `direct` false it adds nothing to L and draws no light
 // samples: pm.h's final-gather rays find their point this way (the light they would add is the camera
-// point's NEE and caustic map).
+// point's NEE and caustic map). With hide_emitters the emitters at the end of the camera segment add nothing
+// (PathParams::hide_emitters).
 constexpr int32_t kCameraMedium = -2;
 template <typename Tracer>
 CHD_ALWAYS_INLINE VisiblePoint trace_camera(const SceneView& s, const Tracer& accel, Ray ray, RGB beta,
                                             Sampler& smp, uint32_t max_depth, RGB& L, bool light_bvh = false,
-                                            bool direct = true, int32_t start_medium = kCameraMedium) {
+                                            bool direct = true, int32_t start_medium = kCameraMedium,
+                                            bool hide_emitters = false) {
   VisiblePoint vp;
   const bool media = scene_has_media(s);
   int32_t medium = !media ? -1 : start_medium == kCameraMedium ? s.camera_medium : start_medium;
@@ -117,7 +119,8 @@ CHD_ALWAYS_INLINE VisiblePoint trace_camera(const SceneView& s, const Tracer& ac
       if (is_black(beta)) return vp;
     }
     if (!found) {
-      if (direct && s.environment_light >= 0) L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
+      if (direct && s.environment_light >= 0 && !(hide_emitters && depth == 1))
+        L += beta * environment_radiance(s, s.lights[s.environment_light], ray.d);
       return vp;
     }
     SurfaceHit sh = make_surface_hit(s, ray, hit);
@@ -130,7 +133,8 @@ CHD_ALWAYS_INLINE VisiblePoint trace_camera(const SceneView& s, const Tracer& ac
     null_crossings = 0;
     Vec3f wo_world = -ray.d;
     beta *= segment_transmittance(s, ray.d, hit.t, sh);
-    if (direct && sh.light >= 0) L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
+    if (direct && sh.light >= 0 && !(hide_emitters && depth == 1))
+      L += beta * area_radiance(s, s.lights[sh.light], sh.ng, wo_world, sh.uv);
     const Material m = surface_material(s, sh);
     Frame frame = shading_frame(s, sh, m);
     Vec3f wo = frame.to_local(wo_world);

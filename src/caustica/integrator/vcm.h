@@ -117,6 +117,8 @@ struct VcmParams {
   // Next-event estimation (s = 1) chooses its light by the light BVH from the camera vertex (light/light_bvh.h)
   // instead of by power; light subpaths still start in proportion to power. See vcm_nee_pick.
   bool light_bvh = false;
+  // Emitters seen directly from the camera add nothing (PathParams::hide_emitters): vcm_camera_emission_weight.
+  bool hide_emitters = false;
   CHD bool use_vc() const { return mode == VcmMode::kBpt || mode == VcmMode::kVcm || mode == VcmMode::kUpg; }
   // Merge-like strategies in the MIS sums (merges, or upg's gathers).
   CHD bool use_vm() const { return mode == VcmMode::kBpm || mode == VcmMode::kVcm || mode == VcmMode::kUpg; }
@@ -975,7 +977,7 @@ CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, u
 // Emission weight of a camera path reaching a light (s = 0).
 CHD float vcm_camera_emission_weight(const VcmParams& p, const VcmPathState& st, float direct_pdf_a,
                                      float emission_pdf_w) {
-  if (st.length == 1) return 1.f;  // the light seen directly: no other strategy
+  if (st.length == 1) return p.hide_emitters ? 0.f : 1.f;  // the light seen directly: no other strategy
   if (!p.use_vc()) return st.specular ? 1.f : 0.f;  // light tracing / merging cover every other path
   return vcm_weight_hit(p, st.mis, direct_pdf_a, emission_pdf_w);
 }

@@ -352,6 +352,7 @@ VcmParams vcm_pass_params(const RenderOptions& opt, VcmMode mode, uint32_t max_d
   VcmParams p;
   p.mode = mode;
   p.light_bvh = opt.light_sampler == "bvh";
+  p.hide_emitters = opt.hide_emitters;
   p.max_depth = max_depth;
   p.rr_depth = uint32_t(opt.rr_depth);
   p.seed = opt.seed;

@@ -313,6 +313,7 @@ class WavefrontPhoton {
       const bool light_bvh = p_.light_bvh;
       const bool ppm = p_.ppm, measure = p_.ppm && (!measured_ || p_.grid_media);
       const bool volume_points = p_.ppm && p_.media;
+      const bool hide = p_.hide_emitters;
       const uint32_t vbase = vbase_;
       const int K = int(K_);
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
@@ -320,7 +321,8 @@ class WavefrontPhoton {
         path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
         const Ray camera_ray = st.ray;
         RGB L(0.f);
-        const VisiblePoint v = trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L, light_bvh);
+        const VisiblePoint v =
+            trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L, light_bvh, true, kCameraMedium, hide);
         if (!ppm) vp[i] = v;
         if (volume_points) vp[vbase + i] = v.volume ? v : VisiblePoint();
         if (measure) {
@@ -691,13 +693,14 @@ class WavefrontPhoton {
                         volume_indirect = volume_indirect_.view();
       const uint64_t paths = p_.photons;
       const uint32_t k = p_.k;
+      const bool hide = p_.hide_emitters;
       b_.parallel_for(n_, CAUSTICA_KERNEL(uint32_t i) {
         PathState st;
         path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
         uint32_t idx[kWavefrontMaxK];
         float d2[kWavefrontMaxK];
         const RGB L = pm_radiance(s, tracer, PmMaps<KnnTreeView>{caustic, global, volume, volume_indirect}, paths, k,
-                                  st.ray, st.sampler, max_depth, light_bvh, idx, d2);
+                                  st.ray, st.sampler, max_depth, light_bvh, idx, d2, hide);
         const bool ok = isfinite3(L);
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });

@@ -90,6 +90,7 @@ struct PhotonWavefrontParams {
   bool stochastic_hash = false;
   bool light_bvh = false;  // the visible points' light sample chosen by the light BVH (--light-sampler bvh)
   bool adaptive = false;   // sppm, ppm, pppm: --photon-sampling adaptive (Hachisuka & Jensen 2011)
+  bool hide_emitters = false;  // the visible points' emission at the end of the camera segment left out
   // In a scene with media (volumetric photon mapping, sppm.h, pm.h): volume photons in a second grid, their
   // initial radius (resolved: > 0, photon_media_setup; pm: 0, it takes the k nearest)
   bool media = false;

@@ -490,6 +490,7 @@ struct Writer {
     if (in.k > 0) integ.set("k", JV::integer(in.k));
     if (!in.photon_sampling.empty()) integ.set("photon_sampling", JV::str(in.photon_sampling));
     if (!in.light_sampler.empty()) integ.set("light_sampler", JV::str(in.light_sampler));
+    if (in.hide_emitters >= 0) integ.set("hide_emitters", JV::boolean(in.hide_emitters == 1));
     if (in.restir_candidates >= 0) integ.set("restir_candidates", JV::integer(in.restir_candidates));
     if (in.restir_neighbors >= 0) integ.set("restir_neighbors", JV::integer(in.restir_neighbors));
     if (in.restir_radius >= 0.f) integ.set("restir_radius", JV::flt(in.restir_radius));

@@ -136,6 +136,7 @@ struct SceneDesc {
     // restir: candidates, neighbours, radius (pixels), history cap; < 0: not given (0 is a value for some)
     int restir_candidates = -1, restir_neighbors = -1;
     float restir_radius = -1.f, restir_history = -1.f;
+    int hide_emitters = -1;  // RenderOptions::hide_emitters: 1 or 0; -1: not given
   } integrator;
 
   int add_material(const std::string& name, const Material& m) {

@@ -944,8 +944,9 @@ void parse_integrator(const Ctx& c, const json& j, SceneDesc& d) {
   const std::string p = "/integrator";
   check_keys(c, j, p, {"type", "spp", "time", "max_depth", "rr_depth", "sampler", "photons", "radius", "alpha", "k",
                        "photon_sampling", "restir_candidates", "restir_neighbors", "restir_radius",
-                       "restir_history", "light_sampler"});
+                       "restir_history", "light_sampler", "hide_emitters"});
   SceneDesc::IntegratorDefaults& in = d.integrator;
+  if (j.contains("hide_emitters")) in.hide_emitters = boolean(c, j["hide_emitters"], p + "/hide_emitters") ? 1 : 0;
   if (j.contains("type")) {
     in.type = str(c, j["type"], p + "/type");
     std::string list;

@@ -1664,7 +1664,8 @@ class Loader {
       // Mitsuba's ptracer traces from the lights and splats onto the film: caustica's light tracer.
       d.integrator.type = type == "ptracer" ? "light" : "path";
     }
-    if (p.get_bool("hide_emitters", false)) fail(p.get("hide_emitters"), "hide_emitters=true is not supported");
+    // hide_emitters: every caustica integrator takes it (RenderOptions::hide_emitters).
+    if (p.has("hide_emitters")) d.integrator.hide_emitters = p.get_bool("hide_emitters", false) ? 1 : 0;
     p.finish({"samples_per_pass", "sppc", "sppp", "sppi", "guiding", "guiding_proj", "guiding_rounds"});
   }
 
