@@ -25,7 +25,8 @@ cube, a glass sphere of milk, a null box of smoke, a floor and an area light in 
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
 instanced three times, a checkerboard texture with a to_uv, a cylinder light), and direct (Mitsuba's `direct`
-integrator) and ptracer (Mitsuba's particle tracer; caustica renders it with its light tracer).
+integrator) and ptracer (Mitsuba's particle tracer; caustica renders it with its light tracer), and colored (vertex
+colours through Mitsuba's mesh_attribute texture, from PLY files with float colours).
 
 caustica renders each scene with the integrator its XML names (path for path, volpath and direct; light for ptracer).
 `--integrator bdpt` (or light, vcm, sppm, ...) renders caustica's side with that integrator instead, against
@@ -494,6 +495,38 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.1, 0.12, 0.15"/></emitter>
 </scene>
 """)
+    # Vertex colours through Mitsuba's mesh_attribute texture: an icosphere with colours from its position and a
+    # floor with a gradient, PLY files with float colours, under an area light and a dim sky.
+    # (Mitsuba 3.9.1 reads past a serialized file's colours, so both meshes are PLY files.)
+    with open(os.path.join(OUT, "colored_ball.ply"), "w") as f:
+        f.write(f"ply\nformat ascii 1.0\nelement vertex {len(verts)}\nproperty float x\nproperty float y\n"
+                "property float z\nproperty float red\nproperty float green\nproperty float blue\n"
+                f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
+        for v in verts:
+            f.write(" ".join(f"{x:.7g}" for x in list(v) + [0.15 + 0.7 * abs(c) for c in v]) + "\n")
+        for a, b, c in faces:
+            f.write(f"3 {a} {b} {c}\n")
+    with open(os.path.join(OUT, "colored_floor.ply"), "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                "property float red\nproperty float green\nproperty float blue\nelement face 2\n"
+                "property list uchar int vertex_indices\nend_header\n"
+                "-3 0 -3 0.9 0.2 0.1\n3 0 -3 0.1 0.8 0.2\n3 0 3 0.1 0.2 0.9\n-3 0 3 0.9 0.9 0.9\n3 0 2 1\n3 0 3 2\n")
+    attr = '<texture type="mesh_attribute" name="{}"><string name="name" value="vertex_color"/>{}</texture>'
+    with open(os.path.join(OUT, "colored.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="5"/></integrator>
+  {sensor}
+  <shape type="ply"><string name="filename" value="colored_floor.ply"/>
+    <bsdf type="diffuse">{attr.format("reflectance", '<float name="scale" value="0.8"/>')}</bsdf></shape>
+  <shape type="ply"><string name="filename" value="colored_ball.ply"/>
+    <transform name="to_world"><scale value="0.8"/><translate y="0.8"/></transform>
+    <bsdf type="diffuse">{attr.format("reflectance", "")}</bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate y="3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.15, 0.15, 0.2"/></emitter>
+</scene>
+""")
     with open(os.path.join(OUT, "direct.xml"), "w") as f:
         f.write(f"""<scene version="3.0.0">
   <integrator type="direct"/>
@@ -530,7 +563,8 @@ def write_scenes(res):
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
-            "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml")}
+            "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),
+            "colored": os.path.join(OUT, "colored.xml")}
 
 
 def render_caustica(path, res, spp, seed, integrator=None):

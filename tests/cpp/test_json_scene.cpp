@@ -99,6 +99,8 @@ void expect_desc_eq(const SceneDesc& a, const SceneDesc& b, bool texture_names =
       expect_same(x.tangents[k].t, y.tangents[k].t, "tangent");
       EXPECT_EQ(x.tangents[k].w, y.tangents[k].w) << "tangent handedness";
     }
+    ASSERT_EQ(x.colors.size(), y.colors.size());
+    for (size_t k = 0; k < x.colors.size(); ++k) expect_same(x.colors[k], y.colors[k], "vertex colour");
     EXPECT_EQ(x.indices, y.indices);
   }
   ASSERT_EQ(a.shapes.size(), b.shapes.size());
@@ -343,6 +345,9 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   pbr_odd.tex_roughness = 1;
   pbr_odd.tex_color = 0;
   d.add_material("pbr odd alpha", pbr_odd);
+  Material vc = make_diffuse(RGB(0.7f));
+  vc.flags |= kVertexColor;
+  d.add_material("vertex coloured", vc);
 
   MeshDesc m;
   m.name = "tri";
@@ -350,10 +355,12 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   m.normals = {{0, 0, 1}, {0, 0, 1}, {0.f, 0.6f, 0.8f}};
   m.uvs = {{0, 0}, {1, 0}, {0, 1.f / 3.f}};
   m.tangents = {Tangent{Vec3f(1, 0, 0), 1.f}, Tangent{}, Tangent{normalize(Vec3f(0.6f, 0.f, -0.8f)), -1.f}};
+  m.colors = {RGB(0.25f), RGB(1.f, 0.5f, 0.f), RGB(0.1f, 0.2f, 3.f)};  // a grey one too: [r, g, b] all the same
   m.indices = {0, 1, 2};
   d.meshes.push_back(m);
   m.normals.clear();
   m.tangents.clear();
+  m.colors.clear();
   d.meshes.push_back(m);  // the same name twice
   for (int i = 0; i < 14; ++i) {
     ShapeDesc s;

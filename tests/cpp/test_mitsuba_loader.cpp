@@ -392,9 +392,9 @@ TEST(MitsubaBsdf, Textures) {
   EXPECT_EQ(error_of(g), g + ":4: <string name=\"filename\">: texture file '" + (tmp_dir() / "missing.png").string() +
                              "' does not exist");
   g = scene_file("tex_type.xml", "<shape type=\"cube\"><bsdf type=\"diffuse\">\n"
-                                 "<texture type=\"mesh_attribute\" name=\"reflectance\"/></bsdf></shape>\n");
-  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"mesh_attribute\" name=\"reflectance\">: unsupported texture type "
-                             "(supported: bitmap, checkerboard)");
+                                 "<texture type=\"volume\" name=\"reflectance\"/></bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"volume\" name=\"reflectance\">: unsupported texture type "
+                             "(supported: bitmap, checkerboard, mesh_attribute)");
   g = scene_file("tex_slot.xml", "<shape type=\"cube\"><bsdf type=\"dielectric\">\n"
                                  "<texture type=\"bitmap\" name=\"specular_reflectance\"><string name=\"filename\" "
                                  "value=\"tex/t.pfm\"/></texture></bsdf></shape>\n");

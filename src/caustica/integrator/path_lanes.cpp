@@ -11,7 +11,7 @@ namespace {
 // Materials whose vertices the lanes shade; a vertex on any other runs the scalar path_shade in its lane.
 bool lane_material(const Material& m) {
   return m.type == MaterialType::kDiffuse && m.mix_b < 0 && m.tex_color < 0 && m.tex_roughness < 0 && m.tex_normal < 0 && m.tex_bump < 0 && m.tex_aniso < 0 &&
-         is_black(m.absorption);
+         !(m.flags & kVertexColor) && is_black(m.absorption);
 }
 }  // namespace
 

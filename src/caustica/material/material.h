@@ -36,6 +36,9 @@ enum MaterialFlags : uint32_t {
   // Metallic-roughness: the dielectric's diffuse base is plastic's (refraction into the coat, 1/eta^2, and
   // internal reflections; Mitsuba's roughplastic) instead of glTF's (1 - F) base (material/metallic_roughness.h).
   kPlasticBase = 32u,
+  // The main colour (as tex_color's) times the triangle's interpolated vertex colour (SceneView::colors; glTF's
+  // COLOR_0, Mitsuba's mesh_attribute "vertex_color"); white on spheres and meshes without colours.
+  kVertexColor = 64u,
 };
 
 // Radiance flows from lights to the camera; importance flows the other way.

@@ -20,6 +20,20 @@ CHD Vec2f triangle_uv(const SceneView& s, uint32_t tri, float b1, float b2) {
   const uint32_t* ix = s.indices + 3 * tri;
   return s.uvs[ix[0]] * (1.f - b1 - b2) + s.uvs[ix[1]] * b1 + s.uvs[ix[2]] * b2;
 }
+// The interpolated vertex colour of triangle `tri` at its point p (SceneView::colors, which must be set): the
+// barycentrics of p's projection onto the triangle's plane (p lies in it up to rounding), clamped to the triangle.
+CHD RGB triangle_color(const SceneView& s, uint32_t tri, Vec3f p) {
+  const uint32_t* ix = s.indices + 3 * tri;
+  const Vec3f v0 = s.positions[ix[0]], e1 = s.positions[ix[1]] - v0, e2 = s.positions[ix[2]] - v0, d = p - v0;
+  const float a = dot(e1, e1), b = dot(e1, e2), c = dot(e2, e2), det = a * c - b * b;
+  float b1 = 0.f, b2 = 0.f;
+  if (det > 0.f) {
+    const float d1 = dot(d, e1), d2 = dot(d, e2);
+    b1 = clampf((c * d1 - b * d2) / det, 0.f, 1.f);
+    b2 = clampf((a * d2 - b * d1) / det, 0.f, 1.f - b1);
+  }
+  return s.colors[ix[0]] * (1.f - b1 - b2) + s.colors[ix[1]] * b1 + s.colors[ix[2]] * b2;
+}
 // Sphere parameterisation: u = phi / 2pi around +z, v = 1 - theta / pi with theta
 // from +z, so the image's top row is at the +z pole (Mitsuba's layout, whose
 // v = theta / pi is counted downwards in the image).

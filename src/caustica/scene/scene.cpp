@@ -715,6 +715,12 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       s.uvs.resize(base, Vec2f(0.f, 0.f));
       for (size_t i = 0; i < mesh->positions.size(); ++i) s.uvs.push_back(has_uv ? mesh->uvs[i] : Vec2f(0.f, 0.f));
     }
+    if (!mesh->colors.empty() || !s.colors.empty()) {
+      // Meshes without vertex colours get white (a kVertexColor material keeps its own colour there).
+      s.colors.resize(base, RGB(1.f));
+      const bool has_c = mesh->colors.size() == mesh->positions.size();
+      for (size_t i = 0; i < mesh->positions.size(); ++i) s.colors.push_back(has_c ? mesh->colors[i] : RGB(1.f));
+    }
     if (!mesh->tangents.empty() || !s.tangents.empty()) {
       // A tangent moves with the surface (lin t); its handedness flips with a mirroring transform (the
       // normal goes by the inverse transpose: cross(M^-T n, M t) = det(M) M (n x t) for orthogonal M, and
@@ -776,6 +782,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   skipped(skipped_degenerate, "degenerate (zero-area) triangles");
   skipped(skipped_spheres, "spheres with a non-finite centre or a radius that is not positive");
   if (!s.uvs.empty()) s.uvs.resize(s.positions.size(), Vec2f(0.f, 0.f));
+  if (!s.colors.empty()) s.colors.resize(s.positions.size(), RGB(1.f));
   if (!s.tangents.empty()) s.tangents.resize(s.positions.size(), Tangent{});
   uint32_t num_tri = uint32_t(s.indices.size() / 3);
   for (uint32_t m : sphere_material) s.prim_material.push_back(m);
@@ -993,6 +1000,7 @@ void Scene::update_view() {
   v.positions = positions.data();
   v.normals = normals.empty() ? nullptr : normals.data();
   v.uvs = uvs.empty() ? nullptr : uvs.data();
+  v.colors = colors.empty() ? nullptr : colors.data();
   v.tangents = tangents.empty() ? nullptr : tangents.data();
   v.textures = textures.data();
   v.num_textures = uint32_t(textures.size());

@@ -33,6 +33,7 @@ class Scene {
 
   std::vector<Vec3f> positions, normals;
   std::vector<Vec2f> uvs;  // empty, or one per position
+  std::vector<RGB> colors;  // empty, or one per position (white where a mesh has none)
   std::vector<Tangent> tangents;  // empty, or one per position (w = 0 where a mesh has none)
   std::vector<TextureView> textures;  // views into desc().textures
   std::vector<float> env_func, env_cond_cdf, env_marg_cdf, env_marg_func;

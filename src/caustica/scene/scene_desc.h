@@ -20,6 +20,9 @@ struct MeshDesc {
   std::vector<Vec3f> normals;  // empty, or one per position
   std::vector<Vec2f> uvs;      // empty, or one per position; (0,0) = bottom-left of a texture image
   std::vector<Tangent> tangents;  // empty, or one per position (geometry/shapes.h; w = +-1, or 0: none there)
+  // Empty, or one linear RGB per position (glTF COLOR_0, PLY vertex colours, JSON "colors"): multiplies the main
+  // colour of a material with kVertexColor (scene/shading.h).
+  std::vector<RGB> colors;
   std::vector<uint32_t> indices;  // 3 per triangle
 };
 
@@ -150,6 +153,9 @@ struct SceneDesc {
     return -1;
   }
 };
+
+// The sRGB transfer function's inverse (IEC 61966-2-1): an encoded value in [0, 1] to linear.
+float srgb_to_linear(float c);
 
 // Loads an image file (PNG, JPEG, BMP, TGA, HDR, EXR, PFM) as a texture once:
 // a second request for the same (path, srgb) returns the same index. Errors

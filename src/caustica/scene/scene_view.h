@@ -61,6 +61,7 @@ struct SceneView {
   const Vec3f* normals = nullptr;  // per vertex, or null
   const Vec2f* uvs = nullptr;      // per vertex, or null (then uv = barycentrics (b1, b2))
   const Tangent* tangents = nullptr;  // per vertex, or null (then the triangles' dp/du: shading.h)
+  const RGB* colors = nullptr;        // per vertex linear RGB, or null (materials with kVertexColor: shading.h)
   const uint32_t* indices = nullptr;  // 3 per triangle
   uint32_t num_triangles = 0;
   // Spheres

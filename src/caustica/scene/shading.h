@@ -178,8 +178,9 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
     }
     m = s.materials[point_hash(sh.p, sh.prim, depth) < w ? m.mix_b : m.mix_a];
   }
-  if (m.tex_color >= 0) {
-    RGB c = texture_lookup(s.textures[m.tex_color], sh.uv).rgb();
+  // The main colour: the specular tint of conductors, the transmission of dielectrics, else the diffuse or
+  // base colour.
+  auto tint = [&m](RGB c) {
     switch (m.type) {
       case MaterialType::kConductor:
       case MaterialType::kRoughConductor: m.specular = m.specular * c; break;
@@ -188,7 +189,9 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
       case MaterialType::kThinDielectric: m.transmission = m.transmission * c; break;
       default: m.diffuse = m.diffuse * c; break;
     }
-  }
+  };
+  if (m.tex_color >= 0) tint(texture_lookup(s.textures[m.tex_color], sh.uv).rgb());
+  if ((m.flags & kVertexColor) && s.colors && sh.prim < s.num_triangles) tint(triangle_color(s, sh.prim, sh.p));
   if (m.tex_roughness >= 0) {
     RGBA r = texture_lookup(s.textures[m.tex_roughness], sh.uv);
     if (m.type == MaterialType::kMetallicRoughness) {

@@ -46,6 +46,7 @@ class DeviceScene {
     v.positions = upload(sc.positions);
     v.normals = upload(sc.normals);
     v.uvs = upload(sc.uvs);
+    v.colors = upload(sc.colors);
     v.tangents = upload(sc.tangents);
     v.indices = upload(sc.indices);
     v.spheres = upload(sc.spheres);

@@ -557,6 +557,7 @@ class Converter {
   tinygltf::Model& model_;
   SceneDesc& d_;
   std::map<size_t, int> material_of_;  // glTF material -> caustica material
+  std::map<int, int> vertex_colored_;  // caustica material -> its copy with kVertexColor (primitives with COLOR_0)
   struct MatExtra {
     RGB emission{0.f};
     int emission_texture = -1;
@@ -1005,7 +1006,30 @@ int Converter::mesh(size_t mi, size_t pi) {
       generate = true;  // once the triangles are known
     }
   }
-  if (member(attrs, "COLOR_0")) warn_once("vertex colours (COLOR_0) are not supported and are ignored");
+  // COLOR_0 (glTF 2.0 Sec. 3.7.2.1: linear RGB or RGBA, float or normalized unsigned integers) multiplies the
+  // base colour: the primitive's shape gets its material's kVertexColor copy (visit). Its alpha would multiply
+  // the base colour's alpha, which caustica does not apply (a warning where it is below 1).
+  if (const json* cj = member(attrs, "COLOR_0")) {
+    size_t ncol;
+    int comps;
+    std::vector<float> col = read_floats(cj->get<size_t>(), P(P(p, "attributes"), "COLOR_0"), {"VEC3", "VEC4"}, ncol, comps);
+    if (ncol != n) c_.fail(P(P(p, "attributes"), "COLOR_0"), "has " + std::to_string(ncol) + " elements, POSITION has " + std::to_string(n));
+    md.colors.resize(n);
+    size_t bad = 0;
+    bool alpha = false;
+    for (size_t i = 0; i < n; ++i) {
+      const float* v = &col[size_t(comps) * i];
+      RGB c(v[0], v[1], v[2]);
+      if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z)))
+        ++bad, c = RGB(1.f);
+      md.colors[i] = c;
+      alpha |= comps == 4 && v[3] < 1.f;
+    }
+    if (bad)
+      d_.warnings.push_back(c_.file + ": " + p + ": " + std::to_string(bad) +
+                            " negative or non-finite vertex colours (COLOR_0); white there");
+    if (alpha) warn_once("the alpha of vertex colours (COLOR_0) is not applied; their RGB is");
+  }
   if (member(attrs, "JOINTS_0") || member(pr, "targets")) warn_once("skinning and morph targets are not supported; meshes are used in their rest pose");
   std::vector<uint32_t> idx;
   if (const json* ij = member(pr, "indices")) {
@@ -1099,6 +1123,15 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
         if (default_material_ < 0)  // the glTF default material: white, metallic 1, roughness 1
           default_material_ = d_.add_material("default", make_metallic_roughness(RGB(1.f), 1.f, 1.f));
         s.material = default_material_;
+      }
+      if (!d_.meshes[size_t(id)].colors.empty()) {
+        auto it = vertex_colored_.find(s.material);
+        if (it == vertex_colored_.end()) {
+          Material m = d_.materials[size_t(s.material)];
+          m.flags |= kVertexColor;
+          it = vertex_colored_.emplace(s.material, d_.add_material(d_.material_names[size_t(s.material)] + "+COLOR_0", m)).first;
+        }
+        s.material = it->second;
       }
       d_.shapes.push_back(s);
     }

@@ -351,10 +351,10 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
   };
   Material m;
   if (type == "diffuse") {
-    check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+    check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     m = make_diffuse(get_ct("reflectance", RGB(0.5f)));
   } else if (type == "conductor") {
-    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "anisotropy_texture", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "anisotropy_texture", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     Vec2f a = roughness("roughness");
     if (j.contains("eta") != j.contains("k")) c.fail(path, "give both 'eta' and 'k' (or neither for a tinted mirror)");
     RGB spec = get_ct("specular", RGB(1.f));
@@ -370,7 +370,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     }
   } else if (type == "dielectric") {
     check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "anisotropy_texture", "specular", "transmission", "absorption",
-                            "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+                            "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     Vec2f a = roughness("roughness");
     m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
     if (a.x > 0.f || a.y > 0.f) {
@@ -381,26 +381,26 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     m.transmission = get_ct("transmission", RGB(1.f));
     m.absorption = get_c("absorption", RGB(0.f));
   } else if (type == "thindielectric") {
-    check_keys(c, j, path, {"type", "eta", "specular", "transmission", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+    check_keys(c, j, path, {"type", "eta", "specular", "transmission", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     m = make_thin_dielectric(positive("eta", get_f("eta", 1.5f)));
     m.specular = get_c("specular", RGB(1.f));
     m.transmission = get_ct("transmission", RGB(1.f));
   } else if (type == "plastic") {
-    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     RGB kd = get_ct("diffuse", RGB(0.5f));
     m = make_plastic(kd, positive("eta", get_f("eta", 1.49f)), get_c("specular", RGB(1.f)));
   } else if (type == "difftrans") {
-    check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+    check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     RGB r = get_ct("reflectance", RGB(0.f));
     m = make_diffuse_transmission(r, get_c("transmittance", RGB(0.5f)));
   } else if (type == "phong") {
-    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff"});
+    check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     RGB kd = get_ct("diffuse", RGB(0.1f));
     m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
   } else if (type == "metallic_roughness") {
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
-                            "diffuse_base"});
+                            "diffuse_base", "vertex_colors"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = 0.5f;
@@ -466,6 +466,8 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     c.fail(path + "/type", "unknown material type '" + type + "' (allowed: " + kMaterialTypes + ")");
   }
   if (j.contains("two_sided") && boolean(c, j["two_sided"], path + "/two_sided")) m.flags |= kTwoSided;
+  // The main colour times the mesh's vertex colours (material.h: kVertexColor).
+  if (j.contains("vertex_colors") && boolean(c, j["vertex_colors"], path + "/vertex_colors")) m.flags |= kVertexColor;
   if (j.contains("anisotropy_rotation")) {  // degrees from dp/du towards dp/dv (scene/shading.h)
     m.aniso_rotation = float(numd(c, j["anisotropy_rotation"], path + "/anisotropy_rotation") * kPiD / 180.0);
   }
@@ -560,6 +562,16 @@ MeshDesc parse_mesh_data(const Ctx& c, const json& j, const std::string& p) {
     const json& U = j["uvs"];
     if (!U.is_array() || U.size() != m.positions.size()) c.fail(p + "/uvs", "expected one [u,v] per position");
     for (size_t k = 0; k < U.size(); ++k) m.uvs.push_back(vec2(c, U[k], p + "/uvs/" + std::to_string(k), false));
+  }
+  if (j.contains("colors")) {  // linear RGB per vertex, >= 0 (materials with "vertex_colors": true use them)
+    const json& C = j["colors"];
+    if (!C.is_array() || C.size() != m.positions.size()) c.fail(p + "/colors", "expected one colour [r,g,b] per position");
+    for (size_t k = 0; k < C.size(); ++k) {
+      const std::string cp = p + "/colors/" + std::to_string(k);
+      Vec3f v = point3(c, C[k], cp);
+      if (!(v.x >= 0.f && v.y >= 0.f && v.z >= 0.f)) c.fail(cp, "expected a colour with components >= 0");
+      m.colors.push_back(RGB(v.x, v.y, v.z));
+    }
   }
   if (j.contains("tangents")) {
     // [tx, ty, tz, w]: the tangent along +u and the handedness w = 1 or -1 (bitangent w * cross(n, t); glTF's
@@ -1192,7 +1204,7 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     for (auto it = meshes.begin(); it != meshes.end(); ++it) {
       std::string p = "/meshes/" + esc(it.key());
       const json& j = it.value();
-      check_keys(c, j, p, {"file", "positions", "indices", "normals", "uvs", "tangents"});
+      check_keys(c, j, p, {"file", "positions", "indices", "normals", "uvs", "tangents", "colors"});
       if (j.contains("file")) {
         if (j.size() > 1) c.fail(p, "a mesh is a 'file' or inline 'positions' and 'indices', not both");
         named[it.key()] = load_mesh_file_parts(c, j["file"], p + "/file", it.key());
@@ -1224,7 +1236,8 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
                            "center", "radius", "interior", "exterior"});
     else if (type == "mesh")
       check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
-                           "positions", "indices", "normals", "uvs", "tangents", "file", "mesh", "interior", "exterior"});
+                           "positions", "indices", "normals", "uvs", "tangents", "colors", "file", "mesh", "interior",
+                           "exterior"});
     else if (type == "rectangle" || type == "cube" || type == "disk")
       check_keys(c, j, p, {"name", "type", "material", "emission", "emission_two_sided", "flip_normals", "transform",
                            "interior", "exterior"});
@@ -1261,7 +1274,7 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     else {
       s.type = ShapeType::kMesh;
       bool inline_data = j.contains("positions") || j.contains("indices") || j.contains("normals") || j.contains("uvs") ||
-                         j.contains("tangents");
+                         j.contains("tangents") || j.contains("colors");
       int forms = int(inline_data) + int(j.contains("file")) + int(j.contains("mesh"));
       if (forms != 1)
         c.fail(p, forms == 0 ? "a mesh needs inline 'positions' and 'indices', a 'file' or a 'mesh' name from /meshes"

@@ -38,7 +38,8 @@ std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& positions, co
 
 // Mitsuba's serialized format (the `serialized` shape of Mitsuba 0.6 and 3): a file of zlib-compressed meshes,
 // versions 3 and 4, single or double precision; `shape_index` picks one (0 = the first). Positions, optional
-// normals and UVs (as in the file: Mitsuba's v points down), triangles; vertex colours are skipped. Errors
+// normals and UVs (as in the file: Mitsuba's v points down), triangles; vertex colours are read past (as Mitsuba
+// 3 does). Errors
 // throw InputError "<path>: what"; what was skipped or repaired goes to `warnings` (as load_ply_mesh).
 MeshDesc load_serialized_mesh(const std::string& path, size_t shape_index, std::vector<std::string>* warnings);
 
@@ -48,9 +49,11 @@ struct MeshRepairs {
   size_t nan = 0;           // triangles with non-finite vertex coordinates, skipped
   size_t bad_vertices = 0;  // vertices with non-finite coordinates
   size_t normals = 0;       // zero or non-finite normals replaced by computed ones
+  size_t colors = 0;        // negative or non-finite vertex colours made white
 };
 // The last step of the PLY and serialized loaders: normals normalized (zero or non-finite ones, or all of them
-// when the file has none, computed by area_weighted_normals; counted in r.normals) and non-finite UVs set to 0.
+// when the file has none, computed by area_weighted_normals; counted in r.normals), non-finite UVs set to 0, and
+// negative or non-finite vertex colours made white (r.colors).
 void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r);
 // One warning line per kind of repair, naming `path`.
 void report_mesh_repairs(const std::string& path, const MeshRepairs& r, std::vector<std::string>& warnings);

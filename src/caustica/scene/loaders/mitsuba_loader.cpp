@@ -608,11 +608,49 @@ class Loader {
     return idx;
   }
 
+  // <texture type="mesh_attribute"> of "vertex_color": the shape's vertex colours, times `scale`. Held as a 1 x 1
+  // texture of the scale in the colour slot plus the material flag kVertexColor (resolve_vertex_colors), which
+  // multiplies by the interpolated vertex colour; only a BSDF's colour slot takes it.
+  std::map<int, xml_node> vertex_color_textures_;
+  int mesh_attribute_texture(xml_node n, bool top_level) {
+    Props p(*this, n);
+    p.declare({"name", "scale"});
+    xml_node nn = p.get("name");
+    if (!nn) fail(n, "missing <string name=\"name\"> (the mesh attribute: vertex_color)");
+    std::string attribute = p.get_string("name", "");
+    if (attribute != "vertex_color")
+      fail(nn, "unsupported mesh attribute '" + attribute + "' (supported: vertex_color)");
+    float scale = p.get_float("scale", 1.f);
+    if (!(scale >= 0.f)) fail(p.get("scale"), "expected a scale >= 0");
+    p.finish();
+    TextureDesc t;
+    t.name = "mesh_attribute@" + where(n);
+    t.width = t.height = 1;
+    t.rgba = {scale, scale, scale, 1.f};
+    d.textures.push_back(std::move(t));
+    int idx = int(d.textures.size()) - 1;
+    vertex_color_textures_[idx] = n;
+    if (top_level) register_id(n, "texture", idx);
+    return idx;
+  }
+  // A BSDF's colour slot holding a mesh_attribute texture reads the vertex colours (kVertexColor); any other slot
+  // holding one is an error.
+  void resolve_vertex_colors(Material& m) {
+    if (vertex_color_textures_.count(m.tex_color)) m.flags |= kVertexColor;
+    for (int t : {m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity, m.tex_mix}) {
+      auto it = vertex_color_textures_.find(t);
+      if (it != vertex_color_textures_.end())
+        fail(it->second, "a mesh_attribute texture is supported as a BSDF's colour only (reflectance, "
+                         "diffuse_reflectance, base_color, specular_reflectance, specular_transmittance)");
+    }
+  }
+
   int parse_texture(xml_node n, bool top_level) {
     check_attrs(n, {"type", "id", "name"});
     std::string type = attr(n, "type");
     if (type == "checkerboard") return checkerboard_texture(n, top_level);
-    if (type != "bitmap") fail(n, "unsupported texture type (supported: bitmap, checkerboard)");
+    if (type == "mesh_attribute") return mesh_attribute_texture(n, top_level);
+    if (type != "bitmap") fail(n, "unsupported texture type (supported: bitmap, checkerboard, mesh_attribute)");
     Props p(*this, n);
     p.declare({"filename", "raw", "filter_type", "wrap_mode", "to_uv"});
     xml_node fnode = p.get("filename");
@@ -675,6 +713,7 @@ class Loader {
     std::string type = attr(n, "type");
     std::string name = has_attr(n, "id") ? attr(n, "id") : type + "@" + where(n);
     Material m = bsdf_material(n, type);
+    resolve_vertex_colors(m);
     int idx = d.add_material(name, m);
     register_id(n, "BSDF", idx);
     return idx;
@@ -1247,6 +1286,8 @@ class Loader {
       Props ep(*this, e);
       ep.declare({"radiance"});
       ColorOrTexture r = ep.get_color_tex("radiance", RGB(1.f));
+      if (vertex_color_textures_.count(r.texture))
+        fail(ep.get("radiance"), "a mesh_attribute texture is supported as a BSDF's colour only, not as radiance");
       ep.finish({"sampling_weight"});
       emission = r.value;
       emission_tex = r.texture;
@@ -1272,6 +1313,9 @@ class Loader {
     }
     std::string shape_name = has_attr(n, "id") ? attr(n, "id") : type + "@" + where(n);
     auto finish_shape = [&](ShapeDesc& s) {
+      if ((d.materials[size_t(material)].flags & kVertexColor) &&
+          (s.type != ShapeType::kMesh || d.meshes[size_t(s.mesh)].colors.empty()))
+        fail(n, "the BSDF reads the mesh attribute 'vertex_color', which this shape does not have");
       s.material = material;
       s.emission = emission;
       s.emission_texture = emission_tex;

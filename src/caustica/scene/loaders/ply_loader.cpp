@@ -20,6 +20,7 @@
 // element and property is skipped. Binary data is read from one buffer holding
 // the whole file.
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -267,6 +268,9 @@ void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r) {
   }
   for (Vec2f& t : m.uvs)
     if (!std::isfinite(t.x) || !std::isfinite(t.y)) t = Vec2f(0.f, 0.f);
+  for (RGB& c : m.colors)
+    if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z)))
+      c = RGB(1.f), ++r.colors;
 }
 
 void report_mesh_repairs(const std::string& path, const MeshRepairs& r, std::vector<std::string>& warnings) {
@@ -279,6 +283,9 @@ void report_mesh_repairs(const std::string& path, const MeshRepairs& r, std::vec
   if (r.normals)
     warnings.push_back(path + ": replaced " + plural(r.normals, "zero or non-finite normal", "zero or non-finite normals") +
                        " by computed ones");
+  if (r.colors)
+    warnings.push_back(path + ": made " + plural(r.colors, "negative or non-finite vertex colour", "negative or non-finite vertex colours") +
+                       " white");
 }
 
 MeshDesc load_ply_mesh(const std::string& path) { return load_ply_mesh(path, nullptr); }
@@ -394,7 +401,15 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
     }
   }
   bool has_uv = puv[0] >= 0;
-  for (int i : {pn[0], pn[1], pn[2], puv[0], puv[1]})
+  // Vertex colours: red green blue (or r g b, diffuse_red ...); integer ones are 8- or 16-bit sRGB (as MeshLab and
+  // Blender write them), float ones linear.
+  int pc[3] = {-1, -1, -1};
+  for (auto names : {std::array<const char*, 3>{"red", "green", "blue"}, std::array<const char*, 3>{"r", "g", "b"},
+                     std::array<const char*, 3>{"diffuse_red", "diffuse_green", "diffuse_blue"}})
+    if (pc[0] < 0 && vert->find(names[0]) >= 0 && vert->find(names[1]) >= 0 && vert->find(names[2]) >= 0)
+      for (int k = 0; k < 3; ++k) pc[k] = vert->find(names[k]);
+  bool has_c = pc[0] >= 0;
+  for (int i : {pn[0], pn[1], pn[2], puv[0], puv[1], pc[0], pc[1], pc[2]})
     if (i >= 0 && vert->props[i].list) fail_at(vert->line, "vertex property '" + vert->props[i].name + "' must not be a list");
   int pidx = face->find("vertex_indices");
   if (pidx < 0) pidx = face->find("vertex_index");
@@ -433,12 +448,14 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
       m.positions.resize(e.count);
       if (has_n) m.normals.resize(e.count);
       if (has_uv) m.uvs.resize(e.count);
+      if (has_c) m.colors.resize(e.count);
       bad_vertex.assign(e.count, 0);
-      // slot of each property: 0..2 xyz, 3..5 normal, 6..7 uv, -1 skipped
+      // slot of each property: 0..2 xyz, 3..5 normal, 6..7 uv, 8..10 colour, -1 skipped
       std::vector<int> slot(e.props.size(), -1);
       slot[px] = 0, slot[py] = 1, slot[pz] = 2;
       if (has_n) slot[pn[0]] = 3, slot[pn[1]] = 4, slot[pn[2]] = 5;
       if (has_uv) slot[puv[0]] = 6, slot[puv[1]] = 7;
+      if (has_c) slot[pc[0]] = 8, slot[pc[1]] = 9, slot[pc[2]] = 10;
       bool all_scalar = std::none_of(e.props.begin(), e.props.end(), [](const Prop& p) { return p.list; });
       if (rd.binary() && all_scalar) {
         // Fixed stride: one bounds check, then straight reads.
@@ -450,7 +467,7 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
         const unsigned char* base = rd.data() + rd.pos();
         bool swap = rd.big_endian();
         for (size_t i = 0; i < e.count; ++i) {
-          float v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+          float v[11] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
           const unsigned char* row = base + i * stride;
           for (size_t k = 0; k < e.props.size(); ++k)
             if (slot[k] >= 0)
@@ -459,11 +476,12 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
           m.positions[i] = Vec3f(v[0], v[1], v[2]);
           if (has_n) m.normals[i] = Vec3f(v[3], v[4], v[5]);
           if (has_uv) m.uvs[i] = Vec2f(v[6], v[7]);
+          if (has_c) m.colors[i] = RGB(v[8], v[9], v[10]);
         }
         rd.set_pos(rd.pos() + e.count * stride);
       } else {
         for (size_t i = 0; i < e.count; ++i) {
-          float v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+          float v[11] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
           for (size_t k = 0; k < e.props.size(); ++k) {
             const Prop& p = e.props[k];
             if (p.list) {
@@ -478,6 +496,7 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
           m.positions[i] = Vec3f(v[0], v[1], v[2]);
           if (has_n) m.normals[i] = Vec3f(v[3], v[4], v[5]);
           if (has_uv) m.uvs[i] = Vec2f(v[6], v[7]);
+          if (has_c) m.colors[i] = RGB(v[8], v[9], v[10]);
         }
       }
       for (size_t i = 0; i < e.count; ++i) {
@@ -588,6 +607,15 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
   if (!rd.binary() && rd.ascii_trailing())
     fail(path, rd.where() + "unexpected data after the last element (the header's counts are too small?)");
 
+  if (has_c) {
+    // Integer colours: to [0, 1] by their type's largest value, then from sRGB; float colours are linear.
+    for (int k = 0; k < 3; ++k) {
+      const PType t = vert->props[pc[k]].type;
+      if (t == PType::kF32 || t == PType::kF64) continue;
+      const float top = kSize[int(t)] == 1 ? 255.f : kSize[int(t)] == 2 ? 65535.f : 4294967295.f;
+      for (RGB& c : m.colors) c[k] = srgb_to_linear(std::min(std::max(c[k] / top, 0.f), 1.f));
+    }
+  }
   MeshRepairs repairs;
   repairs.degenerate = skipped_degenerate;
   repairs.nan = skipped_nan;

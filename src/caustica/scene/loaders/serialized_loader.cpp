@@ -11,7 +11,8 @@
 //                 indices (3 per triangle; uint32, or uint64 when there are more than 2^32 vertices)
 //   at the end: the byte offset of each mesh (uint64 in version 4, uint32 in version 3), then uint32 mesh count.
 //
-// Everything is little-endian. Vertex colours are read past (caustica has no use for them).
+// Everything is little-endian. Vertex colours are read past: Mitsuba 3 does not make them a mesh attribute either
+// (a mesh_attribute texture over a serialized mesh renders black there; caustica's XML loader rejects it).
 #include <zlib.h>
 
 #include <algorithm>
