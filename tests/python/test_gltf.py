@@ -266,6 +266,47 @@ def test_node_hierarchy_and_instancing_render(tmp_path):
     assert out[16, 16] == 0.0 and out[8, 8] == 0.0
 
 
+def test_gpu_instancing_places_each_instance(tmp_path):
+    """EXT_mesh_gpu_instancing: a node's mesh once per instance, at the node's matrix times the instance's T R S
+    (here a parent translation, then per instance a translation, a rotation about z, a scale): the same scene as
+    one node per instance with those TRS, image for image; a rotation in normalized shorts reads the same."""
+    t = [[0.5, 0.5, 0], [-0.5, 0.2, 0], [0.1, -0.6, 0]]
+    angles = [0.0, 0.6, -1.1]
+    q = [[0, 0, math.sin(a / 2), math.cos(a / 2)] for a in angles]
+    s = [[1, 1, 1], [0.5, 0.8, 1], [1.2, 0.6, 1]]
+
+    def scene(instanced, shorts=False):
+        g = Gltf()
+        mat = g.add("materials", {"emissiveFactor": [1, 0.5, 0.25]})
+        mesh = g.quad(mat, half=0.2)
+        if instanced:
+            rot = (g.accessor([round(x * 32767) for v in q for x in v], "VEC4", "h", 5122) if shorts else
+                   g.accessor([x for v in q for x in v], "VEC4"))
+            if shorts:
+                g.doc["accessors"][rot]["normalized"] = True
+            attrs = {"TRANSLATION": g.accessor([x for v in t for x in v], "VEC3"), "ROTATION": rot,
+                     "SCALE": g.accessor([x for v in s for x in v], "VEC3")}
+            node = g.add("nodes", {"mesh": mesh, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": attrs}}})
+            g.doc["extensionsUsed"] = ["EXT_mesh_gpu_instancing"]
+            g.doc["extensionsRequired"] = ["EXT_mesh_gpu_instancing"]
+            kids = [node]
+        else:
+            kids = [g.add("nodes", {"mesh": mesh, "translation": t[i], "rotation": q[i], "scale": s[i]})
+                    for i in range(3)]
+        parent = g.add("nodes", {"children": kids, "translation": [0.1, 0, 0]})
+        g.scene([parent, g.camera(3.0, FILL_FOV)])
+        return g.write(tmp_path / f"i{int(instanced)}{int(shorts)}.gltf")
+
+    a, b = caustica.load_scene(scene(True)), caustica.load_scene(scene(False))
+    assert a.describe()["shapes"] == b.describe()["shapes"] == 3
+    assert a.describe()["meshes"] == 1  # shared, not copied
+    ia, ib = render(scene(True), spp=2), render(scene(False), spp=2)
+    assert ia.mean() > 0.01
+    np.testing.assert_allclose(ia, ib, atol=1e-6)
+    ic = render(scene(True, shorts=True), spp=2)
+    assert np.abs(ic - ib).mean() < 0.01 * ib.mean()  # shorts quantize the rotation: a few edge pixels move
+
+
 def test_errors_are_input_errors(tmp_path):
     p = tmp_path / "bad.gltf"
     p.write_text('{\n  "asset": {"version": "2.0"},\n  "nodes": [}\n')

@@ -40,7 +40,7 @@ const std::set<std::string>& supported_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_lights_punctual",
-      "KHR_texture_transform", "KHR_mesh_quantization"};
+      "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
@@ -49,8 +49,7 @@ const std::set<std::string>& ignored_extensions() {
       "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",  "KHR_materials_iridescence",
       "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants",
       "KHR_materials_pbrSpecularGlossiness", "KHR_texture_basisu", "KHR_draco_mesh_compression",
-      "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld",
-      "EXT_mesh_gpu_instancing"};
+      "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
 }
 
@@ -501,6 +500,8 @@ struct Mat4 {  // row-major 4x4 (affine)
   }
 };
 
+Mat4 trs_matrix(const double t[3], const double q[4], const double s[3]);
+
 Mat4 local_matrix(const json& n) {
   Mat4 r;
   if (const json* mj = member(n, "matrix")) {  // column-major in glTF
@@ -512,6 +513,12 @@ Mat4 local_matrix(const json& n) {
   if (const json* j = member(n, "translation")) for (int i = 0; i < 3; ++i) t[i] = (*j)[i].get<double>();
   if (const json* j = member(n, "rotation")) for (int i = 0; i < 4; ++i) q[i] = (*j)[i].get<double>();
   if (const json* j = member(n, "scale")) for (int i = 0; i < 3; ++i) s[i] = (*j)[i].get<double>();
+  return trs_matrix(t, q, s);
+}
+
+// T * R * S from a translation, a unit quaternion (x, y, z, w; normalized here) and a scale.
+Mat4 trs_matrix(const double t[3], const double q[4], const double s[3]) {
+  Mat4 r;
   double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
   double x = q[0] / len, y = q[1] / len, z = q[2] / len, w = q[3] / len;
   double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
@@ -1098,20 +1105,60 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
   if (const json* mj = member(n, "mesh")) {
     size_t mi = mj->get<size_t>();
     const json& prims = root_["meshes"][mi]["primitives"];
-    bool singular = !(std::abs(world.det3()) > 0.0);
+    // EXT_mesh_gpu_instancing: the mesh once per instance, each at the node's world matrix times the instance's
+    // T * R * S (accessors TRANSLATION, ROTATION, SCALE of one count; absent ones are identity). Meshes are
+    // shared, not copied.
+    std::vector<Mat4> worlds{world};
+    const json* inst = member(n, "extensions") ? member((*member(n, "extensions")), "EXT_mesh_gpu_instancing") : nullptr;
+    if (inst) {
+      const std::string ip = P(P(p, "extensions"), "EXT_mesh_gpu_instancing");
+      const json* at = member(*inst, "attributes");
+      if (!at || !at->is_object()) c_.fail(ip, "missing attributes (TRANSLATION, ROTATION and/or SCALE)");
+      std::vector<float> tr, ro, sc;
+      size_t count = 0;
+      bool any = false;
+      auto read = [&](const char* key, std::vector<float>& out, const char* type) {
+        const json* aj = member(*at, key);
+        if (!aj) return;
+        size_t cnt;
+        int comps;
+        out = read_floats(aj->get<size_t>(), P(P(ip, "attributes"), key), {type}, cnt, comps);
+        if (any && cnt != count)
+          c_.fail(P(P(ip, "attributes"), key), "has " + std::to_string(cnt) + " elements, the other attributes " +
+                                                  std::to_string(count));
+        count = cnt;
+        any = true;
+      };
+      read("TRANSLATION", tr, "VEC3");
+      read("ROTATION", ro, "VEC4");
+      read("SCALE", sc, "VEC3");
+      if (!any) c_.fail(P(ip, "attributes"), "expected TRANSLATION, ROTATION and/or SCALE");
+      worlds.clear();
+      for (size_t i = 0; i < count; ++i) {
+        double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s3[3] = {1, 1, 1};
+        for (int k = 0; k < 3 && !tr.empty(); ++k) t[k] = tr[3 * i + k];
+        for (int k = 0; k < 4 && !ro.empty(); ++k) q[k] = ro[4 * i + k];
+        for (int k = 0; k < 3 && !sc.empty(); ++k) s3[k] = sc[3 * i + k];
+        if (!(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] > 0.0))
+          c_.fail(P(P(ip, "attributes"), "ROTATION"), "instance " + std::to_string(i) + ": a zero quaternion");
+        worlds.push_back(world * trs_matrix(t, q, s3));
+      }
+    }
+    for (size_t wi = 0; wi < worlds.size(); ++wi)
     for (size_t k = 0; k < prims.size(); ++k) {
       int id = mesh(mi, k);
       if (id < 0) continue;
-      if (singular) {
+      if (!(std::abs(worlds[wi].det3()) > 0.0)) {
         ++singular_instances_;
         continue;
       }
       ShapeDesc s;
       s.name = node_name.empty() ? "node" + std::to_string(ni) : node_name;
+      if (inst) s.name += "#" + std::to_string(wi);
       if (prims.size() > 1) s.name += "/" + std::to_string(k);
       s.type = ShapeType::kMesh;
       s.mesh = id;
-      s.to_world = A;
+      s.to_world = worlds[wi].affine();
       if (const json* mt = member(prims[k], "material")) {
         size_t gm = mt->get<size_t>();
         s.material = material(gm);
