@@ -624,6 +624,18 @@ TEST(MitsubaBsdf, Errors) {
 // ---------------------------------------------------------------------------
 // Shapes.
 
+TEST(MitsubaShape, EmittersWithoutABsdfReflectNothing) {
+  // Mitsuba 3 gives an emitter's shape without a BSDF a black diffuse one, other shapes diffuse 0.5.
+  std::string f = scene_file("emitter_bsdf.xml", kCamera +
+      "<shape type=\"rectangle\"><emitter type=\"area\"/></shape>\n<shape type=\"cube\"/>\n"
+      "<shape type=\"disk\"><bsdf type=\"diffuse\"/><emitter type=\"area\"/></shape>\n");
+  SceneDesc d = load_mitsuba_scene(f);
+  ASSERT_EQ(d.shapes.size(), 3u);
+  expect_vec_near(d.materials[d.shapes[0].material].diffuse, {0, 0, 0}, 0.f);
+  expect_vec_near(d.materials[d.shapes[1].material].diffuse, {0.5f, 0.5f, 0.5f}, 0.f);
+  expect_vec_near(d.materials[d.shapes[2].material].diffuse, {0.5f, 0.5f, 0.5f}, 0.f);  // its own BSDF
+}
+
 TEST(MitsubaShape, LocalShapesAndEmitters) {
   std::string f = scene_file("shapes.xml", kCamera +
       "<shape type=\"sphere\" id=\"ball\"><point name=\"center\" value=\"1, 2, 3\"/><float name=\"radius\" value=\"0.5\"/>"

@@ -295,7 +295,7 @@ class Loader {
   };
   std::map<std::string, Id> ids;
   std::set<std::string> warned;
-  int default_material = -1;
+  int default_material = -1, default_emitter_material = -1;
   bool have_integrator = false, have_environment = false;
   // Shapegroups (their shapes, each with its own to_world before an instance's) and the state while one is read.
   using ShapeGroup = std::vector<std::pair<ShapeDesc, M4>>;
@@ -563,6 +563,13 @@ class Loader {
   int default_bsdf() {
     if (default_material < 0) default_material = d.add_material("default", make_diffuse(RGB(0.5f)));
     return default_material;
+  }
+  // An emitter's shape without a BSDF reflects nothing: Mitsuba 3 gives it a black diffuse BSDF (where other
+  // shapes get diffuse 0.5).
+  int default_emitter_bsdf() {
+    if (default_emitter_material < 0)
+      default_emitter_material = d.add_material("default emitter", make_diffuse(RGB(0.f)));
+    return default_emitter_material;
   }
 
   // ---- textures ----
@@ -1271,7 +1278,7 @@ class Loader {
       bsdfs.push_back(r);
     }
     if (bsdfs.size() > 1) fail(bsdfs[1], "a shape takes one BSDF");
-    int material = bsdfs.empty() ? default_bsdf() : parse_bsdf(bsdfs[0]);
+    int material = bsdfs.empty() ? -1 : parse_bsdf(bsdfs[0]);
     // Area emitter.
     RGB emission(0.f);
     int emission_tex = -1;
@@ -1292,6 +1299,7 @@ class Loader {
       emission = r.value;
       emission_tex = r.texture;
     }
+    if (material < 0) material = emitters.empty() ? default_bsdf() : default_emitter_bsdf();
     // Media: <ref name="interior|exterior" id="..."/> or a nested <medium name="interior|exterior">. One
     // given makes the other side vacuum, as in Mitsuba.
     int interior = -1, exterior = -1;
