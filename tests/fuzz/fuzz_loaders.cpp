@@ -5,7 +5,8 @@
 // mutations (bit flips, interesting bytes, deleted/duplicated/inserted ranges,
 // numbers replaced by extreme values, splices with another corpus file),
 // writes it beside copies of the corpus (so relative references to .mtl, .bin
-// and image files still resolve) and loads it with load_scene_desc and
+// and image files still resolve; a Mitsuba serialized mesh through a small XML scene) and loads it with
+// load_scene_desc and
 // Scene::build. The only acceptable outcomes are a scene or an InputError
 // (the one-line message users see). Any other exception, and anything the
 // sanitizers report, is a finding: the input is saved to the findings folder
@@ -63,7 +64,20 @@ void write_file(const fs::path& p, const std::string& s) {
 
 bool is_scene_file(const fs::path& p) {
   std::string e = p.extension().string();
-  return e == ".json" || e == ".obj" || e == ".ply" || e == ".gltf" || e == ".glb" || e == ".xml";
+  return e == ".json" || e == ".obj" || e == ".ply" || e == ".gltf" || e == ".glb" || e == ".xml" ||
+         e == ".serialized";
+}
+
+// The file to load for a seed or its mutation: the file itself, or for a Mitsuba serialized mesh (not a scene on
+// its own) a Mitsuba XML scene beside it that loads its second mesh, written once.
+fs::path loadable(const fs::path& file) {
+  if (file.extension() != ".serialized") return file;
+  fs::path xml = file;
+  xml += ".xml";
+  if (!fs::exists(xml))
+    write_file(xml, "<scene version=\"3.0.0\"><shape type=\"serialized\"><string name=\"filename\" value=\"" +
+                        file.filename().string() + "\"/><integer name=\"shape_index\" value=\"1\"/></shape></scene>\n");
+  return xml;
 }
 
 struct Mutator {
@@ -189,7 +203,7 @@ int main(int argc, char** argv) {
   // The unmutated seeds must load: a corpus that is already broken tests nothing.
   for (size_t i = 0; i < seeds.size(); ++i) {
     try {
-      Scene::build(load_scene_desc((work / seeds[i]).string()));
+      Scene::build(load_scene_desc(loadable(work / seeds[i]).string()));
     } catch (const std::exception& e) {
       std::fprintf(stderr, "fuzz: seed %s does not load: %s\n", seeds[i].c_str(), e.what());
       return 1;
@@ -208,7 +222,7 @@ int main(int argc, char** argv) {
     ++iters;
     ++per_seed[i];
     try {
-      SceneDesc d = load_scene_desc(target.string());
+      SceneDesc d = load_scene_desc(loadable(target).string());
       Scene::build(d);
       ++loaded;
     } catch (const InputError& e) {

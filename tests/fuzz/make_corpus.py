@@ -34,8 +34,29 @@ def vol(nx, ny, nz, channels, values):
             + struct.pack(f"<{len(values)}f", *values))
 
 
+def serialized(meshes):
+    """Mitsuba's serialized format (scene/loaders/serialized_loader.cpp), version 4: per mesh a header and a zlib
+    stream (flags, name, counts, positions, normals, UVs, colours, indices), then the offsets and the count."""
+    out, offsets = b"", []
+    for name, pos, nor, uv, col, idx in meshes:
+        flags = 0x1000 | (1 if nor else 0) | (2 if uv else 0) | (8 if col else 0)
+        body = struct.pack("<I", flags) + name.encode() + b"\0" + struct.pack("<QQ", len(pos) // 3, len(idx) // 3)
+        for a in (pos, nor, uv, col):
+            if a:
+                body += struct.pack(f"<{len(a)}f", *a)
+        body += struct.pack(f"<{len(idx)}I", *idx)
+        offsets.append(len(out))
+        out += struct.pack("<HH", 0x041C, 4) + zlib.compress(body)
+    return out + b"".join(struct.pack("<Q", o) for o in offsets) + struct.pack("<I", len(meshes))
+
+
 def main():
     OUT.mkdir(parents=True, exist_ok=True)
+    # Two meshes: a triangle, and a quad with normals, UVs and colours (the fuzzer loads the second).
+    (OUT / "mesh.serialized").write_bytes(serialized([
+        ("tri", [0, 0, 0, 1, 0, 0, 0, 1, 0], None, None, None, [0, 1, 2]),
+        ("quad", [0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0], [0, 0, 1] * 4, [0, 0, 1, 0, 1, 1, 0, 1],
+         [1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1], [0, 1, 2, 0, 2, 3])]))
     (OUT / "checker.png").write_bytes(TEX)
     (OUT / "grid.vol").write_bytes(vol(2, 2, 2, 1, [0, 1, 2, 0.5, 1, 3, 0.25, 0]))
     (OUT / "albedo.vol").write_bytes(vol(2, 1, 1, 3, [0.9, 0.8, 0.7, 0.3, 0.6, 0.95]))
