@@ -77,6 +77,10 @@ def write_scenes(res):
     <transform name="to_world"><lookat origin="0, 2, 6" target="0, 0.7, 0" up="0, 1, 0"/></transform>
     <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
       <rfilter type="box"/></film></sensor>"""
+    # A small area light above the middle, facing down (textured, colored, direct, ptracer).
+    top_light = """  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate y="3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>"""
     with open(os.path.join(OUT, "envmap.xml"), "w") as f:
         f.write(f"""<scene version="3.0.0">
   <integrator type="path"><integer name="max_depth" value="6"/></integrator>
@@ -101,9 +105,7 @@ def write_scenes(res):
       <string name="filter_type" value="nearest"/></texture></bsdf></shape>
   <shape type="sphere"><point name="center" x="0" y="0.8" z="0"/><float name="radius" value="0.8"/>
     <bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.4, 0.2"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
-      <translate y="3"/></transform>
-    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+{top_light}
   <emitter type="point"><point name="position" x="2" y="2" z="2"/><rgb name="intensity" value="6, 6, 8"/></emitter>
 </scene>
 """)
@@ -521,9 +523,7 @@ def write_scenes(res):
   <shape type="ply"><string name="filename" value="colored_ball.ply"/>
     <transform name="to_world"><scale value="0.8"/><translate y="0.8"/></transform>
     <bsdf type="diffuse">{attr.format("reflectance", "")}</bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
-      <translate y="3"/></transform>
-    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+{top_light}
   <emitter type="constant"><rgb name="radiance" value="0.15, 0.15, 0.2"/></emitter>
 </scene>
 """)
@@ -536,9 +536,7 @@ def write_scenes(res):
   <shape type="sphere"><point name="center" x="0" y="0.8" z="0"/><float name="radius" value="0.8"/>
     <bsdf type="roughconductor"><string name="material" value="Cu"/><string name="distribution" value="ggx"/>
       <float name="alpha" value="0.1"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
-      <translate y="3"/></transform>
-    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+{top_light}
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.2, 0.25"/></emitter>
 </scene>
 """)
@@ -550,9 +548,7 @@ def write_scenes(res):
     <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.6, 0.6"/></bsdf></shape>
   <shape type="sphere"><point name="center" x="0" y="0.8" z="0"/><float name="radius" value="0.8"/>
     <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.5, 0.3"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
-      <translate y="3"/></transform>
-    <emitter type="area"><rgb name="radiance" value="12, 11, 9"/></emitter></shape>
+{top_light}
 </scene>
 """)
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
