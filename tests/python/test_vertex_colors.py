@@ -14,6 +14,8 @@ import pytest
 
 import caustica
 
+CUDA, WHY = caustica.cuda_status()
+
 from conftest import mean_and_se
 from serialized_mesh import write_serialized
 
@@ -82,6 +84,14 @@ def test_without_the_flag_or_the_colours_the_material_keeps_its_colour():
 def test_every_integrator_reads_them(integrator):
     """The photon and bidirectional integrators shade through the same surface_material: the centroids agree."""
     img = render(quad_scene(), integrator=integrator, spp=32, seed=3)
+    expect_centroids(img, COLORS, 0.5)
+
+
+@pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
+@pytest.mark.parametrize("integrator", ["path", "sppm", "vcm"])
+def test_cuda_reads_them(integrator):
+    """On the GPU the colours travel with the scene's arrays (DeviceScene): the same centroids."""
+    img = render(quad_scene(), integrator=integrator, spp=32, seed=3, device="cuda")
     expect_centroids(img, COLORS, 0.5)
 
 
