@@ -379,7 +379,7 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                restir_candidates: Optional[int] = None, restir_neighbors: Optional[int] = None,
                restir_radius: Optional[float] = None, restir_history: Optional[float] = None,
                light_sampler: Optional[str] = None, volume_radius: Optional[float] = None,
-               hide_emitters: Optional[bool] = None) -> RenderResult:
+               hide_emitters: Optional[bool] = None, aov: Optional[str] = None) -> RenderResult:
     """Renders and returns a RenderResult; Ctrl-C (KeyboardInterrupt) stops the render and
     returns what was accumulated so far with interrupted=True.
 
@@ -412,6 +412,10 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
     (area lights and the environment at the end of the camera ray, through null boundaries) add nothing, as
     Mitsuba's hide_emitters; they still hide what is behind them, and their light, reflections and refractions
     stay.
+    `aov` (path, every driver): instead of radiance, an output variable of the first surface each camera ray
+    reaches (through null boundaries, ignoring media; 0 where it reaches none), averaged over the pixel like
+    radiance: "depth" (distance along the ray), "position", "normal" (shading normal), "geo_normal", "uv" (u, v,
+    0) or "albedo" (the material's main colour after textures and vertex colours), as Mitsuba's aov integrator.
     `checkpoint(image)` is called every `checkpoint_interval` seconds with the image so far.
     Stop on quality (checked after each pass; whichever of spp, time and a target comes first):
     `target_error` with `reference` (a path to an .exr/.pfm or an (H, W, 3) array) stops when
@@ -489,7 +493,8 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
                             jitter=bool(jitter), lanes=bool(lanes), photon_sampling=_photon_sampling(o["photon_sampling"]),
                             light_sampler=_light_sampler(o["light_sampler"]),
                             volume_radius=float(volume_radius or 0.0),
-                            hide_emitters=_boolean("hide_emitters", o["hide_emitters"]), **restir, **targets)
+                            hide_emitters=_boolean("hide_emitters", o["hide_emitters"]), aov=_aov(aov),
+                            **restir, **targets)
     interrupted = False
     job.start()
     last_checkpoint = _time.monotonic()
@@ -519,6 +524,17 @@ def render_job(scene, integrator: Optional[str] = None, spp: Optional[int] = Non
 
 
 LIGHT_SAMPLERS = ("power", "bvh")
+
+
+AOVS = ("depth", "position", "normal", "geo_normal", "uv", "albedo")
+
+
+def _aov(v) -> str:
+    if v is None:
+        return ""
+    if v not in AOVS:
+        raise InputError(f"unknown AOV {v!r} (allowed: {', '.join(AOVS)})")
+    return v
 
 
 def _boolean(name, v) -> bool:
@@ -605,7 +621,8 @@ def render(scene, integrator: Optional[str] = None, spp: Optional[int] = None, t
     the render early. The GIL is released while rendering. Ctrl-C raises KeyboardInterrupt
     after stopping the render. Photon integrators take photons=, radius=, alpha=,
     pass_offset=, stochastic_hash=, photon_sampling=, and ppm/pppm/sppm in media volume_radius=; stop on quality: target_error= with reference=, and
-    target_noise=; hide_emitters= (every integrator: emitters seen directly add nothing) (see render_job)."""
+    target_noise=; hide_emitters= (every integrator: emitters seen directly add nothing); aov= (path: "depth",
+    "position", "normal", "geo_normal", "uv" or "albedo" instead of radiance) (see render_job)."""
     r = render_job(scene, integrator, spp, time, seed, threads, max_depth, rr_depth, sampler, accel, progress,
                    **photon_options)
     if r.interrupted:

@@ -172,6 +172,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="every integrator: emitters seen directly from the camera (area lights, the environment) add "
                         "nothing; they still block what is behind them, and their light and reflections stay "
                         "(Mitsuba's hide_emitters) (default: the scene's, else shown)")
+    r.add_argument("--aov", default=None, metavar="{depth,position,normal,geo_normal,uv,albedo}",
+                   help="path: write an output variable of the first surface each camera ray reaches instead of "
+                        "radiance (depth, position, normal, geo_normal, uv or albedo; 0 where the ray meets nothing)")
     r.add_argument("--restir-candidates", type=_positive_int("--restir-candidates"), default=None,
                    help="restir: light candidates per pixel and pass (default 32)")
     r.add_argument("--restir-neighbors", type=_nonneg_int("--restir-neighbors"), default=None,
@@ -304,6 +307,8 @@ def cmd_render(a) -> int:
         _check_choice("photon sampling", a.photon_sampling, _api.PHOTON_SAMPLINGS)
     if a.light_sampler is not None:
         _check_choice("light sampler", a.light_sampler, _api.LIGHT_SAMPLERS)
+    if a.aov is not None:
+        _check_choice("AOV", a.aov, _api.AOVS)
     _api._check_device(a.device)
     if a.filter is not None:
         _check_choice("filter", a.filter, _api.FILTERS)
@@ -356,7 +361,7 @@ def cmd_render(a) -> int:
                               jitter=not a.no_jitter, lanes=not a.no_lanes, photon_sampling=a.photon_sampling,
                               restir_candidates=a.restir_candidates, restir_neighbors=a.restir_neighbors,
                               restir_radius=a.restir_radius, restir_history=a.restir_history,
-                              light_sampler=a.light_sampler, hide_emitters=a.hide_emitters)
+                              light_sampler=a.light_sampler, hide_emitters=a.hide_emitters, aov=a.aov)
     except _api.RenderError as e:
         failed = e
     finally:

@@ -337,7 +337,7 @@ NB_MODULE(_native, m) {
               double target_noise, bool strategy_images, const std::string& device, bool wavefront,
               bool compaction, bool sort_materials, bool cache_first_bounce, bool jitter, bool lanes,
               const std::string& photon_sampling, int restir_candidates, int restir_neighbors, float restir_radius,
-              float restir_history, const std::string& light_sampler, float volume_radius, bool hide_emitters) {
+              float restir_history, const std::string& light_sampler, float volume_radius, bool hide_emitters, const std::string& aov) {
              RenderOptions o;
              o.integrator = integrator;
              o.spp = spp;
@@ -374,6 +374,7 @@ NB_MODULE(_native, m) {
              o.restir_history = restir_history;
              o.light_sampler = light_sampler;
              o.hide_emitters = hide_emitters;
+             o.aov = aov;
              if (reference) {
                if (reference->shape(2) != 3) throw InputError("the reference image must have 3 channels (H, W, 3)");
                const float* p = reference->data();
@@ -392,7 +393,8 @@ NB_MODULE(_native, m) {
            nb::arg("sort_materials") = false, nb::arg("cache_first_bounce") = false, nb::arg("jitter") = true,
            nb::arg("lanes") = true, nb::arg("photon_sampling") = "uniform", nb::arg("restir_candidates") = 32,
            nb::arg("restir_neighbors") = 5, nb::arg("restir_radius") = 30.f, nb::arg("restir_history") = 20.f,
-           nb::arg("light_sampler") = "power", nb::arg("volume_radius") = 0.f, nb::arg("hide_emitters") = false)
+           nb::arg("light_sampler") = "power", nb::arg("volume_radius") = 0.f, nb::arg("hide_emitters") = false,
+           nb::arg("aov") = "")
       .def("start", &RenderJob::start)
       .def("run", &RenderJob::run, nb::call_guard<nb::gil_scoped_release>())
       .def("wait", &RenderJob::wait, nb::arg("timeout"), nb::call_guard<nb::gil_scoped_release>())

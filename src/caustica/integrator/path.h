@@ -35,6 +35,19 @@
 
 namespace caustica {
 
+// Arbitrary output variables (path's --aov; Mitsuba's `aov` integrator has the same quantities): instead of
+// radiance, each sample carries one value of the first surface its camera ray reaches (through null boundaries,
+// ignoring media), 0 where it reaches none; the film averages them over the pixel like radiance.
+enum class Aov : uint32_t {
+  kNone = 0,
+  kDepth,      // distance from the camera ray's origin (Mitsuba's "depth": the hit's t along a unit direction)
+  kPosition,   // the world-space point
+  kNormal,     // the shading normal (interpolated vertex normals; before normal and bump maps), world space
+  kGeoNormal,  // the geometric normal
+  kUv,         // the texture coordinates (u, v, 0), caustica's v (up the image)
+  kAlbedo,     // the material's main colour after textures and vertex colours (surface_material's tint)
+};
+
 struct PathParams {
   uint32_t max_depth = 0xffffffffu;  // segments; 0xffffffff: unlimited
   uint32_t rr_depth = 5;
@@ -46,6 +59,7 @@ struct PathParams {
   // null boundaries crossed on the way) add nothing; they still block what lies behind them (Mitsuba's
   // hide_emitters). Emissive media, and emitters seen through a reflection or refraction, stay visible.
   bool hide_emitters = false;
+  Aov aov = Aov::kNone;  // an output variable instead of radiance (path_aov)
   // Whether the emission reached at the end of segment `depth` (1: the camera's) is added.
   CHD bool shows_emission(uint32_t depth) const { return !hide_emitters || depth > 1; }
 };
@@ -283,6 +297,23 @@ CHD void path_scatter_in_medium(const SceneView& s, const PathParams& pp, PathSt
   path_roulette(pp, st, u_lobe_rr.y);
 }
 
+// The output variable `aov` of the surface point sh that the camera ray from `origin` reached (through null
+// boundaries: Aov).
+CHD RGB path_aov(const SceneView& s, Aov aov, Vec3f origin, SurfaceHit sh) {
+  switch (aov) {
+    case Aov::kDepth: return RGB(length(sh.p - origin));
+    case Aov::kPosition: return RGB(sh.p.x, sh.p.y, sh.p.z);
+    case Aov::kNormal: return RGB(sh.ns.x, sh.ns.y, sh.ns.z);
+    case Aov::kGeoNormal: return RGB(sh.ng.x, sh.ng.y, sh.ng.z);
+    case Aov::kUv: return RGB(sh.uv.x, sh.uv.y, 0.f);
+    case Aov::kAlbedo: {
+      Material m = surface_material(s, sh);
+      return main_colour(m);
+    }
+    default: return RGB(0.f);
+  }
+}
+
 // `eq` receives the equiangular shadow ray of a segment in a medium (path_equiangular); drivers pass it
 // where the scene has media and point or spot lights (scene_wants_equiangular), else null. `vertex` (null for
 // the path tracer itself) receives the vertex where next-event estimation is sampled, if this step makes one
@@ -292,7 +323,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   sr.active = false;
   if (eq) eq->active = false;
   st.depth += 1;  // the segment just traced
-  if (st.medium >= 0) {
+  if (st.medium >= 0 && pp.aov == Aov::kNone) {
     const Medium& md = s.media[st.medium];
     const float dlen = length(st.ray.d);
     const Vec3f o = st.ray.o, d = st.ray.d / dlen;
@@ -339,7 +370,7 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
     }
   }
   if (!hit.valid()) {
-    if (s.environment_light >= 0 && !st.nee_only && pp.shows_emission(st.depth)) {
+    if (s.environment_light >= 0 && !st.nee_only && pp.shows_emission(st.depth) && pp.aov == Aov::kNone) {
       const Light& env = s.lights[s.environment_light];
       float w = 1.f;
       if (!st.prev_delta) {
@@ -354,6 +385,11 @@ CHD void path_shade(const SceneView& s, const PathParams& pp, PathState& st, con
   }
   SurfaceHit sh = make_surface_hit(s, st.ray, hit);
   Vec3f wo_world = -st.ray.d;
+  if (pp.aov != Aov::kNone && !is_null_surface(s, sh)) {
+    st.L = path_aov(s, pp.aov, st.prev_p, sh);  // prev_p: the camera ray's origin, kept across null crossings
+    st.active = false;
+    return;
+  }
   st.beta *= segment_transmittance(s, st.ray.d, hit.t, sh);
 
   if (!st.nee_only && pp.shows_emission(st.depth))

@@ -21,6 +21,7 @@ bool path_lanes_supported(const SceneView& s, const PathParams& pp, std::string*
     return false;
   };
   if (scene_has_media(s)) return fail("participating media or null surfaces");
+  if (pp.aov != Aov::kNone) return fail("an output variable (--aov)");
   for (uint32_t i = 0; i < s.num_lights; ++i) {
     const Light& l = s.lights[i];
     if (l.type != LightType::kTriangle) return fail("a light other than a triangle area light");

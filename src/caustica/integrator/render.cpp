@@ -34,6 +34,24 @@ namespace {
 const char* const kLightSamplerIntegrators[] = {"path", "restir", "pm", "ppm", "sppm", "pppm", "bdpt", "vcm", "upg"};
 }
 
+namespace {
+const std::pair<const char*, Aov> kAovs[] = {{"depth", Aov::kDepth},         {"position", Aov::kPosition},
+                                             {"normal", Aov::kNormal},       {"geo_normal", Aov::kGeoNormal},
+                                             {"uv", Aov::kUv},               {"albedo", Aov::kAlbedo}};
+}  // namespace
+
+Aov aov_kind(const std::string& name) {
+  for (const auto& [n, k] : kAovs)
+    if (name == n) return k;
+  return Aov::kNone;
+}
+
+std::string aov_names() {
+  std::string r;
+  for (const auto& [n, k] : kAovs) r += (r.empty() ? "" : ", ") + std::string(n);
+  return r;
+}
+
 bool light_sampler_applies(const std::string& integrator) {
   for (const char* n : kLightSamplerIntegrators)
     if (integrator == n) return true;
@@ -147,6 +165,11 @@ void RenderJob::validate(const RenderOptions& o) {
   }
   if (o.light_sampler != "power" && o.light_sampler != "bvh")
     throw InputError("unknown light sampler '" + o.light_sampler + "' (allowed: power, bvh)");
+  if (!o.aov.empty()) {
+    if (aov_kind(o.aov) == Aov::kNone)
+      throw InputError("unknown AOV '" + o.aov + "' (allowed: " + aov_names() + ")");
+    if (o.integrator != "path") throw InputError("--aov applies to integrator 'path', got '" + o.integrator + "'");
+  }
   if (o.light_sampler == "bvh" && !light_sampler_applies(o.integrator))
     throw InputError("--light-sampler bvh applies to integrators " + light_sampler_integrators() + ", got '" +
                      o.integrator + "'");
@@ -343,6 +366,7 @@ PathParams RenderJob::path_params() const {
   pp.jitter = opt_.jitter;
   pp.light_bvh = opt_.light_sampler == "bvh";
   pp.hide_emitters = opt_.hide_emitters;
+  pp.aov = aov_kind(opt_.aov);
   return pp;
 }
 

@@ -41,6 +41,9 @@ struct RenderOptions {
   bool lanes = true;
   // Every integrator: emitters seen directly from the camera add nothing (Mitsuba's hide_emitters; PathParams).
   bool hide_emitters = false;
+  // path: an output variable of the first surface instead of radiance (path.h, Aov): "" (radiance), "depth",
+  // "position", "normal", "geo_normal", "uv" or "albedo".
+  std::string aov;
   // Photon mapping (ppm, sppm, pppm)
   int64_t photons = 0;       // photon paths per pass; 0 = one per pixel
   float radius = 0.f;        // initial gather radius; 0 = automatic (twice the median pixel footprint)
@@ -105,6 +108,11 @@ struct RenderStats {
   double seconds_light = 0.0, seconds_camera = 0.0, seconds_accumulate = 0.0;
   uint64_t stored_photons = 0;
 };
+
+enum class Aov : uint32_t;  // integrator/path.h
+// The output variable named `name` (RenderOptions::aov; Aov::kNone for an unknown name), and the names.
+Aov aov_kind(const std::string& name);
+std::string aov_names();
 
 // Names of the integrators this build offers (the registry).
 const std::vector<std::string>& integrator_names();

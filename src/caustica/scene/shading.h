@@ -163,6 +163,19 @@ CHD void apply_bump_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
   sh.ns = nn;
 }
 
+// The main colour, the one colour textures and vertex colours tint: the specular tint of conductors, the
+// transmission of dielectrics, else the diffuse or base colour.
+CHD RGB& main_colour(Material& m) {
+  switch (m.type) {
+    case MaterialType::kConductor:
+    case MaterialType::kRoughConductor: return m.specular;
+    case MaterialType::kDielectric:
+    case MaterialType::kRoughDielectric:
+    case MaterialType::kThinDielectric: return m.transmission;
+    default: return m.diffuse;
+  }
+}
+
 CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
   Material m = s.materials[sh.material];
   // A blend is one of its two materials at each point, mix_b with probability w: the choice is a hash of the
@@ -178,20 +191,8 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
     }
     m = s.materials[point_hash(sh.p, sh.prim, depth) < w ? m.mix_b : m.mix_a];
   }
-  // The main colour: the specular tint of conductors, the transmission of dielectrics, else the diffuse or
-  // base colour.
-  auto tint = [&m](RGB c) {
-    switch (m.type) {
-      case MaterialType::kConductor:
-      case MaterialType::kRoughConductor: m.specular = m.specular * c; break;
-      case MaterialType::kDielectric:
-      case MaterialType::kRoughDielectric:
-      case MaterialType::kThinDielectric: m.transmission = m.transmission * c; break;
-      default: m.diffuse = m.diffuse * c; break;
-    }
-  };
-  if (m.tex_color >= 0) tint(texture_lookup(s.textures[m.tex_color], sh.uv).rgb());
-  if ((m.flags & kVertexColor) && s.colors && sh.prim < s.num_triangles) tint(triangle_color(s, sh.prim, sh.p));
+  if (m.tex_color >= 0) main_colour(m) *= texture_lookup(s.textures[m.tex_color], sh.uv).rgb();
+  if ((m.flags & kVertexColor) && s.colors && sh.prim < s.num_triangles) main_colour(m) *= triangle_color(s, sh.prim, sh.p);
   if (m.tex_roughness >= 0) {
     RGBA r = texture_lookup(s.textures[m.tex_roughness], sh.uv);
     if (m.type == MaterialType::kMetallicRoughness) {
