@@ -519,8 +519,9 @@ TEST(GltfLoader, MalformedInputMessages) {
   p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_draco_mesh_compression"]})");
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_draco_mesh_compression' is required but not supported "
                              "(supported: EXT_mesh_gpu_instancing, KHR_lights_punctual, KHR_materials_anisotropy, "
-                             "KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_transmission, "
-                             "KHR_materials_volume, KHR_mesh_quantization, KHR_texture_transform)");
+                             "KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_pbrSpecularGlossiness, "
+                             "KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
+                             "KHR_texture_transform)");
   // A missing buffer file names both files.
   p = write_text("nobuf.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "missing.bin", "byteLength": 4}]})");
   EXPECT_EQ(error_of(p), p + ": /buffers/0/uri: buffer file '" + dir + "/missing.bin' does not exist");

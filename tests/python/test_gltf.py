@@ -7,6 +7,7 @@ import math
 import os
 import struct
 import subprocess
+import warnings
 import zlib
 
 import numpy as np
@@ -305,6 +306,37 @@ def test_gpu_instancing_places_each_instance(tmp_path):
     np.testing.assert_allclose(ia, ib, atol=1e-6)
     ic = render(scene(True, shorts=True), spp=2)
     assert np.abs(ic - ib).mean() < 0.01 * ib.mean()  # shorts quantize the rotation: a few edge pixels move
+
+
+@pytest.mark.parametrize("sg,mr", [
+    # A dielectric (specular 0.04): metallic 0, the diffuse colour as base colour.
+    ({"diffuseFactor": [0.8, 0.2, 0.1, 1], "specularFactor": [0.04, 0.04, 0.04], "glossinessFactor": 0.7},
+     {"baseColorFactor": [0.8, 0.2, 0.1, 1], "metallicFactor": 0, "roughnessFactor": 0.3}),
+    # A metal (black diffuse): metallic 1, the specular colour as base colour.
+    ({"diffuseFactor": [0, 0, 0, 1], "specularFactor": [0.9, 0.6, 0.2], "glossinessFactor": 0.4},
+     {"baseColorFactor": [0.9, 0.6, 0.2, 1], "metallicFactor": 1, "roughnessFactor": 0.6}),
+])
+def test_specular_glossiness_is_converted(tmp_path, sg, mr):
+    """KHR_materials_pbrSpecularGlossiness: its two limits, a dielectric and a metal, render as the metallic-roughness
+    materials the conversion gives (the same image up to float rounding of the converted factors)."""
+    imgs = []
+    for k, mat in enumerate(({"extensions": {"KHR_materials_pbrSpecularGlossiness": sg}},
+                             {"pbrMetallicRoughness": mr})):
+        g = Gltf()
+        quad = g.quad(g.add("materials", mat))
+        light = g.quad(g.add("materials", {"emissiveFactor": [4, 4, 4]}), half=0.3, facing_down=True)
+        g.scene([g.add("nodes", {"mesh": quad, "rotation": [-0.38268343, 0, 0, 0.92387953]}),
+                 g.add("nodes", {"mesh": light, "translation": [0, 0.8, 1.5]}), g.camera(3.0, FILL_FOV)])
+        if k == 0:
+            g.doc["extensionsUsed"] = ["KHR_materials_pbrSpecularGlossiness"]
+        path = g.write(tmp_path / f"sg{k}.gltf")
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            imgs.append(render(path, spp=8))
+        if k == 0:
+            assert any("converted to metallic-roughness" in str(x.message) for x in w)
+    assert imgs[1].mean() > 0.01
+    np.testing.assert_allclose(imgs[0], imgs[1], rtol=1e-4, atol=1e-5)
 
 
 def test_errors_are_input_errors(tmp_path):

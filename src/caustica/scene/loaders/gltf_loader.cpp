@@ -40,15 +40,15 @@ const std::set<std::string>& supported_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_lights_punctual",
-      "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing"};
+      "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
+      "KHR_materials_pbrSpecularGlossiness"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",  "KHR_materials_iridescence",
-      "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants",
-      "KHR_materials_pbrSpecularGlossiness", "KHR_texture_basisu", "KHR_draco_mesh_compression",
+      "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu", "KHR_draco_mesh_compression",
       "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
 }
@@ -826,6 +826,9 @@ int Converter::material(size_t i) {
   const json* aniso_texture = nullptr;
   std::string aniso_texture_path;
   RGB absorption(0.f);
+  const json *sg_diffuse_texture = nullptr, *sg_texture = nullptr;  // KHR_materials_pbrSpecularGlossiness
+  std::string sg_path;
+  float glossiness = -1.f;  // >= 0: the material is specular-glossiness, converted below
   MatExtra ex;
   if (const json* e = member(m, "emissiveFactor")) ex.emission = nonneg_color(c_, *e, P(p, "emissiveFactor"), 3);
   if (const json* exts = member(m, "extensions")) {
@@ -872,6 +875,44 @@ int Converter::material(size_t i) {
         aniso_texture_path = P(ap, "anisotropyTexture");
       }
     }
+    if (const json* t = member(*exts, "KHR_materials_pbrSpecularGlossiness")) {
+      // The archived specular-glossiness model, converted to metallic-roughness by the Khronos glTF converters'
+      // rule: metallic solves the dielectric/metal mix of the diffuse and specular brightness (perceived, with
+      // a dielectric F0 of 0.04), the base colour blends the colour each side implies by metallic^2, and
+      // roughness = 1 - glossiness. The extension takes the place of pbrMetallicRoughness (its fallback).
+      sg_path = P(ep, "KHR_materials_pbrSpecularGlossiness");
+      object_at(c_, *t, sg_path);
+      RGB diffuse(1.f), specular(1.f);
+      if (const json* d = member(*t, "diffuseFactor")) {
+        diffuse = nonneg_color(c_, *d, P(sg_path, "diffuseFactor"), 4);
+        base_alpha = float((*d)[3].get<double>());
+        if (base_alpha > 1.f) c_.fail(P(sg_path, "diffuseFactor/3"), "expected an alpha in [0, 1]");
+      }
+      if (const json* s = member(*t, "specularFactor")) specular = nonneg_color(c_, *s, P(sg_path, "specularFactor"), 3);
+      glossiness = unit_interval(c_, *t, "glossinessFactor", sg_path, 1.f);
+      const double f0 = 0.04;
+      auto brightness = [](RGB c) { return std::sqrt(0.299 * c.x * c.x + 0.587 * c.y * c.y + 0.114 * c.z * c.z); };
+      const double one_minus = 1.0 - std::min(1.0, double(max_component(specular)));
+      const double bd = brightness(diffuse), bs = brightness(specular);
+      double m = 0.0;
+      if (bs >= f0) {  // the quadratic f0 m^2 + b m + c = 0's larger root
+        const double b = bd * one_minus / (1.0 - f0) + bs - 2.0 * f0, c = f0 - bs;
+        m = std::clamp((-b + std::sqrt(std::max(b * b - 4.0 * f0 * c, 0.0))) / (2.0 * f0), 0.0, 1.0);
+      }
+      RGB b_col;
+      for (int k = 0; k < 3; ++k) {
+        const double from_diffuse = diffuse[k] * one_minus / (1.0 - f0) / std::max(1.0 - m, 1e-6);
+        const double from_specular = (specular[k] - f0 * (1.0 - m)) / std::max(m, 1e-6);
+        b_col[k] = float(std::clamp(from_diffuse + (from_specular - from_diffuse) * m * m, 0.0, 1.0));
+      }
+      base = b_col;
+      metallic = float(m);
+      roughness = 1.f - glossiness;
+      sg_diffuse_texture = member(*t, "diffuseTexture");
+      sg_texture = member(*t, "specularGlossinessTexture");
+      warn_once("KHR_materials_pbrSpecularGlossiness is converted to metallic-roughness (from its factors; its "
+                "diffuse texture tints the base colour and its glossiness channel sets the roughness)");
+    }
     if (const json* t = member(*exts, "KHR_materials_emissive_strength")) {
       std::string sp = P(ep, "KHR_materials_emissive_strength");
       object_at(c_, *t, sp);
@@ -890,9 +931,28 @@ int Converter::material(size_t i) {
     // strength 0 there is nothing for it to scale.
     if (aniso_texture && mat.alpha_x != mat.alpha_y) mat.tex_aniso = texture(*aniso_texture, aniso_texture_path, false);
   }
-  if (const json* t = member(pb, "baseColorTexture")) mat.tex_color = texture(*t, P(pp, "baseColorTexture"), true);
-  if (const json* t = member(pb, "metallicRoughnessTexture"))
-    mat.tex_roughness = texture(*t, P(pp, "metallicRoughnessTexture"), false);
+  if (glossiness >= 0.f) {
+    if (sg_diffuse_texture) mat.tex_color = texture(*sg_diffuse_texture, P(sg_path, "diffuseTexture"), true);
+    if (sg_texture) {
+      // Roughness 1 - glossiness x the texture's alpha, as a metallic-roughness texture (green: the roughness,
+      // the factor being 1; blue: 1, keeping the metallic factor).
+      const int t = texture(*sg_texture, P(sg_path, "specularGlossinessTexture"), false);
+      if (t >= 0) {
+        TextureDesc r = d_.textures[size_t(t)];
+        r.name += "#roughness-from-glossiness";
+        for (size_t i = 0; i + 3 < r.rgba.size(); i += 4)
+          r.rgba[i] = 0.f, r.rgba[i + 1] = 1.f - glossiness * r.rgba[i + 3], r.rgba[i + 2] = 1.f, r.rgba[i + 3] = 1.f;
+        d_.textures.push_back(std::move(r));
+        mat.tex_roughness = int(d_.textures.size()) - 1;
+        const float a = 1.f;  // the factor: the texture holds the whole roughness
+        mat.alpha_x = mat.alpha_y = a;
+      }
+    }
+  } else {
+    if (const json* t = member(pb, "baseColorTexture")) mat.tex_color = texture(*t, P(pp, "baseColorTexture"), true);
+    if (const json* t = member(pb, "metallicRoughnessTexture"))
+      mat.tex_roughness = texture(*t, P(pp, "metallicRoughnessTexture"), false);
+  }
   if (const json* t = member(m, "normalTexture")) {
     mat.tex_normal = texture(*t, P(p, "normalTexture"), false);
     mat.normal_scale = float(number_or(c_, *t, "scale", P(p, "normalTexture"), 1.0));
