@@ -8,6 +8,12 @@ import pytest
 BIN = os.environ.get("CAUSTICA_BIN") or os.path.join(os.path.dirname(sys.executable), "caustica")
 
 
+def srgb_to_linear(c):
+    """The sRGB transfer function's inverse (IEC 61966-2-1) of values in [0, 1]."""
+    c = np.asarray(c, np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
 def mean_and_se(values):
     """Mean and standard error of independent estimates."""
     v = np.asarray(values, dtype=np.float64).ravel()

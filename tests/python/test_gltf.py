@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import caustica
-from conftest import BIN
+from conftest import BIN, srgb_to_linear
 
 
 # ----------------------------------------------------------------- helpers ---
@@ -30,11 +30,6 @@ def png_bytes(rgb):
 
     return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6 if channels == 4 else 2, 0, 0, 0)) +
             chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
-
-
-def srgb_to_linear(c):
-    c = np.asarray(c, np.float64) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
 class Gltf:
@@ -154,7 +149,7 @@ def test_emission_texture_texels_render_exactly(tmp_path, mode):
     path = g.write(tmp_path / ("quad.glb" if mode == "glb" else "quad.gltf"), mode)
     out = render(path)
     for (r, c), px in quadrant_centres(out).items():
-        np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c]), rtol=1e-4, atol=1e-5)
+        np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c] / 255.0), rtol=1e-4, atol=1e-5)
 
 
 def test_base_color_texture_on_a_mirror_metal(tmp_path):
@@ -170,7 +165,7 @@ def test_base_color_texture_on_a_mirror_metal(tmp_path):
     g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
     out = render(g.write(tmp_path / "metal.gltf"), size=64, spp=4)
     for (r, c), px in quadrant_centres(out).items():
-        np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c]), rtol=0.03, atol=0.005)
+        np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c] / 255.0), rtol=0.03, atol=0.005)
 
 
 def test_emissive_strength(tmp_path):

@@ -16,7 +16,7 @@ import caustica
 
 CUDA, WHY = caustica.cuda_status()
 
-from conftest import mean_and_se
+from conftest import mean_and_se, srgb_to_linear
 from serialized_mesh import write_serialized
 
 # A unit quad in z = 0 facing +z: triangles (0, 1, 2) and (0, 2, 3); corners red, green, blue, white.
@@ -170,11 +170,6 @@ def write_ply_colored(path, colors, kind):
         for p, c in zip(QUAD_P, colors):
             f.write(" ".join(str(v) for v in list(p) + list(c)) + "\n")
         f.write("3 0 1 2\n3 0 2 3\n")
-
-
-def srgb_to_linear(c):
-    c = np.asarray(c, np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
 @pytest.mark.parametrize("kind", ["uchar", "ushort", "float"])

@@ -944,8 +944,7 @@ int Converter::material(size_t i) {
           r.rgba[i] = 0.f, r.rgba[i + 1] = 1.f - glossiness * r.rgba[i + 3], r.rgba[i + 2] = 1.f, r.rgba[i + 3] = 1.f;
         d_.textures.push_back(std::move(r));
         mat.tex_roughness = int(d_.textures.size()) - 1;
-        const float a = 1.f;  // the factor: the texture holds the whole roughness
-        mat.alpha_x = mat.alpha_y = a;
+        mat.alpha_x = mat.alpha_y = 1.f;  // the factor: the texture holds the whole roughness
       }
     }
   } else {
@@ -1169,7 +1168,8 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
     // T * R * S (accessors TRANSLATION, ROTATION, SCALE of one count; absent ones are identity). Meshes are
     // shared, not copied.
     std::vector<Mat4> worlds{world};
-    const json* inst = member(n, "extensions") ? member((*member(n, "extensions")), "EXT_mesh_gpu_instancing") : nullptr;
+    const json* node_ext = member(n, "extensions");
+    const json* inst = node_ext ? member(*node_ext, "EXT_mesh_gpu_instancing") : nullptr;
     if (inst) {
       const std::string ip = P(P(p, "extensions"), "EXT_mesh_gpu_instancing");
       const json* at = member(*inst, "attributes");
