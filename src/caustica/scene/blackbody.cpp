@@ -1,5 +1,6 @@
 // Blackbody colours (blackbody.h).
 #include "blackbody.h"
+#include "spectrum.h"
 
 #include <array>
 #include <cmath>
@@ -14,15 +15,7 @@ double lobe(double x, double mean, double sigma_lo, double sigma_hi) {
   return std::exp(-0.5 * t * t);
 }
 
-constexpr double kPlanckH = 6.62607015e-34;   // J s
-constexpr double kLightC = 299792458.0;       // m / s
-constexpr double kBoltzmannK = 1.380649e-23;  // J / K
-constexpr double kWienB = 2.897771955e-3;     // m K
-
-double planck(double lambda_m, double kelvin) {
-  const double l5 = lambda_m * lambda_m * lambda_m * lambda_m * lambda_m;
-  return 2.0 * kPlanckH * kLightC * kLightC / (l5 * std::expm1(kPlanckH * kLightC / (lambda_m * kBoltzmannK * kelvin)));
-}
+constexpr double kWienB = 2.897771955e6;  // nm K
 
 constexpr double kMinKelvin = 100.0, kMaxKelvin = 100000.0;
 constexpr int kTableSize = 8192;
@@ -39,11 +32,11 @@ Vec3f cie_xyz_fit(double nm) {
 
 RGB blackbody_rgb_exact(double kelvin) {
   if (!(kelvin > kMinKelvin)) return RGB(0.f);
-  const double peak = planck(kWienB / kelvin, kelvin);
+  const double peak = planck_radiance(kWienB / kelvin, kelvin);
   double X = 0.0, Y = 0.0, Z = 0.0, ybar = 0.0;
   for (int nm = 360; nm <= 830; ++nm) {
     const double w = (nm == 360 || nm == 830) ? 0.5 : 1.0;  // the trapezoid rule
-    const double s = planck(nm * 1e-9, kelvin) / peak;
+    const double s = planck_radiance(nm, kelvin) / peak;
     const Vec3f c = cie_xyz_fit(nm);
     X += w * s * c.x;
     Y += w * s * c.y;
@@ -53,10 +46,8 @@ RGB blackbody_rgb_exact(double kelvin) {
   X /= ybar;
   Y /= ybar;
   Z /= ybar;
-  const double r = 3.2404542 * X - 1.5371385 * Y - 0.4985314 * Z;
-  const double g = -0.9692660 * X + 1.8760108 * Y + 0.0415560 * Z;
-  const double b = 0.0556434 * X - 0.2040259 * Y + 1.0572252 * Z;
-  return RGB(float(std::max(r, 0.0)), float(std::max(g, 0.0)), float(std::max(b, 0.0)));
+  const SpectrumRgb c = xyz_to_linear_srgb({X, Y, Z});
+  return RGB(float(std::max(c.r, 0.0)), float(std::max(c.g, 0.0)), float(std::max(c.b, 0.0)));
 }
 
 RGB blackbody_rgb(double kelvin) {
