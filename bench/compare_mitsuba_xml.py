@@ -26,7 +26,9 @@ three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world 
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
 instanced three times, a checkerboard texture with a to_uv, a cylinder light), and direct (Mitsuba's `direct`
 integrator) and ptracer (Mitsuba's particle tracer; caustica renders it with its light tracer), and colored (vertex
-colours through Mitsuba's mesh_attribute texture, from PLY files with float colours).
+colours through Mitsuba's mesh_attribute texture, from PLY files with float colours), and spectral (reflectances,
+a conductor's eta and k, a transmittance and emitters given as wavelength:value spectra, from a .spd file and as
+single values on emitters).
 
 caustica renders each scene with the integrator its XML names (path for path, volpath and direct; light for ptracer).
 `--integrator bdpt` (or light, vcm, sppm, ...) renders caustica's side with that integrator instead, against
@@ -551,6 +553,35 @@ def write_scenes(res):
 {top_light}
 </scene>
 """)
+    # Spectra (Mitsuba's wavelength:value pairs, a .spd file, single values on emitters: docs/formats-mitsuba.md).
+    nm = np.arange(380, 781, 20)
+    leaf = 0.05 + 0.45 * np.exp(-0.5 * ((nm - 550) / 30.0) ** 2) + 0.5 / (1 + np.exp(-(nm - 710) / 12.0))
+    with open(os.path.join(OUT, "leaf.spd"), "w") as f:
+        f.write("# a leaf-like reflectance: a green peak and the red edge\n")
+        f.write("".join(f"{w} {v:.4f}\n" for w, v in zip(nm, leaf)))
+    with open(os.path.join(OUT, "spectral.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><spectrum name="reflectance" value="400:0.2, 450:0.6, 500:0.75, 600:0.7, 700:0.65"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><translate z="-2" y="1"/></transform>
+    <bsdf type="diffuse"><spectrum name="reflectance" value="400:0.05, 560:0.08, 600:0.6, 700:0.85"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="-0.9" y="0.6" z="0"/><float name="radius" value="0.6"/>
+    <bsdf type="diffuse"><spectrum name="reflectance" filename="leaf.spd"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0.9" y="0.6" z="0"/><float name="radius" value="0.6"/>
+    <bsdf type="roughconductor"><spectrum name="eta" value="400:1.5, 500:0.9, 600:0.27, 700:0.16"/>
+      <spectrum name="k" value="400:1.9, 500:1.8, 600:2.9, 700:3.9"/><float name="alpha" value="0.15"/>
+      <string name="distribution" value="ggx"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0" y="0.4" z="1.1"/><float name="radius" value="0.4"/>
+    <bsdf type="dielectric"><spectrum name="specular_transmittance" value="400:0.3, 480:0.9, 560:0.5, 700:0.2"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/>
+      <translate y="3"/></transform>
+    <emitter type="area"><spectrum name="radiance" value="400:4, 500:9, 600:12, 700:14"/></emitter></shape>
+  <emitter type="point"><point name="position" x="-2" y="2.5" z="2"/><spectrum name="intensity" value="3"/></emitter>
+  <emitter type="constant"><spectrum name="radiance" value="360:0.3, 830:0.1"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
@@ -560,7 +591,7 @@ def write_scenes(res):
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
             "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),
-            "colored": os.path.join(OUT, "colored.xml")}
+            "colored": os.path.join(OUT, "colored.xml"), "spectral": os.path.join(OUT, "spectral.xml")}
 
 
 def render_caustica(path, res, spp, seed, integrator=None):

@@ -23,6 +23,7 @@
 #include "../load.h"
 #include "mesh_loaders.h"
 #include "../volume_io.h"
+#include "../spectrum.h"
 
 namespace caustica {
 namespace {
@@ -143,6 +144,12 @@ std::string join(const std::vector<std::string>& v) {
   for (const std::string& x : v) s += (s.empty() ? "" : ", ") + x;
   return s;
 }
+// A number for messages (6 significant digits).
+std::string fmt(double x) {
+  std::ostringstream o;
+  o << x;
+  return o.str();
+}
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   return s;
@@ -195,6 +202,13 @@ struct ColorOrTexture {
   int texture = -1;
 };
 
+// How Mitsuba 3's RGB variants reduce a <spectrum> given for a property (scene/spectrum.h): a reflectance
+// (and every other bounded quantity) is seen under D65 and clamped to [0, 1]; a conductor's eta and k and a
+// constvolume's value under D65, unclamped; an emitter's radiance, intensity or irradiance as it is,
+// unclamped, and a single value there is the equal-energy white of that luminance. Negative channels become 0
+// in all three. Colours given as <rgb> or <float> are used as they are in all three.
+enum class SpectrumUse { kReflectance, kUnbounded, kEmission };
+
 class Loader;
 
 // The children of one plugin element.
@@ -230,8 +244,8 @@ struct Props {
   int get_int(const std::string& name, int def);
   bool get_bool(const std::string& name, bool def);
   std::string get_string(const std::string& name, const std::string& def);
-  RGB get_color(const std::string& name, RGB def);
-  ColorOrTexture get_color_tex(const std::string& name, RGB def);
+  RGB get_color(const std::string& name, RGB def, SpectrumUse use = SpectrumUse::kReflectance);
+  ColorOrTexture get_color_tex(const std::string& name, RGB def, SpectrumUse use = SpectrumUse::kReflectance);
   Vec3f get_point(const std::string& name, Vec3f def);
   M4 get_transform(const std::string& name, bool* present = nullptr);
   float get_ior(const std::string& name, float def);
@@ -407,6 +421,105 @@ class Loader {
     if (has_attr(n, "y")) r.y = number(n, attr(n, "y"));
     if (has_attr(n, "z")) r.z = number(n, attr(n, "z"));
     return r;
+  }
+
+  // ---- spectra ----
+  // A <spectrum> property reduced to linear sRGB as Mitsuba 3's RGB variants reduce it for `use`
+  // (docs/formats-mitsuba.md, "Properties"): value="v" (one value), value="l1:v1, l2:v2, ..." (nanometres in
+  // increasing order, a piecewise-linear spectrum, zero outside), filename="f.spd" (the same pairs, one per
+  // line, '#' comments), type="uniform" (its `value`) or type="blackbody" (its `temperature` in kelvin; an
+  // emission only: Planck's law in W m^-2 sr^-1 nm^-1, as Mitsuba's spectral variants render it, which its RGB
+  // variants refuse to).
+  RGB spectrum(xml_node n, SpectrumUse use) {
+    check_attrs(n, {"name", "value", "filename", "type"});
+    const bool emission = use == SpectrumUse::kEmission;
+    SpectrumRgb c;
+    if (has_attr(n, "type")) {
+      if (has_attr(n, "value") || has_attr(n, "filename"))
+        fail(n, "a <spectrum type=\"...\"> takes its parameters as nested properties, not value or filename");
+      const std::string t = attr(n, "type");
+      Props sp(*this, n);
+      if (t == "uniform") {
+        sp.declare({"value"});
+        const float v = sp.get_float("value", 1.f);
+        sp.finish();
+        return RGB(v);
+      }
+      if (t != "blackbody")
+        fail(n, "unsupported spectrum type '" + t +
+                    "' (supported: uniform, blackbody; or value=\"wavelength:value, ...\" or filename=\"*.spd\")");
+      if (!emission)
+        fail(n, "a blackbody spectrum is an emission: it is accepted for an emitter's radiance, intensity or "
+                "irradiance only");
+      sp.declare({"temperature"});
+      if (!sp.has("temperature")) fail(n, "missing <float name=\"temperature\"> (kelvin)");
+      const double kelvin = sp.get_float("temperature", 0.f);
+      if (!(kelvin > 0.0)) fail(n, "expected a temperature above 0 kelvin");
+      sp.finish();
+      c = spectrum_to_linear_srgb([kelvin](double nm) { return planck_radiance(nm, kelvin); }, false);
+    } else {
+      std::vector<double> nm, value;
+      if (has_attr(n, "filename")) {
+        if (has_attr(n, "value")) fail(n, "give either value or filename, not both");
+        read_spd(n, nm, value);
+      } else {
+        if (!has_attr(n, "value")) fail(n, "missing value=\"...\" or filename=\"...\"");
+        const std::string s = attr(n, "value");
+        if (s.find(':') == std::string::npos) {
+          const double v = number(n, s, "one value or wavelength:value pairs");
+          if (!emission) return RGB(float(v));
+          // The equal-energy spectrum of luminance v: XYZ = (v, v, v).
+          c = xyz_to_linear_srgb({v, v, v});
+          return RGB(float(c.r), float(c.g), float(c.b));
+        }
+        std::string t = s;
+        for (char& ch : t)
+          if (ch == ':') ch = ' ';
+        std::vector<double> v;
+        if (!parse_numbers(t, v) || v.size() % 2) fail(n, "expected wavelength:value pairs, got '" + s + "'");
+        for (size_t i = 0; i + 1 < v.size(); i += 2) {
+          if (!std::isfinite(v[i]) || !std::isfinite(v[i + 1])) fail(n, "expected finite numbers, got '" + s + "'");
+          nm.push_back(v[i]);
+          value.push_back(v[i + 1]);
+        }
+      }
+      if (nm.size() < 2) fail(n, "a spectrum needs at least two wavelength:value pairs (or one value for a flat one)");
+      for (size_t i = 1; i < nm.size(); ++i)
+        if (!(nm[i] > nm[i - 1])) fail(n, "the wavelengths must increase (" + fmt(nm[i - 1]) + " then " + fmt(nm[i]) + ")");
+      c = piecewise_linear_srgb(nm, value, !emission);
+    }
+    double rgb[3] = {c.r, c.g, c.b};
+    bool clamped = false;
+    for (double& x : rgb) {
+      const double y = std::max(use == SpectrumUse::kReflectance ? std::min(x, 1.0) : x, 0.0);
+      clamped |= y != x;
+      x = y;
+    }
+    if (clamped)
+      warn(n, "spectrum-gamut",
+           "the spectrum's linear sRGB (" + fmt(c.r) + ", " + fmt(c.g) + ", " + fmt(c.b) + ") lies outside " +
+               (use == SpectrumUse::kReflectance ? "[0, 1]" : "the non-negative colours") +
+               "; clamped as Mitsuba 3 does");
+    return RGB(float(rgb[0]), float(rgb[1]), float(rgb[2]));
+  }
+  // A Mitsuba .spd file: "wavelength value" per line, '#' to the end of a line a comment.
+  void read_spd(xml_node n, std::vector<double>& nm, std::vector<double>& value) {
+    const fs::path path = existing_file(n, attr(n, "filename"), "spectrum file");
+    std::ifstream in(path);
+    if (!in) fail(n, "cannot read spectrum file '" + path.string() + "'");
+    std::string line;
+    for (int no = 1; std::getline(in, line); ++no) {
+      const size_t hash = line.find('#');
+      if (hash != std::string::npos) line.resize(hash);
+      std::vector<double> v;
+      if (!parse_numbers(line, v) || (v.size() != 0 && v.size() != 2) ||
+          (v.size() == 2 && !(std::isfinite(v[0]) && std::isfinite(v[1]))))
+        fail(n, "spectrum file '" + path.string() + "' line " + std::to_string(no) +
+                    ": expected a wavelength and a value, got '" + line + "'");
+      if (v.empty()) continue;
+      nm.push_back(v[0]);
+      value.push_back(v[1]);
+    }
   }
 
   // ---- files ----
@@ -785,8 +898,8 @@ class Loader {
       RGB eta(0.f), k(1.f);
       if (has_ek) {
         if (!material.empty()) fail(n, "give either 'material' or eta/k, not both");
-        eta = p.get_color("eta", RGB(0.f));
-        k = p.get_color("k", RGB(1.f));
+        eta = p.get_color("eta", RGB(0.f), SpectrumUse::kUnbounded);
+        k = p.get_color("k", RGB(1.f), SpectrumUse::kUnbounded);
       } else {
         p.get("eta");
         p.get("k");
@@ -1028,7 +1141,7 @@ class Loader {
     Props vp(*this, v);
     if (vt == "constvolume") {
       vp.declare({"value", "to_world"});
-      *constant = vp.get_color("value", RGB(1.f));
+      *constant = vp.get_color("value", RGB(1.f), SpectrumUse::kUnbounded);
       vp.get_transform("to_world");
       vp.finish();
       return;
@@ -1292,7 +1405,7 @@ class Loader {
       if (in_shapegroup_) fail(e, "an emitter inside a shapegroup is not supported (Mitsuba does not instance emitters)");
       Props ep(*this, e);
       ep.declare({"radiance"});
-      ColorOrTexture r = ep.get_color_tex("radiance", RGB(1.f));
+      ColorOrTexture r = ep.get_color_tex("radiance", RGB(1.f), SpectrumUse::kEmission);
       if (vertex_color_textures_.count(r.texture))
         fail(ep.get("radiance"), "a mesh_attribute texture is supported as a BSDF's colour only, not as radiance");
       ep.finish({"sampling_weight"});
@@ -1450,7 +1563,7 @@ class Loader {
       l.type = LightType::kPoint;
       l.p = has_tw ? to_vec(column(tw, 3)) : p.get_point("position", Vec3f(0.f));
       p.get("position");
-      l.L = p.get_color("intensity", RGB(1.f));
+      l.L = p.get_color("intensity", RGB(1.f), SpectrumUse::kEmission);
     } else if (type == "spot") {
       M4 tw = p.get_transform("to_world");
       l.type = LightType::kSpot;
@@ -1458,7 +1571,7 @@ class Loader {
       V3 dir = column(tw, 2);
       if (len3(dir) == 0) fail(n, "to_world maps the spot's axis to zero");
       l.dir = to_vec(scale3(dir, 1.0 / len3(dir)));
-      l.L = p.get_color("intensity", RGB(1.f));
+      l.L = p.get_color("intensity", RGB(1.f), SpectrumUse::kEmission);
       float cutoff = p.get_float("cutoff_angle", 20.f);
       float beam = p.get_float("beam_width", cutoff * 0.75f);
       if (!(cutoff > 0.f && cutoff <= 180.f)) fail(p.get("cutoff_angle"), "expected degrees in (0, 180]");
@@ -1480,13 +1593,13 @@ class Loader {
       p.get("direction");
       if (length(dir) == 0.f) fail(n, "expected a non-zero direction");
       l.dir = normalize(dir);
-      l.L = p.get_color("irradiance", RGB(1.f));
+      l.L = p.get_color("irradiance", RGB(1.f), SpectrumUse::kEmission);
     } else if (type == "constant" || type == "envmap") {
       if (have_environment) fail(n, "only one environment emitter (constant or envmap) is supported");
       have_environment = true;
       l.type = LightType::kEnvironment;
       if (type == "constant") {
-        l.L = p.get_color("radiance", RGB(1.f));
+        l.L = p.get_color("radiance", RGB(1.f), SpectrumUse::kEmission);
       } else {
         xml_node fnode = p.get("filename");
         if (!fnode) fail(n, "missing <string name=\"filename\">");
@@ -1825,15 +1938,15 @@ std::string Props::get_string(const std::string& name, const std::string& def) {
   L.check_attrs(n, {"name", "value"});
   return L.attr(n, "value");
 }
-RGB Props::get_color(const std::string& name, RGB def) {
+RGB Props::get_color(const std::string& name, RGB def, SpectrumUse use) {
   xml_node n = get(name);
   if (!n) return def;
   std::string tag = n.name();
   if (tag == "texture" || tag == "ref") L.fail(n, "a texture is not supported for this property");
-  ColorOrTexture c = get_color_tex(name, def);
+  ColorOrTexture c = get_color_tex(name, def, use);
   return c.value;
 }
-ColorOrTexture Props::get_color_tex(const std::string& name, RGB def) {
+ColorOrTexture Props::get_color_tex(const std::string& name, RGB def, SpectrumUse use) {
   xml_node n = get(name);
   ColorOrTexture r;
   r.value = def;
@@ -1853,24 +1966,7 @@ ColorOrTexture Props::get_color_tex(const std::string& name, RGB def) {
     std::vector<double> v = L.numbers(n, L.attr(n, "value"), {1, 3}, "\"r, g, b\" or one value");
     r.value = v.size() == 1 ? RGB(float(v[0])) : RGB(float(v[0]), float(v[1]), float(v[2]));
   } else if (tag == "spectrum") {
-    L.check_attrs(n, {"name", "value"});
-    if (!n.attribute("value")) L.fail(n, "spectra from files are not supported (give value=\"...\")");
-    std::string s = L.attr(n, "value");
-    if (s.find(':') == std::string::npos) {
-      r.value = RGB(float(L.number(n, s, "one value or wavelength:value pairs")));
-    } else {
-      // wavelength:value pairs: accepted when all values are equal (a grey spectrum).
-      std::string t = s;
-      for (char& c : t)
-        if (c == ':') c = ' ';
-      std::vector<double> v;
-      if (!parse_numbers(t, v) || v.size() < 2 || v.size() % 2)
-        L.fail(n, "expected wavelength:value pairs, got '" + s + "'");
-      for (size_t i = 3; i < v.size(); i += 2)
-        if (v[i] != v[1])
-          L.fail(n, "only constant spectra are supported (use <rgb>); the values here vary with wavelength");
-      r.value = RGB(float(v[1]));
-    }
+    r.value = L.spectrum(n, use);
   } else {
     L.fail(n, "expected <rgb>, <spectrum>, <float> or a <texture>");
   }
