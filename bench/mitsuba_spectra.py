@@ -73,7 +73,7 @@ def main():
             want = np.array(list(mi.spectrum_list_to_srgb(list(wl), list(v), bounded, d65)), float)
             scale = max(want.max(), 1e-3)
             worst[k] = max(worst[k], float(np.abs(np.array(got[k], float) - want).max() / scale))
-    print(f"{args.spectra} random spectra: largest |caustica - Mitsuba| / largest channel: "
+    print(f"{args.spectra} random spectra: largest abs(caustica - Mitsuba) / largest channel: "
           + ", ".join(f"{k} {w:.1e}" for k, w in worst.items()))
 
     mi.set_variant("scalar_spectral")
@@ -104,8 +104,8 @@ def main():
         date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
         commit, machine = _provenance.commit(ROOT), _provenance.machine()
         cmd = f"`bench/mitsuba_spectra.py --spectra {args.spectra} --seeds {args.seeds} --spp {args.spp}`"
-        print(f"| {date} | {machine} | {commit} | {cmd} | {args.spectra} random spectra, largest |caustica - Mitsuba "
-              f"3.9.1| / largest channel: " + ", ".join(f"{k} {w:.1e}" for k, w in worst.items()) + " |")
+        print(f"| {date} | {machine} | {commit} | {cmd} | {args.spectra} random spectra, largest abs(caustica - Mitsuba "
+              f"3.9.1) / largest channel: " + ", ".join(f"{k} {w:.1e}" for k, w in worst.items()) + " |")
         for line in bb:
             print(f"| {date} | {machine} | {commit} | {cmd} | {line} |")
 
