@@ -241,6 +241,24 @@ def main():
 </scene>
 """)
 
+    # Mitsuba 3 XML spectra: pairs, a .spd file, single values on emitters, a blackbody.
+    (OUT / "green.spd").write_text("# wavelength value\n400 0.05\n550 0.6  # peak\n\n700 0.1\n")
+    (OUT / "spectra.xml").write_text("""<scene version="3.0.0">
+  <bsdf type="diffuse" id="floor"><spectrum name="reflectance" value="400:0.2, 500:0.7, 700:0.5"/></bsdf>
+  <bsdf type="roughconductor" id="metal"><spectrum name="eta" value="400:1.5, 600:0.3, 700:0.2"/>
+    <spectrum name="k" value="400:1.9, 700:3.9"/></bsdf>
+  <shape type="rectangle"><transform name="to_world"><scale value="5"/><rotate x="1" angle="-90"/></transform><ref id="floor"/></shape>
+  <shape type="sphere"><ref id="metal"/></shape>
+  <shape type="cube"><transform name="to_world"><translate x="2"/></transform>
+    <bsdf type="diffuse"><spectrum name="reflectance" filename="green.spd"/></bsdf></shape>
+  <shape type="disk"><transform name="to_world"><rotate x="1" angle="90"/><translate y="4"/></transform>
+    <emitter type="area"><spectrum name="radiance" value="400:4, 550:9, 700:12"/></emitter></shape>
+  <emitter type="point"><point name="position" x="0" y="3" z="2"/><spectrum name="intensity" value="5"/></emitter>
+  <emitter type="constant"><spectrum name="radiance" type="blackbody"><float name="temperature" value="6500"/></spectrum>
+  </emitter>
+</scene>
+""")
+
 
 if __name__ == "__main__":
     main()
