@@ -94,9 +94,49 @@ void expect_outward_unit_normals(const MeshDesc& m, Vec3f centre) {
   }
 }
 
+// The corners of a unit cube whose faces are split into two triangles each: angle-weighted normals are the
+// diagonals (p - centre) / |p - centre| whatever the split, because each face turns 90 degrees about every
+// corner it has, split or not (an area weighting counts a face twice at the two corners its diagonal joins).
+void expect_cube_corner_diagonals(const MeshDesc& m) {
+  ASSERT_EQ(m.normals.size(), m.positions.size());
+  for (size_t i = 0; i < m.normals.size(); ++i) {
+    const Vec3f d = normalize(m.positions[i] - Vec3f(0.5f));
+    EXPECT_NEAR(m.normals[i].x, d.x, 1e-6f) << i;
+    EXPECT_NEAR(m.normals[i].y, d.y, 1e-6f) << i;
+    EXPECT_NEAR(m.normals[i].z, d.z, 1e-6f) << i;
+  }
+}
+
 }  // namespace
 
 // ----------------------------------------------------------------------------- PLY
+
+TEST(PlyLoader, MissingNormalsAreAngleWeightedAsMitsubas) {
+  // Two triangles at a right angle: (0,0,0) (1,0,0) (0,1,0) in z = 0 (normal +z, area 0.5) and (0,0,0) (0,0,3)
+  // (1,0,0) in y = 0 (normal +y, area 1.5). Mitsuba 3.9.1 gives these vertex normals for this file (its
+  // `vertex_normals`): vertex 0 sees 90 degrees of each face, vertex 1 45 degrees of the first and
+  // atan(3) = 71.57 degrees of the second. (Area weights would give (0, 0.949, 0.316) at vertex 0.)
+  std::string p = write("hinge.ply",
+                        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                        "0 0 0\n1 0 0\n0 1 0\n0 0 3\n3 0 1 2\n3 0 3 1\n");
+  MeshDesc m = load_ply_mesh(p, nullptr);
+  const Vec3f mitsuba[4] = {{0.f, 0.70710677f, 0.70710677f}, {0.f, 0.84655f, 0.5323093f}, {0.f, 0.f, 1.f},
+                            {0.f, 1.f, 0.f}};
+  ASSERT_EQ(m.normals.size(), 4u);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(m.normals[i].x, mitsuba[i].x, 1e-6f) << i;
+    EXPECT_NEAR(m.normals[i].y, mitsuba[i].y, 1e-6f) << i;
+    EXPECT_NEAR(m.normals[i].z, mitsuba[i].z, 1e-6f) << i;
+  }
+  // A cube of 12 triangles: every corner's normal is its diagonal.
+  std::string c = write("cube_nonormals.ply",
+                        "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face 6\nproperty list uchar int vertex_indices\nend_header\n"
+                        "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n"
+                        "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n");
+  expect_cube_corner_diagonals(load_ply_mesh(c, nullptr));
+}
 
 TEST(PlyLoader, AsciiQuadIsSplitAndReadsUVs) {
   std::string p = write("quad.ply",
@@ -345,6 +385,7 @@ TEST(ObjLoader, CubeWithoutNormalsGetsSmoothOutwardNormals) {
   EXPECT_EQ(m.indices.size(), 36u);
   EXPECT_NEAR(area(m), 6.0, 1e-5);
   expect_outward_unit_normals(m, Vec3f(0.5f));
+  expect_cube_corner_diagonals(m);
   EXPECT_EQ(d.shapes[0].name, "cube");
   EXPECT_EQ(d.material_names, (std::vector<std::string>{"cube/default"}));
   EXPECT_TRUE(d.warnings.empty());

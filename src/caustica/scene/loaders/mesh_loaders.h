@@ -29,12 +29,15 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
 std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affine& to_world,
                             int material_override, const std::string& referrer);
 
-// Area-weighted ("angle-free") smooth vertex normals of a triangle mesh: each
-// vertex gets the normalized sum of the (unnormalized) cross products of the
-// triangles using it, so larger triangles weigh more and the normal follows the
-// counter-clockwise winding. Vertices used by no (non-degenerate) triangle get
-// (0, 0, 1).
-std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& positions, const std::vector<uint32_t>& indices);
+// Angle-weighted smooth vertex normals (Thuermer & Wuethrich 1998, "Computing vertex normals from polygonal
+// facets", JGT 3(1)): each triangle adds its unit normal (counter-clockwise winding) times its angle at the
+// vertex, so the normal does not depend on how the surface around the vertex is cut into triangles (an area
+// weighting leans towards the larger triangles). Mitsuba 3 and Blender compute missing normals this way.
+// Vertices used by no (non-degenerate) triangle get (0, 0, 1).
+std::vector<Vec3f> angle_weighted_normals(const std::vector<Vec3f>& positions, const std::vector<uint32_t>& indices);
+// One triangle's terms of angle_weighted_normals: w[k] = unit normal of (p0, p1, p2) times the angle at p_k;
+// false (and no terms) for a degenerate or non-finite triangle.
+bool angle_weighted_terms(Vec3f p0, Vec3f p1, Vec3f p2, Vec3f w[3]);
 
 // Mitsuba's serialized format (the `serialized` shape of Mitsuba 0.6 and 3): a file of zlib-compressed meshes,
 // versions 3 and 4, single or double precision; `shape_index` picks one (0 = the first). Positions, optional
@@ -52,7 +55,7 @@ struct MeshRepairs {
   size_t colors = 0;        // negative or non-finite vertex colours made white
 };
 // The last step of the PLY and serialized loaders: normals normalized (zero or non-finite ones, or all of them
-// when the file has none, computed by area_weighted_normals; counted in r.normals), non-finite UVs set to 0, and
+// when the file has none, computed by angle_weighted_normals; counted in r.normals), non-finite UVs set to 0, and
 // negative or non-finite vertex colours made white (r.colors).
 void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r);
 // One warning line per kind of repair, naming `path`.

@@ -571,11 +571,12 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
         for (size_t t = 0; t < tri.size(); t += 3) {
           bool nan;
           if (!tri_ok(m, corner, tri[t], tri[t + 1], tri[t + 2], nan)) continue;
-          Vec3f w = cross(pts[tri[t + 1]] - pts[tri[t]], pts[tri[t + 2]] - pts[tri[t]]);
+          Vec3f w[3];
+          if (!angle_weighted_terms(pts[tri[t]], pts[tri[t + 1]], pts[tri[t + 2]], w)) continue;
           for (int k = 0; k < 3; ++k) {
             size_t v = size_t(m.indices[corner + tri[t + k]].vertex_index);
-            if (!scan.has_s) acc[v] += w;
-            else acc_groups[(uint64_t(v) << 32) | m.smoothing_group_ids[f]] += w;
+            if (!scan.has_s) acc[v] += w[k];
+            else acc_groups[(uint64_t(v) << 32) | m.smoothing_group_ids[f]] += w[k];
           }
         }
       }

@@ -232,15 +232,26 @@ std::string plural(size_t n, const char* one, const char* many) {
 
 }  // namespace
 
-std::vector<Vec3f> area_weighted_normals(const std::vector<Vec3f>& p, const std::vector<uint32_t>& idx) {
+bool angle_weighted_terms(Vec3f p0, Vec3f p1, Vec3f p2, Vec3f w[3]) {
+  const Vec3f c = cross(p1 - p0, p2 - p0);
+  const float l = length(c);
+  if (!(l > 0.f) || !std::isfinite(l)) return false;
+  const Vec3f n = c / l;
+  const Vec3f p[3] = {p0, p1, p2};
+  for (int k = 0; k < 3; ++k) {
+    const Vec3f e1 = p[(k + 1) % 3] - p[k], e2 = p[(k + 2) % 3] - p[k];
+    // The corner's angle, atan2(|e1 x e2|, e1 . e2): accurate for thin triangles, where acos is not.
+    w[k] = n * std::atan2(length(cross(e1, e2)), dot(e1, e2));
+  }
+  return true;
+}
+
+std::vector<Vec3f> angle_weighted_normals(const std::vector<Vec3f>& p, const std::vector<uint32_t>& idx) {
   std::vector<Vec3f> n(p.size(), Vec3f(0.f));
   for (size_t t = 0; t + 2 < idx.size(); t += 3) {
-    uint32_t a = idx[t], b = idx[t + 1], c = idx[t + 2];
-    Vec3f w = cross(p[b] - p[a], p[c] - p[a]);  // length = twice the area
-    if (!std::isfinite(w.x) || !std::isfinite(w.y) || !std::isfinite(w.z)) continue;
-    n[a] += w;
-    n[b] += w;
-    n[c] += w;
+    Vec3f w[3];
+    if (!angle_weighted_terms(p[idx[t]], p[idx[t + 1]], p[idx[t + 2]], w)) continue;
+    for (int k = 0; k < 3; ++k) n[idx[t + k]] += w[k];
   }
   for (Vec3f& v : n) {
     float l = length(v);
@@ -258,13 +269,13 @@ void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r) {
       if (l > 0.f && std::isfinite(l)) {
         m.normals[i] = n / l;
       } else {
-        if (computed.empty()) computed = area_weighted_normals(m.positions, m.indices);
+        if (computed.empty()) computed = angle_weighted_normals(m.positions, m.indices);
         m.normals[i] = computed[i];
         ++r.normals;
       }
     }
   } else {
-    m.normals = area_weighted_normals(m.positions, m.indices);
+    m.normals = angle_weighted_normals(m.positions, m.indices);
   }
   for (Vec2f& t : m.uvs)
     if (!std::isfinite(t.x) || !std::isfinite(t.y)) t = Vec2f(0.f, 0.f);
