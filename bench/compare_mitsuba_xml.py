@@ -28,7 +28,8 @@ instanced three times, a checkerboard texture with a to_uv, a cylinder light), a
 integrator) and ptracer (Mitsuba's particle tracer; caustica renders it with its light tracer), and colored (vertex
 colours through Mitsuba's mesh_attribute texture, from PLY files with float colours), and spectral (reflectances,
 a conductor's eta and k, a transmittance and emitters given as wavelength:value spectra, from a .spd file and as
-single values on emitters).
+single values on emitters), and smoothed (a coarse sphere as PLY and OBJ files without normals, which both
+renderers smooth).
 
 caustica renders each scene with the integrator its XML names (path for path, volpath and direct; light for ptracer).
 `--integrator bdpt` (or light, vcm, sppm, ...) renders caustica's side with that integrator instead, against
@@ -582,6 +583,45 @@ def write_scenes(res):
   <emitter type="constant"><spectrum name="radiance" value="360:0.3, 830:0.1"/></emitter>
 </scene>
 """)
+    # Missing normals: a coarse UV sphere (10 segments, 6 rings; poles fanned, quads split along alternating
+    # diagonals) as a PLY and an OBJ file without normals, smoothed by the loader (angle-weighted, as Mitsuba).
+    seg, rings = 10, 6
+    sv = [(0.0, 1.0, 0.0)] + [(math.sin(math.pi * r / rings) * math.cos(2 * math.pi * k / seg),
+                               math.cos(math.pi * r / rings),
+                               math.sin(math.pi * r / rings) * math.sin(2 * math.pi * k / seg))
+                              for r in range(1, rings) for k in range(seg)] + [(0.0, -1.0, 0.0)]
+    ring = lambda r, k: 1 + (r - 1) * seg + k % seg  # noqa: E731
+    sf = [(0, ring(1, k + 1), ring(1, k)) for k in range(seg)]
+    for r in range(1, rings - 1):
+        for k in range(seg):
+            a, b, c, d = ring(r, k), ring(r, k + 1), ring(r + 1, k + 1), ring(r + 1, k)
+            sf += [(a, b, c), (a, c, d)] if (r + k) % 2 else [(a, b, d), (b, c, d)]
+    sf += [(len(sv) - 1, ring(rings - 1, k), ring(rings - 1, k + 1)) for k in range(seg)]
+    with open(os.path.join(OUT, "smooth_ball.ply"), "w") as f:
+        f.write(f"ply\nformat ascii 1.0\nelement vertex {len(sv)}\nproperty float x\nproperty float y\n"
+                f"property float z\nelement face {len(sf)}\nproperty list uchar int vertex_indices\nend_header\n")
+        f.write("".join(" ".join(f"{x:.7g}" for x in v) + "\n" for v in sv))
+        f.write("".join(f"3 {a} {b} {c}\n" for a, b, c in sf))
+    with open(os.path.join(OUT, "smooth_ball.obj"), "w") as f:
+        f.write("".join("v " + " ".join(f"{x:.7g}" for x in v) + "\n" for v in sv))
+        f.write("".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in sf))
+    with open(os.path.join(OUT, "smoothed.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="5"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>
+  <shape type="ply"><string name="filename" value="smooth_ball.ply"/>
+    <transform name="to_world"><scale value="0.7"/><translate x="-0.8" y="0.7"/></transform>
+    <bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.1"/>
+      <string name="distribution" value="ggx"/></bsdf></shape>
+  <shape type="obj"><string name="filename" value="smooth_ball.obj"/>
+    <transform name="to_world"><rotate y="1" angle="20"/><scale value="0.7"/><translate x="0.8" y="0.7"/></transform>
+    <bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.2, 0.4, 0.7"/></bsdf></shape>
+{top_light}
+  <emitter type="constant"><rgb name="radiance" value="0.3, 0.3, 0.35"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
@@ -591,7 +631,8 @@ def write_scenes(res):
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
             "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),
-            "colored": os.path.join(OUT, "colored.xml"), "spectral": os.path.join(OUT, "spectral.xml")}
+            "colored": os.path.join(OUT, "colored.xml"), "spectral": os.path.join(OUT, "spectral.xml"),
+            "smoothed": os.path.join(OUT, "smoothed.xml")}
 
 
 def render_caustica(path, res, spp, seed, integrator=None):
