@@ -19,8 +19,9 @@ the sphere's to_world, beside an unturned textured sphere), and bumps (Mitsuba's
 gold sphere and a diffuse rectangle), and cut-outs (Mitsuba's mask with a texture of holes over a screen whose shadow
 falls on the floor, and a sphere of opacity 0.5; rendered with Mitsuba's volpath, whose shadow rays pass masks), and
 blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one), and
-principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF against caustica's
-metallic-roughness mapping), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
+principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF, caustica's principled),
+and disney (every principled lobe: sheen, clearcoat, spec_tint, flatness, anisotropy, metal and glass mixed, a
+roughness texture), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
 cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
@@ -321,6 +322,35 @@ def write_scenes(res):
   <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
     <bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1.0"/><float name="spec_trans" value="1"/>
       <float name="roughness" value="0.2"/><float name="eta" value="1.5"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
+    # Every principled lobe: sheen with tint, clearcoat, spec_tint, flatness, anisotropy, a half-metal
+    # half-glass, and a roughness texture (the checker's green) on the floor.
+    with open(os.path.join(OUT, "disney.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="0.6, 0.55, 0.5"/><float name="clearcoat" value="1"/>
+      <float name="clearcoat_gloss" value="0.8"/>
+      <texture type="bitmap" name="roughness"><string name="filename" value="checker.exr"/>
+        <transform name="to_uv"><scale value="4"/></transform></texture></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="0.8, 0.2, 0.5"/><float name="roughness" value="0.7"/>
+      <float name="sheen" value="1"/><float name="sheen_tint" value="0.6"/><float name="flatness" value="0.5"/>
+      </bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="0.3, 0.5, 0.9"/><float name="metallic" value="0.6"/>
+      <float name="roughness" value="0.35"/><float name="anisotropic" value="0.8"/><float name="spec_tint" value="0.7"/>
+      <float name="specular" value="0.9"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
+    <bsdf type="principled"><rgb name="base_color" value="0.95, 0.8, 0.6"/><float name="spec_trans" value="0.7"/>
+      <float name="metallic" value="0.2"/><float name="roughness" value="0.25"/><float name="eta" value="1.4"/>
+      <float name="clearcoat" value="0.5"/></bsdf></shape>
   <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
       <translate x="-3" y="1" z="1"/></transform>
     <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
@@ -628,6 +658,7 @@ def write_scenes(res):
             "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml"),
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
+            "disney": os.path.join(OUT, "disney.xml"),
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
             "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),

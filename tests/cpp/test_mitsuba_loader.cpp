@@ -491,19 +491,23 @@ TEST(MitsubaBsdf, Textures) {
   EXPECT_EQ(d.shapes[1].type, ShapeType::kMesh);  // a textured weight: Mitsuba's rectangle parameterisation
   EXPECT_TRUE(d.materials[b1.mix_b].flags & kTwoSided);
   EXPECT_NO_THROW(Scene::build(d));
-  // principled: caustica's metallic-roughness material; eta from specular (0.5: F0 0.04, eta 1.5) or given;
-  // anisotropy as Mitsuba's aspect; what is not modelled is reported.
+  // principled: caustica's principled material (material/principled.h), every weight; eta from specular (0.5:
+  // F0 0.04, eta 1.5) or given; anisotropy as Mitsuba's aspect; a texture roughness with metallic too.
   f = scene_file("principled.xml", kCamera +
       "<shape type=\"rectangle\"><bsdf type=\"principled\"><rgb name=\"base_color\" value=\"0.8, 0.2, 0.1\"/>"
       "<float name=\"roughness\" value=\"0.4\"/><float name=\"metallic\" value=\"0.25\"/>"
       "<float name=\"spec_trans\" value=\"0.5\"/><float name=\"anisotropic\" value=\"0.5\"/>"
-      "<float name=\"clearcoat\" value=\"0.3\"/></bsdf></shape>\n"
+      "<float name=\"clearcoat\" value=\"0.3\"/><float name=\"clearcoat_gloss\" value=\"0.6\"/>"
+      "<float name=\"sheen\" value=\"0.2\"/><float name=\"sheen_tint\" value=\"0.7\"/>"
+      "<float name=\"spec_tint\" value=\"0.1\"/><float name=\"flatness\" value=\"0.9\"/></bsdf></shape>\n"
       "<shape type=\"rectangle\"><bsdf type=\"principled\"><float name=\"eta\" value=\"1.33\"/>"
+      "<float name=\"metallic\" value=\"1\"/>"
       "<texture type=\"bitmap\" name=\"roughness\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>"
       "</bsdf></shape>\n");
   d = load_mitsuba_scene(f);
+  EXPECT_TRUE(d.warnings.empty());
   const Material& p0 = d.materials[d.shapes[0].material];
-  EXPECT_EQ(p0.type, MaterialType::kMetallicRoughness);
+  EXPECT_EQ(p0.type, MaterialType::kPrincipled);
   EXPECT_EQ(p0.diffuse.x, 0.8f);
   EXPECT_EQ(p0.metallic, 0.25f);
   EXPECT_EQ(p0.transmission_weight, 0.5f);
@@ -511,23 +515,24 @@ TEST(MitsubaBsdf, Textures) {
   const float aspect = std::sqrt(1.f - 0.45f);
   EXPECT_NEAR(p0.alpha_x, 0.16f / aspect, 1e-6f);
   EXPECT_NEAR(p0.alpha_y, 0.16f * aspect, 1e-6f);
+  EXPECT_EQ(p0.clearcoat, 0.3f);
+  EXPECT_EQ(p0.clearcoat_gloss, 0.6f);
+  EXPECT_EQ(p0.sheen, 0.2f);
+  EXPECT_EQ(p0.sheen_tint, 0.7f);
+  EXPECT_EQ(p0.spec_tint, 0.1f);
+  EXPECT_EQ(p0.flatness, 0.9f);
   const Material& p1 = d.materials[d.shapes[1].material];
+  EXPECT_EQ(p1.type, MaterialType::kPrincipled);
   EXPECT_NEAR(p1.eta, 1.33f, 1e-6f);
   EXPECT_EQ(p1.diffuse.x, 0.5f);  // Mitsuba's default base colour
+  EXPECT_EQ(p1.metallic, 1.f);
   EXPECT_GE(p1.tex_roughness, 0);
   EXPECT_EQ(p1.alpha_x, 1.f);  // the texture is the roughness
-  int clearcoat = 0, principled = 0;
-  for (const std::string& w : d.warnings) {
-    clearcoat += w.find("clearcoat is not modelled") != std::string::npos;
-    principled += w.find("Burley") != std::string::npos;
-  }
-  EXPECT_EQ(clearcoat, 1);
-  EXPECT_EQ(principled, 1);
-  g = scene_file("principled_metal_tex.xml", "<shape type=\"cube\"><bsdf type=\"principled\"><float name=\"metallic\" "
-                 "value=\"1\"/>\n<texture type=\"bitmap\" name=\"roughness\"><string name=\"filename\" "
-                 "value=\"tex/t.pfm\"/></texture></bsdf></shape>\n");
-  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"bitmap\" name=\"roughness\">: a roughness texture needs metallic 0 "
-                             "(caustica reads metallic from its blue channel)");
+  g = scene_file("principled_metal_tex.xml", "<shape type=\"cube\"><bsdf type=\"principled\">\n<texture "
+                 "type=\"bitmap\" name=\"metallic\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>"
+                 "</bsdf></shape>\n");
+  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"bitmap\" name=\"metallic\">: a metallic texture is not supported "
+                             "(give a number)");
   g = scene_file("blend_one.xml", "<shape type=\"cube\"><bsdf type=\"blendbsdf\">\n<bsdf type=\"diffuse\"/></bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"blendbsdf\">: expected two nested <bsdf> or <ref> elements (got 1)");
   // twosided around a blend: the blend of two-sided copies; a transmissive BSDF inside is refused as alone.
@@ -542,7 +547,7 @@ TEST(MitsubaBsdf, Textures) {
   g = scene_file("blend_twosided_glass.xml", "<shape type=\"cube\"><bsdf type=\"twosided\">\n<bsdf type=\"blendbsdf\">"
                                              "<bsdf type=\"diffuse\"/><bsdf type=\"dielectric\"/></bsdf></bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":3: <bsdf type=\"blendbsdf\">: twosided applies to reflecting BSDFs only (diffuse, "
-                             "conductor, roughconductor, plastic, roughplastic)");
+                             "conductor, roughconductor, plastic, roughplastic, principled without spec_trans)");
   g = scene_file("mask_nobsdf.xml", "<shape type=\"cube\"><bsdf type=\"mask\">\n</bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"mask\">: expected a nested <bsdf> or <ref>");
   g = scene_file("mask_range.xml", "<shape type=\"cube\"><bsdf type=\"mask\">\n<float name=\"opacity\" value=\"2\"/>"
@@ -596,7 +601,7 @@ TEST(MitsubaBsdf, Errors) {
        ":3: <float name=\"int_ior\">: expected an index of refraction >= 1"},
       {"<bsdf type=\"twosided\" id=\"v\">\n<bsdf type=\"dielectric\"/></bsdf>\n",
        ":3: <bsdf type=\"dielectric\">: twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, "
-       "plastic, roughplastic)"},
+       "plastic, roughplastic, principled without spec_trans)"},
       {"<bsdf type=\"twosided\" id=\"v\">\n<bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/></bsdf>\n",
        ":4: <bsdf type=\"diffuse\">: a different BSDF on each side is not supported"},
       {"<bsdf type=\"roughplastic\" id=\"v\">\n<rgb name=\"specular_reflectance\" value=\"0.5\"/></bsdf>\n",

@@ -19,6 +19,7 @@ enum class MaterialType : uint32_t {
   kDiffuseTransmission,  // Lambertian reflection r/pi and transmission t/pi
   kPhong,                // SmallVCM's Lambert + modified Phong lobe
   kMetallicRoughness,    // glTF 2.0 PBR: GGX conductor / dielectric-over-diffuse / rough glass blend
+  kPrincipled,           // Mitsuba 3's principled (the Disney BSDF): diffuse, retro-reflection, sheen, GGX, clearcoat
   // No surface: a boundary between participating media that rays cross unchanged (Mitsuba 3's `null` BSDF,
   // pbrt-v4's "interface" material). Its BSDF is zero; the path tracer continues straight through it.
   kNull,
@@ -58,12 +59,15 @@ struct Material {
   float exponent = 90.f;    // Phong exponent
   float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed)
   float metallic = 0.f;     // metallic-roughness: metal weight
-  float transmission_weight = 0.f;  // metallic-roughness: KHR_materials_transmission
+  float transmission_weight = 0.f;  // metallic-roughness: KHR_materials_transmission; principled: spec_trans
+  // Principled (material/principled.h): the Disney BSDF's other weights, each in [0, 1].
+  float spec_tint = 0.f, sheen = 0.f, sheen_tint = 0.f, flatness = 0.f, clearcoat = 0.f, clearcoat_gloss = 0.f;
   // Textures (indices into SceneView::textures, -1 = none), applied at the hit:
   //   tex_color multiplies the main colour (diffuse/base colour; a tinted
   //     mirror's or conductor's `specular`; a dielectric's `transmission`);
   //   tex_roughness: metallic-roughness reads roughness from G (alpha =
-  //     (G * roughness)^2) and metallic from B; other rough types read alpha from R;
+  //     (G * roughness)^2) and metallic from B; principled reads roughness from G
+  //     (both alphas times G^2); other rough types read alpha from R;
   //   tex_normal: a tangent-space normal map (RGB in [0,1] -> [-1,1]);
   //   tex_bump: a height map (its luminance times bump_scale, in scene units per unit of height), used when
   //     there is no normal map (scene/shading.h, apply_bump_map).
@@ -98,7 +102,8 @@ constexpr uint32_t kMaxMixDepth = 8;
 CHD bool material_is_transmissive(const Material& m) {
   return m.type == MaterialType::kDielectric || m.type == MaterialType::kRoughDielectric ||
          m.type == MaterialType::kThinDielectric || m.type == MaterialType::kDiffuseTransmission ||
-         (m.type == MaterialType::kMetallicRoughness && m.transmission_weight > 0.f && m.metallic < 1.f);
+         ((m.type == MaterialType::kMetallicRoughness || m.type == MaterialType::kPrincipled) &&
+          m.transmission_weight > 0.f && m.metallic < 1.f);
 }
 // True when every lobe is a Dirac delta (NEE is pointless there).
 CHD bool material_is_delta(const Material& m) {

@@ -268,6 +268,19 @@ struct Writer {
     JV a = alpha_value(m);
     return m.tex_roughness >= 0 ? texture(m.tex_roughness, false, &a) : a;
   }
+  // metallic_roughness's and principled's "roughness" (a number, or a texture with the roughness as its
+  // scale), or "alpha" where the alphas are no roughness^2 pair.
+  void perceptual_roughness(const Material& m, JV& o) const {
+    float r = 0.f;
+    bool exact = m.alpha_x == m.alpha_y && roughness_for_alpha(m.alpha_x, r);
+    if (m.tex_roughness >= 0) {
+      JV s = JV::flt(r);
+      o.set("roughness", texture(m.tex_roughness, false, exact ? &s : nullptr));
+    } else if (exact) {
+      o.set("roughness", JV::flt(r));
+    }
+    if (!exact) o.set("alpha", alpha_value(m));
+  }
 
   // keys: every material's key (a blend names two).
   JV material(const Material& m, const std::vector<std::string>& keys) const {
@@ -326,18 +339,23 @@ struct Writer {
       case MaterialType::kMetallicRoughness: {
         o.set("type", JV::str("metallic_roughness")).set("base_color", color_slot(m.diffuse, m.tex_color));
         o.set("metallic", JV::flt(m.metallic));
-        float r = 0.f;
-        bool exact = m.alpha_x == m.alpha_y && roughness_for_alpha(m.alpha_x, r);
-        if (m.tex_roughness >= 0) {
-          JV s = JV::flt(r);
-          o.set("roughness", texture(m.tex_roughness, false, exact ? &s : nullptr));
-        } else if (exact) {
-          o.set("roughness", JV::flt(r));
-        }
-        if (!exact) o.set("alpha", alpha_value(m));
+        perceptual_roughness(m, o);
         o.set("transmission", JV::flt(m.transmission_weight)).set("eta", JV::flt(m.eta));
         if (m.flags & kPlasticBase) o.set("diffuse_base", JV::str("plastic"));
         if (!is_black(m.absorption)) o.set("absorption", col(m.absorption));
+        break;
+      }
+      case MaterialType::kPrincipled: {
+        o.set("type", JV::str("principled")).set("base_color", color_slot(m.diffuse, m.tex_color));
+        o.set("metallic", JV::flt(m.metallic));
+        perceptual_roughness(m, o);
+        o.set("spec_trans", JV::flt(m.transmission_weight)).set("eta", JV::flt(m.eta));
+        const std::pair<const char*, float> weights[] = {{"spec_tint", m.spec_tint}, {"sheen", m.sheen},
+                                                         {"sheen_tint", m.sheen_tint}, {"flatness", m.flatness},
+                                                         {"clearcoat", m.clearcoat},
+                                                         {"clearcoat_gloss", m.clearcoat_gloss}};
+        for (const auto& w : weights)
+          if (w.second != 0.f) o.set(w.first, JV::flt(w.second));
         break;
       }
       case MaterialType::kNull:

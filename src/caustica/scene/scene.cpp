@@ -85,6 +85,20 @@ Material make_metallic_roughness(RGB base_color, float metallic, float roughness
   return m;
 }
 
+Material make_principled(RGB base_color, float metallic, float roughness, float anisotropic, float spec_trans,
+                         float eta) {
+  Material m;
+  m.type = MaterialType::kPrincipled;
+  m.diffuse = base_color;
+  m.metallic = metallic;
+  m.transmission_weight = spec_trans;
+  m.eta = eta;
+  const float a = roughness * roughness, aspect = std::sqrt(1.f - 0.9f * anisotropic);
+  m.alpha_x = a / aspect;
+  m.alpha_y = a * aspect;
+  return m;
+}
+
 void set_alpha(Material& m, float ax, float ay) {
   m.alpha_x = ax != ay ? maxf(ax, 1e-4f) : ax;
   m.alpha_y = ax != ay ? maxf(ay, 1e-4f) : ay;

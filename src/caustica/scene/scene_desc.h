@@ -193,6 +193,11 @@ void set_alpha(Material& m, float ax, float ay);
 // weight, KHR_materials_ior.
 Material make_metallic_roughness(RGB base_color, float metallic, float roughness, float transmission = 0.f,
                                  float ior = 1.5f);
+// Mitsuba 3's principled BSDF (material/principled.h): base colour, metallic, roughness (GGX alpha = roughness^2),
+// anisotropic (alpha / aspect along the anisotropy direction, alpha x aspect across it, aspect = sqrt(1 - 0.9
+// anisotropic)), spec_trans, eta; the other weights (spec_tint, sheen, ...) are set on the Material.
+Material make_principled(RGB base_color, float metallic, float roughness, float anisotropic = 0.f,
+                         float spec_trans = 0.f, float eta = 1.5f);
 // Hemispherical average of dielectric Fresnel reflectance, 2 int_0^1 F(mu) mu dmu.
 float diffuse_fresnel_reflectance(float eta);
 

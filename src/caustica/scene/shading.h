@@ -209,6 +209,10 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
         m.alpha_x = maxf(m.alpha_y + (1.f - m.alpha_y) * s2, 1e-4f);
       }
       m.metallic *= r.b;
+    } else if (m.type == MaterialType::kPrincipled) {
+      // The roughness times G: both alphas (roughness^2 over and times the anisotropic aspect) times G^2.
+      m.alpha_x *= r.g * r.g;
+      m.alpha_y *= r.g * r.g;
     } else if (m.type == MaterialType::kRoughConductor || m.type == MaterialType::kRoughDielectric) {
       m.alpha_x = m.alpha_y = maxf(r.r, 1e-4f);
     }

@@ -308,7 +308,9 @@ RGB color_or_texture(Ctx& c, const json& j, const std::string& path, int& tex, b
 
 // ---------------------------------------------------------------- materials
 
-const char* kMaterialTypes = "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness, blend, null";
+const char* kMaterialTypes =
+    "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness, principled, blend, "
+    "null";
 
 // names: every material's index (a blend names two others).
 Material parse_material(Ctx& c, const json& j, const std::string& path, const std::map<std::string, int>& names) {
@@ -334,6 +336,24 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     Vec2f a = vec2(c, v, p, true);
     if (a.x < 0.f || a.y < 0.f) c.fail(p, "expected a roughness >= 0");
     return a;
+  };
+  // Perceptual roughness (GGX alpha = roughness^2; 0.5 if absent): a number in [0, 1] or a texture whose
+  // "scale" (default 1) is the roughness its G channel multiplies; a number excludes "alpha".
+  auto perceptual_roughness = [&]() {
+    if (!j.contains("roughness")) return 0.5f;
+    const json& v = j["roughness"];
+    std::string p = path + "/roughness";
+    float rough;
+    if (is_texture_ref(v)) {
+      tex_rough = parse_texture(c, v, p, false);
+      rough = v.is_object() && v.contains("scale") ? num(c, v["scale"], p + "/scale") : 1.f;
+      if (!(rough >= 0.f && rough <= 1.f)) c.fail(p + "/scale", "expected a number in [0, 1]");
+    } else {
+      if (j.contains("alpha")) c.fail(p, "give 'roughness' or 'alpha', not both");
+      rough = num(c, v, p);
+      if (!(rough >= 0.f && rough <= 1.f)) c.fail(p, "expected a number in [0, 1]");
+    }
+    return rough;
   };
   auto roughness = [&](const char* k) {
     Vec2f a(0.f, 0.f);
@@ -403,20 +423,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
                             "diffuse_base", "vertex_colors"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
-    float rough = 0.5f;
-    if (j.contains("roughness")) {
-      const json& v = j["roughness"];
-      std::string p = path + "/roughness";
-      if (is_texture_ref(v)) {
-        tex_rough = parse_texture(c, v, p, false);
-        rough = v.is_object() && v.contains("scale") ? num(c, v["scale"], p + "/scale") : 1.f;
-        if (!(rough >= 0.f && rough <= 1.f)) c.fail(p + "/scale", "expected a number in [0, 1]");
-      } else {
-        if (j.contains("alpha")) c.fail(p, "give 'roughness' or 'alpha', not both");
-        rough = num(c, v, p);
-        if (!(rough >= 0.f && rough <= 1.f)) c.fail(p, "expected a number in [0, 1]");
-      }
-    }
+    float rough = perceptual_roughness();
     float transmission = unit("transmission", get_f("transmission", 0.f));
     m = make_metallic_roughness(base, metallic, rough, transmission, positive("eta", get_f("eta", 1.5f)));
     if (j.contains("alpha")) {
@@ -429,6 +436,30 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
       if (b == "plastic") m.flags |= kPlasticBase;
       else if (b != "gltf") c.fail(path + "/diffuse_base", "unknown diffuse base '" + b + "' (allowed: gltf, plastic)");
     }
+  } else if (type == "principled") {
+    // Mitsuba 3's principled BSDF (material/principled.h).
+    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "anisotropic", "alpha", "anisotropy_rotation",
+                            "spec_trans", "eta", "spec_tint", "sheen", "sheen_tint", "flatness", "clearcoat",
+                            "clearcoat_gloss", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
+                            "vertex_colors"});
+    RGB base = get_ct("base_color", RGB(0.5f));
+    float metallic = unit("metallic", get_f("metallic", 0.f));
+    float rough = perceptual_roughness();
+    float aniso = unit("anisotropic", get_f("anisotropic", 0.f));
+    if (aniso > 0.f && j.contains("alpha")) c.fail(path + "/anisotropic", "give 'anisotropic' or 'alpha', not both");
+    m = make_principled(base, metallic, rough, aniso, unit("spec_trans", get_f("spec_trans", 0.f)),
+                        positive("eta", get_f("eta", 1.5f)));
+    if (j.contains("alpha")) {
+      const Vec2f al = alpha_value(j["alpha"], path + "/alpha");
+      m.alpha_x = al.x;
+      m.alpha_y = al.y;
+    }
+    m.spec_tint = unit("spec_tint", get_f("spec_tint", 0.f));
+    m.sheen = unit("sheen", get_f("sheen", 0.f));
+    m.sheen_tint = unit("sheen_tint", get_f("sheen_tint", 0.f));
+    m.flatness = unit("flatness", get_f("flatness", 0.f));
+    m.clearcoat = unit("clearcoat", get_f("clearcoat", 0.f));
+    m.clearcoat_gloss = unit("clearcoat_gloss", get_f("clearcoat_gloss", 0.f));
   } else if (type == "blend") {
     // Two materials by name, the second at a share `weight` of the surface (scene/shading.h).
     check_keys(c, j, path, {"type", "materials", "weight", "opacity", "opacity_cutoff"});

@@ -1007,63 +1007,52 @@ class Loader {
         m.bump_scale = scale;
       }
     } else if (type == "principled") {
-      // Mitsuba 3's principled (Burley 2015's Disney BSDF) as caustica's metallic-roughness material: the same
-      // base colour, metallic, GGX alpha = roughness^2 (anisotropic: alpha / aspect along dp/du, alpha x aspect
-      // across, aspect = sqrt(1 - 0.9 anisotropic)), spec_trans as the transmission weight and eta (given, or
-      // from specular: F0 = 0.08 specular = ((eta - 1) / (eta + 1))^2). Its diffuse lobe is Lambert rather than
-      // Burley's (retro-reflection at grazing angles) and spec_tint, sheen, clearcoat and flatness are not
-      // modelled (a warning each when used).
+      // Mitsuba 3's principled (Burley's Disney BSDF) as caustica's principled material, the same model
+      // (material/principled.h): base colour (texture allowed), roughness (texture allowed: its G channel),
+      // metallic, spec_trans, anisotropic, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss
+      // (numbers in [0, 1]), eta or specular (eta = 2 / (1 - sqrt(0.08 specular)) - 1).
       ColorOrTexture base = p.get_color_tex("base_color", RGB(0.5f));
       auto scalar = [&](const char* k, float def, float hi) {
         xml_node e = p.get(k);
+        if (e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref"))
+          fail(e, std::string("a ") + k + " texture is not supported (give a number)");
         float v = p.get_float(k, def);
         if (!(v >= 0.f && v <= hi)) fail(e, std::string("expected ") + k + " in [0, " + (hi == 1.f ? "1" : "2") + "]");
         return v;
       };
-      auto is_texture = [](xml_node e) {
-        return e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref");
-      };
-      if (is_texture(p.get("metallic"))) fail(p.get("metallic"), "a metallic texture is not supported (give a number)");
-      float metallic = scalar("metallic", 0.f, 1.f);
       int tex_rough = -1;
       float roughness = 0.5f;
       xml_node re = p.get("roughness");
-      if (is_texture(re)) {
-        // caustica's metallic-roughness texture reads roughness from G and scales metallic by B: a grey
-        // roughness texture is exact only while metallic is 0.
-        if (metallic != 0.f) fail(re, "a roughness texture needs metallic 0 (caustica reads metallic from its blue channel)");
+      if (re && (std::string(re.name()) == "texture" || std::string(re.name()) == "ref")) {
         tex_rough = p.get_color_tex("roughness", RGB(1.f)).texture;
         roughness = 1.f;
       } else {
         roughness = scalar("roughness", 0.5f, 1.f);
       }
+      const float trans = scalar("spec_trans", 0.f, 1.f);
       float eta;
       if (p.has("eta")) {
         eta = p.get_float("eta", 1.5f);
         if (!(eta > 0.f)) fail(p.get("eta"), "expected eta > 0");
+        if (trans > 0.f && eta == 1.f) eta = 1.001f;  // as Mitsuba: no transmission through eta 1
         p.get("specular");
       } else {
-        float f0 = 0.08f * scalar("specular", 0.5f, 2.f);
-        eta = 2.f / (1.f - std::sqrt(std::min(f0, 0.99f))) - 1.f;
+        float specular = scalar("specular", 0.5f, 2.f);
+        if (trans > 0.f && specular == 0.f) specular = 1e-3f;  // as Mitsuba
+        eta = 2.f / (1.f - std::sqrt(std::min(0.08f * specular, 0.99f))) - 1.f;
       }
-      float trans = scalar("spec_trans", 0.f, 1.f), aniso = scalar("anisotropic", 0.f, 1.f);
-      m = make_metallic_roughness(base.value, metallic, roughness, trans, eta);
+      m = make_principled(base.value, scalar("metallic", 0.f, 1.f), roughness, scalar("anisotropic", 0.f, 1.f),
+                          trans, eta);
       m.tex_color = base.texture;
       m.tex_roughness = tex_rough;
-      if (aniso > 0.f) {
-        float aspect = std::sqrt(1.f - 0.9f * aniso), a = roughness * roughness;
-        set_alpha(m, std::max(1e-4f, a / aspect), std::max(1e-4f, a * aspect));
-      }
-      for (const char* k : {"spec_tint", "sheen", "sheen_tint", "clearcoat", "clearcoat_gloss", "flatness"}) {
-        xml_node e = p.get(k);
-        if (e && p.get_float(k, 0.f) != 0.f)
-          warn(e, std::string("principled-") + k, std::string("principled: ") + k + " is not modelled (ignored)");
-      }
+      m.spec_tint = scalar("spec_tint", 0.f, 1.f);
+      m.sheen = scalar("sheen", 0.f, 1.f);
+      m.sheen_tint = scalar("sheen_tint", 0.f, 1.f);
+      m.flatness = scalar("flatness", 0.f, 1.f);
+      m.clearcoat = scalar("clearcoat", 0.f, 1.f);
+      m.clearcoat_gloss = scalar("clearcoat_gloss", 0.f, 1.f);
       for (const char* k : {"main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"})
         p.get(k);  // sampling only
-      warn(n, "principled", "principled is rendered as caustica's metallic-roughness material (Lambert diffuse under a "
-                            "GGX dielectric coat, GGX metal, rough transmission): Burley's diffuse retro-reflection differs "
-                            "at grazing angles");
     } else if (type == "blendbsdf") {
       // Mitsuba 3's blendbsdf: the second nested BSDF at a share `weight` (0.5; a number or a texture, read by
       // its luminance) of the surface, the first elsewhere: caustica's blend (Material::mix_a/mix_b; scene/
@@ -1115,7 +1104,10 @@ class Loader {
           case MaterialType::kRoughConductor:
           case MaterialType::kPlastic:
           case MaterialType::kMetallicRoughness: break;
-          default: fail(inner[0], "twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, plastic, roughplastic)");
+          case MaterialType::kPrincipled:
+            if (!material_is_transmissive(x)) break;
+            [[fallthrough]];
+          default: fail(inner[0], "twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, plastic, roughplastic, principled without spec_trans)");
         }
         x.flags |= kTwoSided;
         return x;
