@@ -84,12 +84,15 @@ def main():
             "glass": {"type": "dielectric", "eta": 1.5},
             "plastic": {"type": "plastic", "diffuse": [0.2, 0.4, 0.6]},
             "bound": {"type": "null"},
+            "disney": {"type": "principled", "base_color": [0.8, 0.3, 0.2], "metallic": 0.2, "roughness": 0.4,
+                       "anisotropic": 0.3, "spec_trans": 0.1, "sheen": 0.5, "clearcoat": 0.6},
         },
         "shapes": [
             {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
             {"type": "sphere", "center": [0, 1, 0], "radius": 1, "material": "glass", "interior": "milk", "exterior": "fog"},
             {"type": "cube", "material": "bound", "interior": "fog", "exterior": None, "transform": {"scale": 20}},
             {"type": "cube", "material": "gold", "transform": {"scale": 0.3, "translate": [1.5, 0.3, 0]}},
+            {"type": "sphere", "center": [-1.5, 0.3, 0], "radius": 0.3, "material": "disney"},
             {"type": "mesh", "material": "plastic", "positions": [[-2, 0, 0], [-1, 0, 0], [-1, 1, 0]], "indices": [0, 1, 2]},
             {"type": "disk", "material": "white", "emission": [10, 10, 10],
              "transform": {"scale": 0.5, "rotate": {"axis": [1, 0, 0], "angle": 90}, "translate": [0, 4, 0]}},
@@ -249,6 +252,9 @@ def main():
     <spectrum name="k" value="400:1.9, 700:3.9"/></bsdf>
   <shape type="rectangle"><transform name="to_world"><scale value="5"/><rotate x="1" angle="-90"/></transform><ref id="floor"/></shape>
   <shape type="sphere"><ref id="metal"/></shape>
+  <shape type="sphere"><point name="center" x="-2"/><bsdf type="principled"><rgb name="base_color" value="0.2, 0.5, 0.8"/>
+    <float name="metallic" value="0.3"/><float name="sheen" value="0.4"/><float name="clearcoat" value="0.7"/>
+    <float name="spec_trans" value="0.2"/><float name="specular" value="0.6"/></bsdf></shape>
   <shape type="cube"><transform name="to_world"><translate x="2"/></transform>
     <bsdf type="diffuse"><spectrum name="reflectance" filename="green.spd"/></bsdf></shape>
   <shape type="disk"><transform name="to_world"><rotate x="1" angle="90"/><translate y="4"/></transform>
