@@ -21,7 +21,8 @@ falls on the floor, and a sphere of opacity 0.5; rendered with Mitsuba's volpath
 blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one), and
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF, caustica's principled),
 and disney (every principled lobe: sheen, clearcoat, spec_tint, flatness, anisotropy, metal and glass mixed, a
-roughness texture), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
+roughness texture), and beckmann (rough conductors, an anisotropic one, and a rough glass with Mitsuba's default
+distribution), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
 cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
@@ -322,6 +323,27 @@ def write_scenes(res):
   <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
     <bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1.0"/><float name="spec_trans" value="1"/>
       <float name="roughness" value="0.2"/><float name="eta" value="1.5"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
+    # Mitsuba's default microfacet distribution, Beckmann: rough gold, an anisotropic rough copper and a rough
+    # glass sphere, none naming its distribution.
+    with open(os.path.join(OUT, "beckmann.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="8"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="roughconductor"><string name="material" value="Al"/><float name="alpha" value="0.3"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
+    <bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.15"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
+    <bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha_u" value="0.05"/>
+      <float name="alpha_v" value="0.4"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
+    <bsdf type="roughdielectric"><float name="alpha" value="0.2"/><float name="int_ior" value="1.5"/></bsdf></shape>
   <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
       <translate x="-3" y="1" z="1"/></transform>
     <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
@@ -659,6 +681,7 @@ def write_scenes(res):
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
             "disney": os.path.join(OUT, "disney.xml"),
+            "beckmann": os.path.join(OUT, "beckmann.xml"),
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
             "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),

@@ -325,12 +325,13 @@ TEST(MitsubaBsdf, Mapping) {
   EXPECT_EQ(m.type, MaterialType::kRoughConductor);
   EXPECT_FLOAT_EQ(m.alpha_x, 0.2f);
   expect_vec_near(m.eta_c, {1.6575f, 0.880405f, 0.521244f}, 0.f);
-  m = M("rcb");  // material "none": a rough mirror
+  EXPECT_EQ(m.flags & kBeckmann, 0u);  // distribution ggx
+  m = M("rcb");  // material "none": a rough mirror, Mitsuba's default distribution (Beckmann)
   EXPECT_EQ(m.type, MaterialType::kRoughConductor);
-  EXPECT_EQ(m.flags, uint32_t(kConductorTint));
+  EXPECT_EQ(m.flags, uint32_t(kConductorTint | kBeckmann));
   EXPECT_FLOAT_EQ(m.alpha_y, 0.3f);
-  EXPECT_TRUE(has_warning(d, f + ":7: <bsdf type=\"roughconductor\" id=\"rcb\">: distribution \"beckmann\" (Mitsuba's "
-                                 "default) is rendered with GGX of the same alpha"))
+  EXPECT_FALSE(has_warning(d, f + ":7: <bsdf type=\"roughconductor\" id=\"rcb\">: distribution \"beckmann\" (Mitsuba's "
+                                  "default) is rendered with GGX of the same alpha"))
       << all_warnings(d);
   EXPECT_FLOAT_EQ(M("glass").eta, 1.333f);
   EXPECT_EQ(M("glass").type, MaterialType::kDielectric);

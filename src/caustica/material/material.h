@@ -40,6 +40,9 @@ enum MaterialFlags : uint32_t {
   // The main colour (as tex_color's) times the triangle's interpolated vertex colour (SceneView::colors; glTF's
   // COLOR_0, Mitsuba's mesh_attribute "vertex_color"); white on spheres and meshes without colours.
   kVertexColor = 64u,
+  // Rough conductor and rough dielectric: the Beckmann distribution instead of GGX (material/microfacet.h;
+  // Mitsuba's default `distribution`).
+  kBeckmann = 128u,
 };
 
 // Radiance flows from lights to the camera; importance flows the other way.

@@ -5,9 +5,15 @@
 // height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (Heitz 2014 Eq. 99).
 // Visible normals: Heitz 2018, "Sampling the GGX Distribution of Visible
 // Normals", JCGT 7(4), Listing 1, with density D_wo(wm) = G1(wo) |wo.wm| D(wm) / |wo.z| (Eq. 2).
+// Beckmann (Mitsuba's default for its rough BSDFs): D = exp(-tan^2 theta_m (cos^2 phi / ax^2 + sin^2 phi /
+// ay^2)) / (pi ax ay cos^4 theta_m) (Walter et al. 2007 Eq. 25; its anisotropic form and Lambda as in Heitz 2014); its
+// Lambda(a) = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)), a = 1 / (alpha(phi) tan theta), so that
+// 1 / (1 + Lambda) is Walter et al. 2007's exact Beckmann G1; sampled in proportion to D(wm) cos theta_m
+// (Walter et al. 2007 Eqs. 28-29, the anisotropic phi as pbrt-v3's BeckmannDistribution::Sample_wh).
 #pragma once
 #include "../base/math.h"
 #include "../base/sampling.h"
+#include "material.h"
 
 namespace caustica {
 
@@ -59,5 +65,72 @@ struct GGX {
     return normalize(Vec3f(ax * nh.x, ay * nh.y, maxf(1e-6f, nh.z)));
   }
 };
+
+struct Beckmann {
+  float ax, ay;
+
+  CHD float D(Vec3f wm) const {
+    float t2 = tan2_theta(wm);
+    if (!std::isfinite(t2)) return 0.f;
+    float c4 = sqr(cos2_theta(wm));
+    if (c4 < 1e-16f) return 0.f;
+    float s2 = sin2_theta(wm);
+    float cos2_phi = s2 > 0.f ? wm.x * wm.x / s2 : 1.f;
+    float sin2_phi = s2 > 0.f ? wm.y * wm.y / s2 : 0.f;
+    float e = t2 * (cos2_phi / (ax * ax) + sin2_phi / (ay * ay));
+    return std::exp(-e) / (kPi * ax * ay * c4);
+  }
+  CHD float lambda(Vec3f w) const {
+    float t2 = tan2_theta(w);
+    if (!std::isfinite(t2)) return 0.f;
+    if (t2 == 0.f) return 0.f;
+    float s2 = sin2_theta(w);
+    float cos2_phi = s2 > 0.f ? w.x * w.x / s2 : 1.f;
+    float sin2_phi = s2 > 0.f ? w.y * w.y / s2 : 0.f;
+    float a = 1.f / std::sqrt((cos2_phi * ax * ax + sin2_phi * ay * ay) * t2);
+    return 0.5f * (std::erf(a) - 1.f) + std::exp(-a * a) / (2.f * a * 1.7724538509055160f);
+  }
+  // A normal with density D(wm) cos theta_m (in the +z hemisphere).
+  CHD Vec3f sample_wm(Vec2f u) const {
+    float log_u = std::log(maxf(1.f - u.x, 1e-30f));
+    float phi, cos_phi, sin_phi;
+    if (ax == ay) {
+      phi = 2.f * kPi * u.y;
+      cos_phi = std::cos(phi);
+      sin_phi = std::sin(phi);
+    } else {
+      phi = std::atan(ay / ax * std::tan(2.f * kPi * u.y + 0.5f * kPi));
+      if (u.y > 0.5f) phi += kPi;
+      cos_phi = std::cos(phi);
+      sin_phi = std::sin(phi);
+    }
+    float t2 = -log_u / (cos_phi * cos_phi / (ax * ax) + sin_phi * sin_phi / (ay * ay));
+    float c = 1.f / std::sqrt(1.f + t2), s = safe_sqrt(1.f - c * c);
+    return Vec3f(s * cos_phi, s * sin_phi, c);
+  }
+};
+
+// The rough conductor's and rough dielectric's distribution: GGX, or Beckmann with kBeckmann. Masking is the
+// height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) for both. sample_wm and pdf_wm: GGX's visible
+// normals seen from w; Beckmann's D(wm) cos theta_m (then a normal that w sees from behind is discarded by the
+// caller, which the density of the kept normals does not change).
+struct Microfacet {
+  float ax, ay;
+  bool beckmann;
+
+  CHD float D(Vec3f wm) const { return beckmann ? Beckmann{ax, ay}.D(wm) : GGX{ax, ay}.D(wm); }
+  CHD float lambda(Vec3f w) const { return beckmann ? Beckmann{ax, ay}.lambda(w) : GGX{ax, ay}.lambda(w); }
+  CHD float G1(Vec3f w) const { return 1.f / (1.f + lambda(w)); }
+  CHD float G(Vec3f wo, Vec3f wi) const { return 1.f / (1.f + lambda(wo) + lambda(wi)); }
+  CHD float pdf_wm(Vec3f w, Vec3f wm) const {
+    return beckmann ? Beckmann{ax, ay}.D(wm) * std::fabs(wm.z) : GGX{ax, ay}.D_visible(w, wm);
+  }
+  CHD Vec3f sample_wm(Vec3f w, Vec2f u) const {
+    return beckmann ? Beckmann{ax, ay}.sample_wm(u) : GGX{ax, ay}.sample_wm(w, u);
+  }
+};
+CHD Microfacet material_microfacet(const Material& m) {
+  return Microfacet{m.alpha_x, m.alpha_y, (m.flags & kBeckmann) != 0u};
+}
 
 }  // namespace caustica

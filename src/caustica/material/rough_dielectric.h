@@ -3,7 +3,8 @@
 // transmission f_t = |wi.wm||wo.wm| / (|cos_i||cos_o|) * eta_t^2 (1 - F) D G /
 // (eta_i (wi.wm) + eta_t (wo.wm))^2 (Eq. 21), generalised half vector (Eq. 16),
 // Jacobian of refraction (Eq. 17). Normals are sampled from the visible-normal
-// density (Heitz 2018) and the lobe is chosen with probability F.
+// density (Heitz 2018; Beckmann's with kBeckmann, in proportion to D cos, material/microfacet.h) and the lobe
+// is chosen with probability F.
 // Radiance mode divides f_t by eta^2 (the non-symmetric BSDF, Veach 1997 Sec. 5.2).
 #pragma once
 #include "fresnel.h"
@@ -31,7 +32,7 @@ CHD RGB rough_dielectric_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMo
   float etap;
   bool refl;
   if (!rough_dielectric_half(m, wo, wi, wm, etap, refl)) return RGB(0.f);
-  GGX g{m.alpha_x, m.alpha_y};
+  Microfacet g = material_microfacet(m);
   float F = fresnel_dielectric(dot(wo, wm), m.eta);
   if (refl) return m.specular * (g.D(wm) * g.G(wo, wi) * F / std::fabs(4.f * wi.z * wo.z));
   float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * wi.z * wo.z;
@@ -45,21 +46,22 @@ CHD float rough_dielectric_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   float etap;
   bool refl;
   if (!rough_dielectric_half(m, wo, wi, wm, etap, refl)) return 0.f;
-  GGX g{m.alpha_x, m.alpha_y};
+  Microfacet g = material_microfacet(m);
   float F = fresnel_dielectric(dot(wo, wm), m.eta);
-  if (refl) return g.D_visible(wo, wm) / (4.f * absdot(wo, wm)) * F;
+  if (refl) return g.pdf_wm(wo, wm) / (4.f * absdot(wo, wm)) * F;
   float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap);
-  return g.D_visible(wo, wm) * absdot(wi, wm) / denom * (1.f - F);
+  return g.pdf_wm(wo, wm) * absdot(wi, wm) / denom * (1.f - F);
 }
 
 CHD bool rough_dielectric_sample(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode,
                                  BSDFSample& s) {
   if (wo.z == 0.f) return false;
-  GGX g{m.alpha_x, m.alpha_y};
+  Microfacet g = material_microfacet(m);
   // D_visible(wo, wm) = D_visible(-wo, wm) for normals in the +z hemisphere, so
   // from below the surface the visible normals of -wo are sampled.
   Vec3f wm = g.sample_wm(wo.z < 0.f ? -wo : wo, u);
   float cos_om = dot(wo, wm);
+  if (cos_om * wo.z <= 0.f) return false;  // a Beckmann normal wo sees from behind (never a visible normal)
   float F = fresnel_dielectric(cos_om, m.eta);
   s.delta = false;
   if (uc < F) {

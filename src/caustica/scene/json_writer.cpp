@@ -367,6 +367,7 @@ struct Writer {
     if (m.aniso_rotation != 0.f) o.set("anisotropy_rotation", JV::dbl(degrees_for_radians(m.aniso_rotation)));
     if (m.tex_aniso >= 0) o.set("anisotropy_texture", texture(m.tex_aniso, false, nullptr));
     if (two_sided_key && (m.flags & kTwoSided)) o.set("two_sided", JV::boolean(true));
+    if (m.flags & kBeckmann) o.set("distribution", JV::str("beckmann"));
     if (m.flags & kVertexColor) o.set("vertex_colors", JV::boolean(true));
     if (m.tex_normal >= 0) {
       JV s = JV::flt(m.normal_scale);

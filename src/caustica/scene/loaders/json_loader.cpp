@@ -374,7 +374,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     check_keys(c, j, path, {"type", "reflectance", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     m = make_diffuse(get_ct("reflectance", RGB(0.5f)));
   } else if (type == "conductor") {
-    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "anisotropy_rotation", "anisotropy_texture", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
+    check_keys(c, j, path, {"type", "eta", "k", "specular", "roughness", "distribution", "anisotropy_rotation", "anisotropy_texture", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     Vec2f a = roughness("roughness");
     if (j.contains("eta") != j.contains("k")) c.fail(path, "give both 'eta' and 'k' (or neither for a tinted mirror)");
     RGB spec = get_ct("specular", RGB(1.f));
@@ -389,7 +389,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
       set_alpha(m, a.x, a.y);
     }
   } else if (type == "dielectric") {
-    check_keys(c, j, path, {"type", "eta", "roughness", "anisotropy_rotation", "anisotropy_texture", "specular", "transmission", "absorption",
+    check_keys(c, j, path, {"type", "eta", "roughness", "distribution", "anisotropy_rotation", "anisotropy_texture", "specular", "transmission", "absorption",
                             "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     Vec2f a = roughness("roughness");
     m = make_dielectric(positive("eta", get_f("eta", 1.5f)), a.x);
@@ -497,6 +497,12 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     c.fail(path + "/type", "unknown material type '" + type + "' (allowed: " + kMaterialTypes + ")");
   }
   if (j.contains("two_sided") && boolean(c, j["two_sided"], path + "/two_sided")) m.flags |= kTwoSided;
+  // The rough conductor's and dielectric's microfacet distribution (material/microfacet.h).
+  if (j.contains("distribution")) {
+    std::string dist = str(c, j["distribution"], path + "/distribution");
+    if (dist == "beckmann") m.flags |= kBeckmann;
+    else if (dist != "ggx") c.fail(path + "/distribution", "unknown distribution '" + dist + "' (allowed: ggx, beckmann)");
+  }
   // The main colour times the mesh's vertex colours (material.h: kVertexColor).
   if (j.contains("vertex_colors") && boolean(c, j["vertex_colors"], path + "/vertex_colors")) m.flags |= kVertexColor;
   if (j.contains("anisotropy_rotation")) {  // degrees from dp/du towards dp/dv (scene/shading.h)

@@ -839,9 +839,14 @@ class Loader {
     return idx;
   }
 
-  void microfacet(Props& p, xml_node n, Material& m, bool allow_texture, bool allow_anisotropy = true) {
+  // `beckmann_ok`: the BSDF has caustica's Beckmann distribution (kBeckmann: rough conductors and dielectrics);
+  // elsewhere (roughplastic) Beckmann is rendered with GGX of the same alpha, with a warning.
+  void microfacet(Props& p, xml_node n, Material& m, bool allow_texture, bool allow_anisotropy = true,
+                  bool beckmann_ok = true) {
     std::string dist = p.get_string("distribution", "beckmann");
-    if (dist == "beckmann")
+    if (dist == "beckmann" && beckmann_ok)
+      m.flags |= kBeckmann;
+    else if (dist == "beckmann")
       warn(n, "beckmann", "distribution \"beckmann\" (Mitsuba's default) is rendered with GGX of the same alpha");
     else if (dist != "ggx")
       fail(p.get("distribution"), "unknown distribution '" + dist + "' (allowed: beckmann, ggx)");
@@ -964,7 +969,7 @@ class Loader {
       } else {
         if (ks.x != 1.f || ks.y != 1.f || ks.z != 1.f)
           fail(p.get("specular_reflectance"), "roughplastic supports only specular_reflectance = 1");
-        microfacet(p, n, m, false, false);
+        microfacet(p, n, m, false, false, false);
         float alpha = m.alpha_x;
         m = make_metallic_roughness(base, 0.f, std::sqrt(alpha), 0.f, eta);
         m.flags |= kPlasticBase;  // Mitsuba's roughplastic: the coat's refraction and internal reflections
