@@ -22,7 +22,7 @@ blends (blendbsdf with a texture weight on the floor, diffuse and rough copper o
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF, caustica's principled),
 and disney (every principled lobe: sheen, clearcoat, spec_tint, flatness, anisotropy, metal and glass mixed, a
 roughness texture), and beckmann (rough conductors, an anisotropic one, and a rough glass with Mitsuba's default
-distribution), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
+distribution), and spotlit (spot lights with wide falloff bands), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
 cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
@@ -348,6 +348,23 @@ def write_scenes(res):
       <translate x="-3" y="1" z="1"/></transform>
     <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
   <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
+    # Spot lights with wide falloff bands (beam_width well inside cutoff_angle) on a floor and a sphere: the
+    # falloff curve is the difference.
+    with open(os.path.join(OUT, "spotlit.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0.6" y="0.5" z="-0.3"/><float name="radius" value="0.5"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.3, 0.5, 0.7"/></bsdf></shape>
+  <emitter type="spot"><transform name="to_world"><lookat origin="-1, 3, 1" target="-0.5, 0, 0" up="0, 0, 1"/></transform>
+    <float name="cutoff_angle" value="35"/><float name="beam_width" value="5"/><rgb name="intensity" value="25, 22, 18"/></emitter>
+  <emitter type="spot"><transform name="to_world"><lookat origin="2, 2.5, 1.5" target="0.6, 0.3, -0.3" up="0, 1, 0"/></transform>
+    <float name="cutoff_angle" value="25"/><float name="beam_width" value="12"/><rgb name="intensity" value="10, 14, 20"/></emitter>
+  <emitter type="constant"><rgb name="radiance" value="0.05"/></emitter>
 </scene>
 """)
     # Every principled lobe: sheen with tint, clearcoat, spec_tint, flatness, anisotropy, a half-metal
@@ -682,6 +699,7 @@ def write_scenes(res):
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
             "disney": os.path.join(OUT, "disney.xml"),
             "beckmann": os.path.join(OUT, "beckmann.xml"),
+            "spotlit": os.path.join(OUT, "spotlit.xml"),
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
             "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),

@@ -744,9 +744,13 @@ TEST(MitsubaEmitter, Lights) {
   expect_vec_near(d.lights[2].dir, {0, -1, 0});
   EXPECT_NEAR(d.lights[2].cos_total, std::cos(30.0 * M_PI / 180.0), 1e-6);
   EXPECT_NEAR(d.lights[2].cos_falloff_start, std::cos(20.0 * M_PI / 180.0), 1e-6);
-  EXPECT_TRUE(has_warning(d, f + ":6: <emitter type=\"spot\">: the falloff between beam_width and cutoff_angle is a "
-                                 "smoothstep in cos(angle) (Mitsuba: linear in the angle)"))
-      << all_warnings(d);
+  EXPECT_TRUE(d.lights[2].spot_linear_angle);  // Mitsuba's falloff: linear in the angle
+  // Half way between 20 and 30 degrees, half the intensity; a quarter of the way in, 3/4 (light/light.h).
+  EXPECT_NEAR(spot_falloff(d.lights[2], float(std::cos(25.0 * M_PI / 180.0))), 0.5f, 1e-5f);
+  EXPECT_NEAR(spot_falloff(d.lights[2], float(std::cos(22.5 * M_PI / 180.0))), 0.75f, 1e-5f);
+  EXPECT_EQ(spot_falloff(d.lights[2], float(std::cos(19.0 * M_PI / 180.0))), 1.f);
+  EXPECT_EQ(spot_falloff(d.lights[2], float(std::cos(31.0 * M_PI / 180.0))), 0.f);
+  EXPECT_TRUE(d.warnings.empty()) << all_warnings(d);
   EXPECT_EQ(d.lights[3].type, LightType::kDirectional);
   expect_vec_near(d.lights[3].dir, {0, -1, 0}, 0.f);
   expect_vec_near(d.lights[3].L, RGB(3.f), 0.f);

@@ -22,6 +22,9 @@ struct Light {
   Vec3f dir{0, 0, -1};  // spot: axis; directional: the direction light travels
   float cos_total = 0.f, cos_falloff_start = 1.f;  // spot cone
   int32_t texture = -1;  // area: emission texture (multiplies L); environment: equirectangular map
+  // Spot: the falloff between the cone angles is linear in the angle (Mitsuba 3's spot) rather than pbrt-v4's
+  // smoothstep in cos(angle).
+  uint32_t spot_linear_angle = 0;
 };
 
 CHD bool light_is_delta(const Light& l) {
@@ -39,10 +42,16 @@ CHD RGB area_le(const Light& l, Vec3f n, Vec3f w) {
   return RGB(0.f);
 }
 
-// pbrt-v4 SpotLight::I: smoothstep falloff between the two cone angles.
+// The spot's falloff between its two cone angles: pbrt-v4's SpotLight::I, a smoothstep in cos(angle), or with
+// spot_linear_angle Mitsuba 3's, (cutoff - angle) / (cutoff - beam width). 1 inside the inner cone, 0 outside
+// the outer one in both.
 CHD float spot_falloff(const Light& l, float cos_theta) {
   if (cos_theta >= l.cos_falloff_start) return 1.f;
   if (cos_theta <= l.cos_total) return 0.f;
+  if (l.spot_linear_angle) {
+    const float total = std::acos(l.cos_total), start = std::acos(l.cos_falloff_start);
+    return clampf((total - std::acos(cos_theta)) / (total - start), 0.f, 1.f);
+  }
   float t = (cos_theta - l.cos_total) / (l.cos_falloff_start - l.cos_total);
   return t * t * (3.f - 2.f * t);
 }

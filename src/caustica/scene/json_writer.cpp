@@ -439,6 +439,7 @@ struct Writer {
         o.set("intensity", col(l.L));
         o.set("cutoff_angle", JV::dbl(angle_for_cos(l.cos_total)));
         o.set("falloff_start", JV::dbl(angle_for_cos(l.cos_falloff_start)));
+        if (l.spot_linear_angle) o.set("falloff", JV::str("linear_angle"));
         break;
       case LightType::kDirectional:
         o.set("type", JV::str("directional")).set("direction", vec(l.dir)).set("irradiance", col(l.L));

@@ -1078,7 +1078,8 @@ Light parse_light(Ctx& c, const json& j, const std::string& p, SceneDesc& d) {
     l.p = j.contains("position") ? point3(c, j["position"], p + "/position") : Vec3f(0.f);
     l.L = j.contains("intensity") ? color(c, j["intensity"], p + "/intensity") : RGB(1.f);
   } else if (type == "spot") {
-    check_keys(c, j, p, {"type", "position", "target", "direction", "intensity", "cutoff_angle", "falloff_start"});
+    check_keys(c, j, p, {"type", "position", "target", "direction", "intensity", "cutoff_angle", "falloff_start",
+                         "falloff"});
     l.type = LightType::kSpot;
     l.p = j.contains("position") ? point3(c, j["position"], p + "/position") : Vec3f(0.f);
     if (j.contains("target") && j.contains("direction")) c.fail(p, "give 'target' or 'direction', not both");
@@ -1098,6 +1099,11 @@ Light parse_light(Ctx& c, const json& j, const std::string& p, SceneDesc& d) {
     if (!(start >= 0.0 && start <= cutoff)) c.fail(p + "/falloff_start", "expected degrees in [0, cutoff_angle]");
     l.cos_total = float(std::cos(cutoff * kPiD / 180.0));
     l.cos_falloff_start = float(std::cos(start * kPiD / 180.0));
+    if (j.contains("falloff")) {  // light/light.h, spot_falloff
+      std::string f = str(c, j["falloff"], p + "/falloff");
+      if (f == "linear_angle") l.spot_linear_angle = 1;
+      else if (f != "smoothstep") c.fail(p + "/falloff", "unknown falloff '" + f + "' (allowed: smoothstep, linear_angle)");
+    }
   } else if (type == "directional") {
     check_keys(c, j, p, {"type", "direction", "irradiance"});
     l.type = LightType::kDirectional;

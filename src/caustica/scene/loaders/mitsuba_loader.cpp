@@ -1574,10 +1574,7 @@ class Loader {
       if (!(cutoff > 0.f && cutoff <= 180.f)) fail(p.get("cutoff_angle"), "expected degrees in (0, 180]");
       if (!(beam >= 0.f)) fail(p.get("beam_width"), "expected degrees >= 0");
       beam = std::min(beam, cutoff);
-      if (beam < cutoff)
-        warn(n, "spot-falloff",
-             "the falloff between beam_width and cutoff_angle is a smoothstep in cos(angle) (Mitsuba: linear in the "
-             "angle)");
+      l.spot_linear_angle = 1;  // Mitsuba's falloff, linear in the angle
       l.cos_total = std::cos(cutoff * kPi / 180.f);
       l.cos_falloff_start = std::cos(beam * kPi / 180.f);
       if (p.has("texture")) fail(p.get("texture"), "projected spot textures are not supported");
