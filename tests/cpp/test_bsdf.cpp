@@ -125,6 +125,12 @@ std::vector<Case> make_cases() {
   add("mr_smooth_mix", make_metallic_roughness(base, 0.3f, 0.f), above);
   add("mr_glass_r040", make_metallic_roughness(base, 0.f, 0.4f, 1.f), both);
   add("mr_all_r060", make_metallic_roughness(base, 0.3f, 0.6f, 0.5f, 1.33f), both);
+  Material mrb = make_metallic_roughness(base, 0.f, 0.5f, 0.f, 1.5f);  // Mitsuba's roughplastic, Beckmann
+  mrb.flags |= kPlasticBase | kBeckmann;
+  add("mr_plastic_beckmann_r050", mrb, above);
+  mrb = make_metallic_roughness(base, 0.4f, 0.4f, 0.5f, 1.33f);
+  mrb.flags |= kBeckmann;
+  add("mr_all_beckmann_r040", mrb, both);
   add("pr_diffuse_r040", make_principled(RGB(0.8f, 0.3f, 0.2f), 0.f, 0.4f), above);
   Material pr = make_principled(RGB(0.3f, 0.6f, 0.9f), 0.7f, 0.3f, 0.5f);
   pr.spec_tint = 0.4f;

@@ -353,7 +353,8 @@ TEST(MitsubaBsdf, Mapping) {
   EXPECT_FLOAT_EQ(m.eta, 1.5f);
   EXPECT_TRUE(has_warning(d, f + ":14: <bsdf type=\"roughplastic\" id=\"rp\">: roughplastic is rendered as caustica's "
                                  "rough dielectric coat over a diffuse base (the metallic-roughness model, metallic 0): the "
-                                 "same GGX coat, with the smooth-coat Fresnel transmittance for the diffuse part"))
+                                 "same coat and distribution, with the smooth-coat Fresnel transmittance for the "
+                                 "diffuse part"))
       << all_warnings(d);
   m = M("ts2");
   EXPECT_EQ(m.type, MaterialType::kConductor);

@@ -70,14 +70,21 @@ def test_mitsuba_default_is_beckmann(tmp_path):
     xml = tmp_path / "b.xml"
     body = ('<shape type="sphere"><bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf></shape>'
             '<shape type="sphere"><point name="center" x="3"/><bsdf type="roughdielectric">'
-            '<string name="distribution" value="ggx"/></bsdf></shape><emitter type="constant"/>')
+            '<string name="distribution" value="ggx"/></bsdf></shape>'
+            '<shape type="sphere"><point name="center" x="6"/><bsdf type="roughplastic"/></shape>'
+            '<emitter type="constant"/>')
     xml.write_text(f'<scene version="3.0.0">{body}</scene>')
     out = tmp_path / "b.json"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # no sensor: Mitsuba's default camera
         caustica.export_scene(str(xml), str(out))
-    mats = json.loads(out.read_text())["materials"]
-    assert sorted(m.get("distribution", "ggx") for m in mats.values()) == ["beckmann", "ggx"]
+    doc = json.loads(out.read_text())
+    jsonschema.Draft202012Validator(json.load(open(os.path.join(ROOT, "docs", "scene.schema.json")))).validate(doc)
+    dist = {m["type"]: m.get("distribution", "ggx") for m in doc["materials"].values()}
+    assert dist == {"conductor": "beckmann", "dielectric": "ggx", "metallic_roughness": "beckmann"}, dist
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert np.array_equal(caustica.render(str(xml), spp=4, seed=2), caustica.render(str(out), spp=4, seed=2))
 
 
 def test_bad_distribution_is_an_error(tmp_path):

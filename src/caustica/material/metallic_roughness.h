@@ -19,7 +19,8 @@
 //                base/pi (1-F(cos_o))(1-F(cos_i)) / (eta^2 (1 - base Fdr_int)),
 //                the light refracted into a coat and reflected inside it
 //                (Mitsuba's roughplastic; ~0.6 x as bright at base 0.5, eta 1.5).
-// GGX alpha = roughness^2 (the glTF convention). Roughness alpha below
+// GGX alpha = roughness^2 (the glTF convention); with kBeckmann (Mitsuba's roughplastic) the Beckmann
+// distribution instead (material/microfacet.h). Roughness alpha below
 // kSmoothAlpha makes the specular lobes Dirac deltas (a GGX lobe that narrow
 // is a mirror to float precision, and sampling it as a delta avoids the
 // numerical trouble of D at tiny alpha).
@@ -73,7 +74,7 @@ CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, Transport
   if (wo.z <= 0.f || wi.z <= 0.f) return f;
   if (!mr_smooth(m)) {
     Vec3f wm = normalize(wo + wi);
-    GGX g{m.alpha_x, m.alpha_y};
+    Microfacet g = material_microfacet(m);
     float dg = g.D(wm) * g.G(wo, wi) / (4.f * wo.z * wi.z);
     float c = absdot(wo, wm);
     if (w.metal > 0.f) f += schlick_fresnel(m.diffuse, c) * (dg * w.metal);
@@ -98,8 +99,8 @@ CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   float ps = mr_specular_prob(m, fresnel_dielectric(wo.z, m.eta));
   if (!mr_smooth(m)) {
     Vec3f wm = normalize(wo + wi);
-    GGX g{m.alpha_x, m.alpha_y};
-    float p_refl = g.D_visible(wo, wm) / (4.f * absdot(wo, wm));
+    Microfacet g = material_microfacet(m);
+    float p_refl = g.pdf_wm(wo, wm) / (4.f * absdot(wo, wm));
     pdf += (w.metal + w.dielectric * ps) * p_refl;
   }
   if (w.dielectric > 0.f) pdf += w.dielectric * (1.f - ps) * cosine_hemisphere_pdf(wi);
@@ -144,7 +145,7 @@ CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f 
       return true;
     }
     if (spec) {
-      GGX g{m.alpha_x, m.alpha_y};
+      Microfacet g = material_microfacet(m);
       s.wi = reflect(wo, g.sample_wm(wo, u));
     } else {
       s.wi = square_to_cosine_hemisphere(u);

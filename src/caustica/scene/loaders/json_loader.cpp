@@ -418,7 +418,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     RGB kd = get_ct("diffuse", RGB(0.1f));
     m = make_phong(kd, get_c("specular", RGB(0.7f)), positive("exponent", get_f("exponent", 90.f)));
   } else if (type == "metallic_roughness") {
-    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "anisotropy_rotation", "anisotropy_texture", "transmission",
+    check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "distribution", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
                             "diffuse_base", "vertex_colors"});
     RGB base = get_ct("base_color", RGB(0.8f));

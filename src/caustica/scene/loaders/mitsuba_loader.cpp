@@ -839,15 +839,11 @@ class Loader {
     return idx;
   }
 
-  // `beckmann_ok`: the BSDF has caustica's Beckmann distribution (kBeckmann: rough conductors and dielectrics);
-  // elsewhere (roughplastic) Beckmann is rendered with GGX of the same alpha, with a warning.
-  void microfacet(Props& p, xml_node n, Material& m, bool allow_texture, bool allow_anisotropy = true,
-                  bool beckmann_ok = true) {
+  // distribution "beckmann" (Mitsuba's default) sets kBeckmann (material/microfacet.h).
+  void microfacet(Props& p, xml_node n, Material& m, bool allow_texture, bool allow_anisotropy = true) {
     std::string dist = p.get_string("distribution", "beckmann");
-    if (dist == "beckmann" && beckmann_ok)
+    if (dist == "beckmann")
       m.flags |= kBeckmann;
-    else if (dist == "beckmann")
-      warn(n, "beckmann", "distribution \"beckmann\" (Mitsuba's default) is rendered with GGX of the same alpha");
     else if (dist != "ggx")
       fail(p.get("distribution"), "unknown distribution '" + dist + "' (allowed: beckmann, ggx)");
     float alpha = 0.1f, alpha_v = -1.f;  // alpha_v >= 0: anisotropic (alpha along dp/du, alpha_v across)
@@ -969,13 +965,15 @@ class Loader {
       } else {
         if (ks.x != 1.f || ks.y != 1.f || ks.z != 1.f)
           fail(p.get("specular_reflectance"), "roughplastic supports only specular_reflectance = 1");
-        microfacet(p, n, m, false, false, false);
-        float alpha = m.alpha_x;
+        microfacet(p, n, m, false, false);
+        const float alpha = m.alpha_x;
+        const uint32_t beckmann = m.flags & kBeckmann;
         m = make_metallic_roughness(base, 0.f, std::sqrt(alpha), 0.f, eta);
-        m.flags |= kPlasticBase;  // Mitsuba's roughplastic: the coat's refraction and internal reflections
+        m.flags |= kPlasticBase | beckmann;  // Mitsuba's roughplastic: the coat's refraction and internal reflections
         warn(n, "roughplastic",
              "roughplastic is rendered as caustica's rough dielectric coat over a diffuse base (the metallic-roughness "
-             "model, metallic 0): the same GGX coat, with the smooth-coat Fresnel transmittance for the diffuse part");
+             "model, metallic 0): the same coat and distribution, with the smooth-coat Fresnel transmittance for the "
+             "diffuse part");
       }
       m.tex_color = kd.texture;
     } else if (type == "normalmap" || type == "bumpmap") {
