@@ -22,7 +22,7 @@ blends (blendbsdf with a texture weight on the floor, diffuse and rough copper o
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF, caustica's principled),
 and disney (every principled lobe: sheen, clearcoat, spec_tint, flatness, anisotropy, metal and glass mixed, a
 roughness texture), and beckmann (rough conductors, an anisotropic one, and a rough glass with Mitsuba's default
-distribution), and spotlit (spot lights with wide falloff bands), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
+distribution), and spotlit (spot lights with wide falloff bands), and plastics (smooth and rough plastics, Beckmann and GGX), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
 cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
@@ -344,6 +344,28 @@ def write_scenes(res):
       <float name="alpha_v" value="0.4"/></bsdf></shape>
   <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
     <bsdf type="roughdielectric"><float name="alpha" value="0.2"/><float name="int_ior" value="1.5"/></bsdf></shape>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+""")
+    # Plastics: smooth, and rough with Mitsuba's default (Beckmann) and GGX coats (caustica's roughplastic mapping,
+    # docs/formats-mitsuba.md: the base is dimmed by the smooth coat's Fresnel terms, not the rough coat's).
+    with open(os.path.join(OUT, "plastics.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.5"/><float name="alpha" value="0.3"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
+    <bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.2, 0.1"/></bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
+    <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.1, 0.5, 0.2"/><float name="alpha" value="0.15"/>
+      </bsdf></shape>
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
+    <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.8"/><float name="alpha" value="0.4"/>
+      <string name="distribution" value="ggx"/></bsdf></shape>
   <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
       <translate x="-3" y="1" z="1"/></transform>
     <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
@@ -700,6 +722,7 @@ def write_scenes(res):
             "disney": os.path.join(OUT, "disney.xml"),
             "beckmann": os.path.join(OUT, "beckmann.xml"),
             "spotlit": os.path.join(OUT, "spotlit.xml"),
+            "plastics": os.path.join(OUT, "plastics.xml"),
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
             "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),

@@ -114,6 +114,9 @@ std::vector<Case> make_cases() {
   add("glass_eta067_a010", make_dielectric(1.f / 1.5f, 0.1f), both);
   add("glass_eta067_a050", make_dielectric(1.f / 1.5f, 0.5f), both);
   add("plastic", make_plastic(RGB(0.8f, 0.5f, 0.2f), 1.5f), above);
+  add("rough_plastic_a010", make_rough_plastic(RGB(0.8f, 0.5f, 0.2f), 1.5f, 0.1f), above);
+  add("rough_plastic_a040", make_rough_plastic(RGB(0.8f, 0.5f, 0.2f), 1.5f, 0.4f, false, RGB(0.6f, 0.7f, 0.8f)), above);
+  add("rough_plastic_beckmann_a030", make_rough_plastic(RGB(0.3f, 0.6f, 0.9f), 1.33f, 0.3f, true), above);
   add("difftrans", make_diffuse_transmission(RGB(0.5f, 0.3f, 0.2f), RGB(0.3f, 0.5f, 0.6f)),
       {0.9f, 0.5f, 0.1f, -0.5f, -0.9f});
   add("phong_n10", make_phong(RGB(0.3f, 0.2f, 0.1f), RGB(0.6f, 0.7f, 0.8f), 10.f), above);

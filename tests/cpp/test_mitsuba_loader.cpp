@@ -346,16 +346,15 @@ TEST(MitsubaBsdf, Mapping) {
   float fdr = diffuse_fresnel_reflectance(1.f / 1.5f);
   EXPECT_NEAR(m.diffuse.x / (1.f - m.diffuse.x * fdr), 0.5f / (1.f - fdr), 1e-5f);
   expect_vec_near(M("pln").diffuse, RGB(0.5f), 0.f);
-  m = M("rp");
-  EXPECT_EQ(m.type, MaterialType::kMetallicRoughness);
+  m = M("rp");  // roughplastic: caustica's rough plastic, the coat's own tables (material/rough_plastic.h)
+  EXPECT_EQ(m.type, MaterialType::kRoughPlastic);
   EXPECT_FLOAT_EQ(m.alpha_x, 0.25f);
-  EXPECT_FLOAT_EQ(m.metallic, 0.f);
+  EXPECT_EQ(m.flags & kBeckmann, 0u);
   EXPECT_FLOAT_EQ(m.eta, 1.5f);
-  EXPECT_TRUE(has_warning(d, f + ":14: <bsdf type=\"roughplastic\" id=\"rp\">: roughplastic is rendered as caustica's "
-                                 "rough dielectric coat over a diffuse base (the metallic-roughness model, metallic 0): the "
-                                 "same coat and distribution, with the smooth-coat Fresnel transmittance for the "
-                                 "diffuse part"))
-      << all_warnings(d);
+  expect_vec_near(m.diffuse, RGB(0.5f), 0.f);  // nonlinear="true": as given
+  EXPECT_GT(m.fdr_int, 0.f);
+  EXPECT_GT(m.coat_t[kRoughPlasticTable - 1], m.coat_t[0]);  // the coat lets more through head-on
+  EXPECT_EQ(all_warnings(d).find("roughplastic"), std::string::npos) << all_warnings(d);
   m = M("ts2");
   EXPECT_EQ(m.type, MaterialType::kConductor);
   EXPECT_EQ(m.flags, uint32_t(kTwoSided));
@@ -606,8 +605,6 @@ TEST(MitsubaBsdf, Errors) {
        "plastic, roughplastic, principled without spec_trans)"},
       {"<bsdf type=\"twosided\" id=\"v\">\n<bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/></bsdf>\n",
        ":4: <bsdf type=\"diffuse\">: a different BSDF on each side is not supported"},
-      {"<bsdf type=\"roughplastic\" id=\"v\">\n<rgb name=\"specular_reflectance\" value=\"0.5\"/></bsdf>\n",
-       ":3: <rgb name=\"specular_reflectance\">: roughplastic supports only specular_reflectance = 1"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<float value=\"1\"/></bsdf>\n", ":3: <float>: missing attribute 'name'"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<float name=\"reflectance\"/></bsdf>\n",
        ":3: <float name=\"reflectance\">: missing attribute 'value'"},

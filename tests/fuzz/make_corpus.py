@@ -255,6 +255,8 @@ def main():
   <shape type="sphere"><point name="center" x="-2"/><bsdf type="principled"><rgb name="base_color" value="0.2, 0.5, 0.8"/>
     <float name="metallic" value="0.3"/><float name="sheen" value="0.4"/><float name="clearcoat" value="0.7"/>
     <float name="spec_trans" value="0.2"/><float name="specular" value="0.6"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="4"/><bsdf type="roughplastic"><float name="alpha" value="0.2"/>
+    <rgb name="diffuse_reflectance" value="0.4, 0.2, 0.1"/></bsdf></shape>
   <shape type="cube"><transform name="to_world"><translate x="2"/></transform>
     <bsdf type="diffuse"><spectrum name="reflectance" filename="green.spd"/></bsdf></shape>
   <shape type="disk"><transform name="to_world"><rotate x="1" angle="90"/><translate y="4"/></transform>

@@ -11,6 +11,7 @@
 #include "phong.h"
 #include "plastic.h"
 #include "principled.h"
+#include "rough_plastic.h"
 #include "rough_conductor.h"
 #include "rough_dielectric.h"
 #include "thin_dielectric.h"
@@ -39,6 +40,7 @@ CHD RGB bsdf_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode = Tr
     case MaterialType::kPhong: return phong_eval(m, wo, wi);
     case MaterialType::kMetallicRoughness: return metallic_roughness_eval(m, wo, wi, mode);
     case MaterialType::kPrincipled: return principled_eval(m, wo, wi, mode);
+    case MaterialType::kRoughPlastic: return rough_plastic_eval(m, wo, wi);
     default: return RGB(0.f);
   }
 }
@@ -56,6 +58,7 @@ CHD float bsdf_pdf(const Material& m, Vec3f wo, Vec3f wi) {
     case MaterialType::kPhong: return phong_pdf(m, wo, wi);
     case MaterialType::kMetallicRoughness: return metallic_roughness_pdf(m, wo, wi);
     case MaterialType::kPrincipled: return principled_pdf(m, wo, wi);
+    case MaterialType::kRoughPlastic: return rough_plastic_pdf(m, wo, wi);
     default: return 0.f;
   }
 }
@@ -78,6 +81,7 @@ CHD bool bsdf_sample(const Material& m, Vec3f wo, float uc, Vec2f u, BSDFSample&
     case MaterialType::kPhong: ok = phong_sample(m, wo, uc, u, s); break;
     case MaterialType::kMetallicRoughness: ok = metallic_roughness_sample(m, wo, uc, u, mode, s); break;
     case MaterialType::kPrincipled: ok = principled_sample(m, wo, uc, u, mode, s); break;
+    case MaterialType::kRoughPlastic: ok = rough_plastic_sample(m, wo, uc, u, s); break;
     default: break;
   }
   s.wi.z *= side;

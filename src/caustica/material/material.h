@@ -20,6 +20,7 @@ enum class MaterialType : uint32_t {
   kPhong,                // SmallVCM's Lambert + modified Phong lobe
   kMetallicRoughness,    // glTF 2.0 PBR: GGX conductor / dielectric-over-diffuse / rough glass blend
   kPrincipled,           // Mitsuba 3's principled (the Disney BSDF): diffuse, retro-reflection, sheen, GGX, clearcoat
+  kRoughPlastic,         // a rough dielectric coat over Lambert (Mitsuba's roughplastic): material/rough_plastic.h
   // No surface: a boundary between participating media that rays cross unchanged (Mitsuba 3's `null` BSDF,
   // pbrt-v4's "interface" material). Its BSDF is zero; the path tracer continues straight through it.
   kNull,
@@ -45,6 +46,9 @@ enum MaterialFlags : uint32_t {
   kBeckmann = 128u,
 };
 
+// Entries of a rough plastic's coat transmittance table (Material::coat_t; material/rough_plastic.h).
+constexpr int kRoughPlasticTable = 32;
+
 // Radiance flows from lights to the camera; importance flows the other way.
 // Refraction scales radiance by 1/eta^2 but not importance (Veach 1997, Sec. 5.2).
 enum class TransportMode : uint32_t { kRadiance = 0, kImportance = 1 };
@@ -60,7 +64,7 @@ struct Material {
   float alpha_x = 0.1f, alpha_y = 0.1f;  // GGX roughness (alpha_x along the anisotropy direction, scene/shading.h)
   float aniso_rotation = 0.f;  // anisotropy direction: radians from dp/du towards dp/dv (glTF anisotropyRotation)
   float exponent = 90.f;    // Phong exponent
-  float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed)
+  float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed); rough plastic: the coat's
   float metallic = 0.f;     // metallic-roughness: metal weight
   float transmission_weight = 0.f;  // metallic-roughness: KHR_materials_transmission; principled: spec_trans
   // Principled (material/principled.h): the Disney BSDF's other weights, each in [0, 1].
@@ -97,6 +101,9 @@ struct Material {
   // the opacity is used (cut-outs of the blend as a whole).
   int32_t mix_a = -1, mix_b = -1, tex_mix = -1;
   float mix_weight = 0.5f;
+  // Rough plastic: t(mu), the light its coat lets through at incidence cos mu, at mu = i / (kRoughPlasticTable
+  // - 1), in 65535ths (fdr_int holds the coat's internal reflectance); filled by prepare_rough_plastic.
+  uint16_t coat_t[kRoughPlasticTable] = {};
 };
 
 // How many blends inside blends surface_material resolves (the loaders refuse cycles).

@@ -122,6 +122,11 @@ struct Microfacet {
   CHD float lambda(Vec3f w) const { return beckmann ? Beckmann{ax, ay}.lambda(w) : GGX{ax, ay}.lambda(w); }
   CHD float G1(Vec3f w) const { return 1.f / (1.f + lambda(w)); }
   CHD float G(Vec3f wo, Vec3f wi) const { return 1.f / (1.f + lambda(wo) + lambda(wi)); }
+  // Density of the normals visible from w (Heitz 2018 Eq. 2), whichever the sampler.
+  CHD float D_visible(Vec3f w, Vec3f wm) const {
+    const float c = abs_cos_theta(w);
+    return c > 0.f ? G1(w) / c * D(wm) * maxf(0.f, dot(w, wm)) : 0.f;
+  }
   CHD float pdf_wm(Vec3f w, Vec3f wm) const {
     return beckmann ? Beckmann{ax, ay}.D(wm) * std::fabs(wm.z) : GGX{ax, ay}.D_visible(w, wm);
   }

@@ -324,8 +324,10 @@ struct Writer {
         o.set("transmission", color_slot(m.transmission, m.tex_color));
         break;
       case MaterialType::kPlastic:
+      case MaterialType::kRoughPlastic:
         o.set("type", JV::str("plastic")).set("diffuse", color_slot(m.diffuse, m.tex_color));
         o.set("eta", JV::flt(m.eta)).set("specular", col(m.specular));
+        if (m.type == MaterialType::kRoughPlastic) o.set("roughness", JV::flt(m.alpha_x));
         break;
       case MaterialType::kDiffuseTransmission:
         two_sided_key = false;

@@ -4,10 +4,14 @@
 #include <functional>
 #include <cmath>
 #include <numeric>
+#include <tuple>
+#include <mutex>
+#include <map>
 
 #include "../backend/cpu/cpu_accel.h"
 #include "../base/error.h"
 #include "../material/fresnel.h"
+#include "../material/microfacet.h"
 
 namespace caustica {
 
@@ -96,6 +100,94 @@ Material make_principled(RGB base_color, float metallic, float roughness, float 
   const float a = roughness * roughness, aspect = std::sqrt(1.f - 0.9f * anisotropic);
   m.alpha_x = a / aspect;
   m.alpha_y = a * aspect;
+  return m;
+}
+
+namespace {
+// Expectations over the normals visible from incidence cos mu (Heitz 2018 Eq. 2) of a rough dielectric
+// interface (relative IOR eta), as Mitsuba 3's roughplastic precomputes them (its eval_transmittance and
+// eval_reflectance): the light refracted through the normal and not masked on the way in, (1 - F) G1(w_t), or
+// reflected and not masked, F G1(w_r). A 64 x 64 midpoint grid of the sampler's unit square, each normal weighted
+// by D_visible / its sampling density (1 for GGX's visible normals); the integrands are smooth in it.
+double coat_expectation(const Microfacet& g, float eta, float mu, bool transmitted) {
+  const Vec3f wo(std::sqrt(std::max(0.f, 1.f - mu * mu)), 0.f, mu);
+  auto g1 = [&](Vec3f v, Vec3f h) { return dot(v, h) * v.z > 0.f ? g.G1(v) : 0.f; };
+  const int n = 64;
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const Vec3f h = g.sample_wm(wo, Vec2f((i + 0.5f) / n, (j + 0.5f) / n));
+      const float c = dot(wo, h);
+      if (!(c > 0.f)) continue;
+      const float pdf = g.pdf_wm(wo, h);
+      if (!(pdf > 0.f)) continue;
+      const double w = g.D_visible(wo, h) / pdf;
+      const float F = fresnel_dielectric(c, eta);
+      if (transmitted) {
+        Vec3f wt;
+        if (!refract(wo, h, eta, wt) || !(wt.z < 0.f)) continue;
+        sum += w * (1.0 - F) * g1(wt, h);
+      } else {
+        const Vec3f wr = reflect(wo, h);
+        if (!(wr.z > 0.f)) continue;
+        sum += w * F * g1(wr, h);
+      }
+    }
+  return sum / (double(n) * n);
+}
+}  // namespace
+
+struct CoatTables {
+  uint16_t t[kRoughPlasticTable];
+  float internal;
+};
+
+void prepare_rough_plastic(Material& m) {
+  // Computed once per coat (alpha, eta, distribution) in a process: scenes share coats, and the Mitsuba loader
+  // needs them before Scene::build does.
+  static std::mutex mutex;
+  static std::map<std::tuple<float, float, bool>, CoatTables> cache;
+  const auto key = std::make_tuple(m.alpha_x, m.eta, (m.flags & kBeckmann) != 0u);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(key);
+    if (it != cache.end()) {
+      std::copy(std::begin(it->second.t), std::end(it->second.t), std::begin(m.coat_t));
+      m.fdr_int = it->second.internal;
+      return;
+    }
+  }
+  const Microfacet g = material_microfacet(m);
+  for (int i = 0; i < kRoughPlasticTable; ++i) {
+    const float mu = std::max(1e-4f, float(i) / float(kRoughPlasticTable - 1));
+    const double t = std::clamp(coat_expectation(g, m.eta, mu, true), 0.0, 1.0);
+    m.coat_t[i] = uint16_t(std::lround(t * 65535.0));
+  }
+  // The internal reflectance 2 int_0^1 R_inside(mu) mu dmu, by Mitsuba's rule: the mean over the 64 cosines
+  // i / 63 (the first 1e-6).
+  const int n = 64;
+  double r = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const float mu = std::max(1e-6f, float(i) / float(n - 1));
+    r += coat_expectation(g, 1.f / m.eta, mu, false) * mu;
+  }
+  m.fdr_int = float(2.0 * r / n);
+  CoatTables c;
+  std::copy(std::begin(m.coat_t), std::end(m.coat_t), std::begin(c.t));
+  c.internal = m.fdr_int;
+  std::lock_guard<std::mutex> lock(mutex);
+  cache.emplace(key, c);
+}
+
+Material make_rough_plastic(RGB diffuse, float eta, float alpha, bool beckmann, RGB specular) {
+  Material m;
+  m.type = MaterialType::kRoughPlastic;
+  m.diffuse = diffuse;
+  m.eta = eta;
+  m.specular = specular;
+  m.alpha_x = m.alpha_y = alpha;
+  if (beckmann) m.flags |= kBeckmann;
+  prepare_rough_plastic(m);
   return m;
 }
 
@@ -588,6 +680,8 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   if (s.materials.empty()) throw InputError("scene '" + desc.name + "' has no materials");
   for (Material& m : s.materials)
     if (m.type == MaterialType::kPlastic || m.type == MaterialType::kMetallicRoughness) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
+  for (Material& m : s.materials)
+    if (m.type == MaterialType::kRoughPlastic) prepare_rough_plastic(m);  // its coat tables
 
   for (Material& m : s.materials) {
     for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity, m.tex_mix})

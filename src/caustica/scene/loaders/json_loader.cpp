@@ -406,9 +406,16 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     m.specular = get_c("specular", RGB(1.f));
     m.transmission = get_ct("transmission", RGB(1.f));
   } else if (type == "plastic") {
-    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
+    check_keys(c, j, path, {"type", "diffuse", "eta", "specular", "roughness", "distribution", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     RGB kd = get_ct("diffuse", RGB(0.5f));
-    m = make_plastic(kd, positive("eta", get_f("eta", 1.49f)), get_c("specular", RGB(1.f)));
+    const float eta = positive("eta", get_f("eta", 1.49f));
+    const float alpha = j.contains("roughness") ? num(c, j["roughness"], path + "/roughness") : 0.f;
+    if (!(alpha >= 0.f)) c.fail(path + "/roughness", "expected a GGX alpha >= 0 (a number: rough plastic is isotropic)");
+    if (alpha > 0.f) {  // material/rough_plastic.h; its tables are computed when the scene is built
+      m = make_rough_plastic(kd, eta, alpha, false, get_c("specular", RGB(1.f)));
+    } else {
+      m = make_plastic(kd, eta, get_c("specular", RGB(1.f)));
+    }
   } else if (type == "difftrans") {
     check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     RGB r = get_ct("reflectance", RGB(0.f));

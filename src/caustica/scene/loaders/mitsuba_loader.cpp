@@ -945,35 +945,26 @@ class Loader {
       RGB ks = p.get_color("specular_reflectance", RGB(1.f));
       float eta = p.get_ior("int_ior", 1.49f) / p.get_ior("ext_ior", 1.000277f);
       bool nonlinear = p.get_bool("nonlinear", false);
-      RGB base = kd.value;
+      // The coat: smooth, or rough (material/rough_plastic.h, with the coat's own internal reflectance).
+      if (type == "plastic") {
+        m = make_plastic(kd.value, eta, ks);
+      } else {
+        microfacet(p, n, m, false, false);
+        m = make_rough_plastic(kd.value, eta, m.alpha_x, (m.flags & kBeckmann) != 0u, ks);
+      }
       if (!nonlinear) {
         // Mitsuba's default (linear) model scales the base by 1/(1 - Fdr); caustica's
         // base term is Kd/(1 - Kd Fdr) (Mitsuba's nonlinear model). Choose Kd' so
         // that Kd'/(1 - Kd' Fdr) = Kd/(1 - Fdr): then both agree exactly.
-        float fdr = diffuse_fresnel_reflectance(1.f / eta);
+        const float fdr = m.fdr_int;
         for (int c = 0; c < 3; ++c) {
-          float a = base[c] / (1.f - fdr);
-          base[c] = a / (1.f + a * fdr);
+          float a = m.diffuse[c] / (1.f - fdr);
+          m.diffuse[c] = a / (1.f + a * fdr);
         }
         if (kd.texture >= 0)
           warn(n, "plastic-linear-texture",
                "a textured diffuse_reflectance with nonlinear=false is approximated (caustica's plastic is Mitsuba's "
                "nonlinear model)");
-      }
-      if (type == "plastic") {
-        m = make_plastic(base, eta, ks);
-      } else {
-        if (ks.x != 1.f || ks.y != 1.f || ks.z != 1.f)
-          fail(p.get("specular_reflectance"), "roughplastic supports only specular_reflectance = 1");
-        microfacet(p, n, m, false, false);
-        const float alpha = m.alpha_x;
-        const uint32_t beckmann = m.flags & kBeckmann;
-        m = make_metallic_roughness(base, 0.f, std::sqrt(alpha), 0.f, eta);
-        m.flags |= kPlasticBase | beckmann;  // Mitsuba's roughplastic: the coat's refraction and internal reflections
-        warn(n, "roughplastic",
-             "roughplastic is rendered as caustica's rough dielectric coat over a diffuse base (the metallic-roughness "
-             "model, metallic 0): the same coat and distribution, with the smooth-coat Fresnel transmittance for the "
-             "diffuse part");
       }
       m.tex_color = kd.texture;
     } else if (type == "normalmap" || type == "bumpmap") {
@@ -1106,6 +1097,7 @@ class Loader {
           case MaterialType::kConductor:
           case MaterialType::kRoughConductor:
           case MaterialType::kPlastic:
+          case MaterialType::kRoughPlastic:
           case MaterialType::kMetallicRoughness: break;
           case MaterialType::kPrincipled:
             if (!material_is_transmissive(x)) break;
