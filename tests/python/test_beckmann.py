@@ -81,7 +81,7 @@ def test_mitsuba_default_is_beckmann(tmp_path):
     doc = json.loads(out.read_text())
     jsonschema.Draft202012Validator(json.load(open(os.path.join(ROOT, "docs", "scene.schema.json")))).validate(doc)
     dist = {m["type"]: m.get("distribution", "ggx") for m in doc["materials"].values()}
-    assert dist == {"conductor": "beckmann", "dielectric": "ggx", "metallic_roughness": "beckmann"}, dist
+    assert dist == {"conductor": "beckmann", "dielectric": "ggx", "plastic": "beckmann"}, dist
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert np.array_equal(caustica.render(str(xml), spp=4, seed=2), caustica.render(str(out), spp=4, seed=2))
