@@ -62,6 +62,26 @@ def relmse(a, b):
     return float(np.mean((a - b) ** 2 / (b ** 2 + 0.01)))
 
 
+def row_of_spheres(sensor, max_depth, floor, spheres):
+    """A scene of a 6 x 6 floor with the BSDF `floor` and three spheres of radius 0.55 at x = -1.2, 0, 1.2 with the
+    BSDFs `spheres` (XML), lit by a small area light at the left and a dim sky (principled, disney, beckmann,
+    plastics)."""
+    balls = "".join(f"""
+  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="{x}" y="0.55" z="0"/></transform>
+    {b}</shape>""" for x, b in zip(("-1.2", "0", "1.2"), spheres))
+    return f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="{max_depth}"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    {floor}</shape>{balls}
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
+      <translate x="-3" y="1" z="1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
+  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
+</scene>
+"""
+
+
 def write_scenes(res):
     os.makedirs(OUT, exist_ok=True)
     # Environment: sky gradient, coloured quadrants in u (orientation), a sun.
@@ -310,68 +330,29 @@ def write_scenes(res):
     # principled (Mitsuba's Disney BSDF) as caustica's metallic-roughness material: a rough red dielectric, a
     # rough gold-coloured metal and a rough transmissive sphere on a principled floor.
     with open(os.path.join(OUT, "principled.xml"), "w") as f:
-        f.write(f"""<scene version="3.0.0">
-  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
-  {sensor}
-  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="0.5, 0.5, 0.5"/><float name="roughness" value="0.8"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="0.7, 0.1, 0.05"/><float name="roughness" value="0.3"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="1.0, 0.78, 0.34"/><float name="metallic" value="1"/>
-      <float name="roughness" value="0.25"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1.0"/><float name="spec_trans" value="1"/>
-      <float name="roughness" value="0.2"/><float name="eta" value="1.5"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
-      <translate x="-3" y="1" z="1"/></transform>
-    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
-  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
-</scene>
-""")
+        f.write(row_of_spheres(sensor, 6, """<bsdf type="principled"><rgb name="base_color" value="0.5, 0.5, 0.5"/><float name="roughness" value="0.8"/></bsdf>""", [
+            """<bsdf type="principled"><rgb name="base_color" value="0.7, 0.1, 0.05"/><float name="roughness" value="0.3"/></bsdf>""",
+            """<bsdf type="principled"><rgb name="base_color" value="1.0, 0.78, 0.34"/><float name="metallic" value="1"/>
+      <float name="roughness" value="0.25"/></bsdf>""",
+            """<bsdf type="principled"><rgb name="base_color" value="0.9, 0.95, 1.0"/><float name="spec_trans" value="1"/>
+      <float name="roughness" value="0.2"/><float name="eta" value="1.5"/></bsdf>"""]))
     # Mitsuba's default microfacet distribution, Beckmann: rough gold, an anisotropic rough copper and a rough
     # glass sphere, none naming its distribution.
     with open(os.path.join(OUT, "beckmann.xml"), "w") as f:
-        f.write(f"""<scene version="3.0.0">
-  <integrator type="path"><integer name="max_depth" value="8"/></integrator>
-  {sensor}
-  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-    <bsdf type="roughconductor"><string name="material" value="Al"/><float name="alpha" value="0.3"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
-    <bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.15"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
-    <bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha_u" value="0.05"/>
-      <float name="alpha_v" value="0.4"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
-    <bsdf type="roughdielectric"><float name="alpha" value="0.2"/><float name="int_ior" value="1.5"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
-      <translate x="-3" y="1" z="1"/></transform>
-    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
-  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
-</scene>
-""")
+        f.write(row_of_spheres(sensor, 8, """<bsdf type="roughconductor"><string name="material" value="Al"/><float name="alpha" value="0.3"/></bsdf>""", [
+            """<bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.15"/></bsdf>""",
+            """<bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha_u" value="0.05"/>
+      <float name="alpha_v" value="0.4"/></bsdf>""",
+            """<bsdf type="roughdielectric"><float name="alpha" value="0.2"/><float name="int_ior" value="1.5"/></bsdf>"""]))
     # Plastics: smooth, and rough with Mitsuba's default (Beckmann) and GGX coats (caustica's roughplastic mapping,
     # docs/formats-mitsuba.md: the base is dimmed by the smooth coat's Fresnel terms, not the rough coat's).
     with open(os.path.join(OUT, "plastics.xml"), "w") as f:
-        f.write(f"""<scene version="3.0.0">
-  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
-  {sensor}
-  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-    <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.5"/><float name="alpha" value="0.3"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
-    <bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.2, 0.1"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
-    <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.1, 0.5, 0.2"/><float name="alpha" value="0.15"/>
-      </bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
-    <bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.8"/><float name="alpha" value="0.4"/>
-      <string name="distribution" value="ggx"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
-      <translate x="-3" y="1" z="1"/></transform>
-    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
-  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
-</scene>
-""")
+        f.write(row_of_spheres(sensor, 6, """<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.5"/><float name="alpha" value="0.3"/></bsdf>""", [
+            """<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.2, 0.1"/></bsdf>""",
+            """<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.1, 0.5, 0.2"/><float name="alpha" value="0.15"/>
+      </bsdf>""",
+            """<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.2, 0.3, 0.8"/><float name="alpha" value="0.4"/>
+      <string name="distribution" value="ggx"/></bsdf>"""]))
     # Spot lights with wide falloff bands (beam_width well inside cutoff_angle) on a floor and a sphere: the
     # falloff curve is the difference.
     with open(os.path.join(OUT, "spotlit.xml"), "w") as f:
@@ -392,32 +373,19 @@ def write_scenes(res):
     # Every principled lobe: sheen with tint, clearcoat, spec_tint, flatness, anisotropy, a half-metal
     # half-glass, and a roughness texture (the checker's green) on the floor.
     with open(os.path.join(OUT, "disney.xml"), "w") as f:
-        f.write(f"""<scene version="3.0.0">
-  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
-  {sensor}
-  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="0.6, 0.55, 0.5"/><float name="clearcoat" value="1"/>
+        f.write(row_of_spheres(sensor, 6, """<bsdf type="principled"><rgb name="base_color" value="0.6, 0.55, 0.5"/><float name="clearcoat" value="1"/>
       <float name="clearcoat_gloss" value="0.8"/>
       <texture type="bitmap" name="roughness"><string name="filename" value="checker.exr"/>
-        <transform name="to_uv"><scale value="4"/></transform></texture></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="-1.2" y="0.55" z="0"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="0.8, 0.2, 0.5"/><float name="roughness" value="0.7"/>
+        <transform name="to_uv"><scale value="4"/></transform></texture></bsdf>""", [
+            """<bsdf type="principled"><rgb name="base_color" value="0.8, 0.2, 0.5"/><float name="roughness" value="0.7"/>
       <float name="sheen" value="1"/><float name="sheen_tint" value="0.6"/><float name="flatness" value="0.5"/>
-      </bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="0" y="0.55" z="0"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="0.3, 0.5, 0.9"/><float name="metallic" value="0.6"/>
+      </bsdf>""",
+            """<bsdf type="principled"><rgb name="base_color" value="0.3, 0.5, 0.9"/><float name="metallic" value="0.6"/>
       <float name="roughness" value="0.35"/><float name="anisotropic" value="0.8"/><float name="spec_tint" value="0.7"/>
-      <float name="specular" value="0.9"/></bsdf></shape>
-  <shape type="sphere"><transform name="to_world"><scale value="0.55"/><translate x="1.2" y="0.55" z="0"/></transform>
-    <bsdf type="principled"><rgb name="base_color" value="0.95, 0.8, 0.6"/><float name="spec_trans" value="0.7"/>
+      <float name="specular" value="0.9"/></bsdf>""",
+            """<bsdf type="principled"><rgb name="base_color" value="0.95, 0.8, 0.6"/><float name="spec_trans" value="0.7"/>
       <float name="metallic" value="0.2"/><float name="roughness" value="0.25"/><float name="eta" value="1.4"/>
-      <float name="clearcoat" value="0.5"/></bsdf></shape>
-  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="-70"/>
-      <translate x="-3" y="1" z="1"/></transform>
-    <emitter type="area"><rgb name="radiance" value="30, 28, 24"/></emitter></shape>
-  <emitter type="constant"><rgb name="radiance" value="0.2, 0.22, 0.25"/></emitter>
-</scene>
-""")
+      <float name="clearcoat" value="0.5"/></bsdf>"""]))
     # Media (Mitsuba's volpath): the camera inside fog (a null cube bounds it; the sky lights it through the
     # boundary), a glass sphere of milk (interior) in the fog (exterior), a null box of forward-scattering
     # smoke (lifted off the floor: a face coplanar with the floor is resolved differently by the two

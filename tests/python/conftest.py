@@ -28,6 +28,52 @@ def seeded_rows(scene, integrator, seeds=(1, 2), **opts):
     return np.concatenate([im[:, :, 1] for im in imgs], axis=0).astype(np.float64)
 
 
+def sphere_row(materials, floor, spheres, radius=0.55, spacing=1.2):
+    """A rectangle floor of material `floor`, spheres of the named materials in a row along x (`spacing` apart,
+    resting on the floor), an area light at the left and a dim sky, seen from (0, 2, 6) at 32 x 32: the scene the
+    material tests render with several integrators."""
+    shapes = [{"type": "rectangle", "material": floor,
+               "transform": {"scale": 3, "rotate": {"axis": [1, 0, 0], "angle": -90}}}]
+    for i, name in enumerate(spheres):
+        shapes.append({"type": "sphere", "material": name, "radius": radius,
+                       "center": [(i - (len(spheres) - 1) / 2) * spacing, radius, 0]})
+    shapes.append({"type": "rectangle", "emission": [30, 28, 24],
+                   "transform": {"scale": 0.5, "rotate": {"axis": [0, 0, 1], "angle": -70}, "translate": [-3, 1, 1]}})
+    return {"camera": {"position": [0, 2, 6], "target": [0, 0.7, 0], "up": [0, 1, 0], "fov": 40, "width": 32,
+                       "height": 32},
+            "materials": materials, "shapes": shapes,
+            "lights": [{"type": "environment", "radiance": [0.2, 0.22, 0.25]}]}
+
+
+def region_means(img, k=8):
+    """Green-channel means of a k x k grid of regions and their standard errors (from each region's pixel spread,
+    which bounds the noise from above)."""
+    h = img.shape[0] // k
+    r = np.asarray(img, np.float64)[:h * k, :h * k, 1].reshape(k, h, k, h)
+    return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / h
+
+
+def worst_region_z(scene, integrator, max_depth, spp=256, slack=0.02):
+    """Renders `scene` with path (seed 1) and `integrator` (seed 2) and returns the largest difference of the green
+    region means (region_means) in units of their combined standard error plus `slack` of the path tracer's
+    region (VCM's merging blurs highlights): below 4.5 when the two agree."""
+    import caustica
+    a = caustica.render(scene, integrator="path", spp=spp, seed=1, max_depth=max_depth)
+    b = caustica.render(scene, integrator=integrator, spp=spp, seed=2, max_depth=max_depth)
+    ma, sa = region_means(a)
+    mb, sb = region_means(b)
+    return float((np.abs(ma - mb) / (np.sqrt(sa ** 2 + sb ** 2) + 1e-9 + slack * ma)).max())
+
+
+def white_sky_plate(material):
+    """A large rectangle of `material` seen head-on through a narrow camera, under a white sky of radiance 1."""
+    return {"camera": {"position": [0, 0, 10], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 3, "width": 16,
+                       "height": 16},
+            "materials": {"m": material},
+            "shapes": [{"type": "rectangle", "material": "m", "transform": {"scale": 5}}],
+            "lights": [{"type": "environment", "radiance": 1.0}]}
+
+
 def relmse(x, ref):
     """Mean over pixels and channels of (x - r)^2 / (r^2 + 0.01) (shared/scenes/cornell-box.md)."""
     return float(np.mean((x - ref) ** 2 / (ref ** 2 + 0.01)))

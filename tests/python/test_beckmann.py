@@ -14,6 +14,8 @@ import pytest
 
 import caustica
 
+from conftest import sphere_row, worst_region_z
+
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
 
@@ -24,21 +26,7 @@ def scene(dist="beckmann"):
                         "distribution": dist},
             "glass": {"type": "dielectric", "eta": 1.5, "roughness": 0.25, "distribution": dist},
             "floor": {"type": "diffuse", "reflectance": 0.5}}
-    shapes = [{"type": "rectangle", "material": "floor", "transform": {"scale": 3, "rotate": {"axis": [1, 0, 0],
-                                                                                              "angle": -90}}}]
-    for i, name in enumerate(["gold", "brushed", "glass"]):
-        shapes.append({"type": "sphere", "material": name, "center": [-1.2 + 1.2 * i, 0.55, 0], "radius": 0.55})
-    shapes.append({"type": "rectangle", "emission": [30, 28, 24],
-                   "transform": {"scale": 0.5, "rotate": {"axis": [0, 0, 1], "angle": -70}, "translate": [-3, 1, 1]}})
-    return {"camera": {"position": [0, 2, 6], "target": [0, 0.7, 0], "up": [0, 1, 0], "fov": 40, "width": 32,
-                       "height": 32},
-            "materials": mats, "shapes": shapes, "lights": [{"type": "environment", "radiance": [0.2, 0.22, 0.25]}]}
-
-
-def regions(img, k=8):
-    h = img.shape[0] // k
-    r = img[:h * k, :h * k, 1].reshape(k, h, k, h)
-    return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / h
+    return sphere_row(mats, "floor", ["gold", "brushed", "glass"])
 
 
 @pytest.mark.parametrize("integrator", ["bdpt", "vcm"])
@@ -46,12 +34,8 @@ def test_integrators_agree_with_the_path_tracer(integrator):
     # Per 4 x 4-pixel region within 4.5 standard errors (from each region's pixel spread) plus 2% of the region
     # (VCM's merging blurs highlights): light subpaths sample and evaluate the Beckmann lobes in importance mode.
     s = scene()
-    a = np.asarray(caustica.render(s, integrator="path", spp=256, seed=1, max_depth=8), np.float64)
-    b = np.asarray(caustica.render(s, integrator=integrator, spp=256, seed=2, max_depth=8), np.float64)
-    ma, sa = regions(a)
-    mb, sb = regions(b)
-    z = np.abs(ma - mb) / (np.sqrt(sa ** 2 + sb ** 2) + 1e-9 + 0.02 * ma)
-    assert z.max() < 4.5, float(z.max())
+    z = worst_region_z(s, integrator, max_depth=8)
+    assert z < 4.5, (integrator, z)
 
 
 def test_json_export_round_trip(tmp_path):

@@ -8,6 +8,8 @@ import numpy as np
 
 import caustica
 
+from conftest import white_sky_plate
+
 
 def fresnel(mu, eta=1.5):
     s = math.sqrt(max(0.0, 1 - (1 - mu * mu) / (eta * eta)))
@@ -20,9 +22,7 @@ def plate(base, diffuse_base=None):
     mat = {"type": "metallic_roughness", "base_color": base, "roughness": 1.0}
     if diffuse_base:
         mat["diffuse_base"] = diffuse_base
-    return {"camera": {"position": [0, 0, 10], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 3, "width": 16, "height": 16},
-            "materials": {"m": mat}, "shapes": [{"type": "rectangle", "material": "m", "transform": {"scale": 5}}],
-            "lights": [{"type": "environment", "radiance": 1.0}]}
+    return white_sky_plate(mat)
 
 
 def mean_se(scene):

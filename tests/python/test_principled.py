@@ -14,16 +14,9 @@ import pytest
 
 import caustica
 
-from conftest import mean_and_se
+from conftest import mean_and_se, sphere_row, white_sky_plate, worst_region_z
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
-
-
-def plate(mat):
-    return {"camera": {"position": [0, 0, 10], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 3, "width": 16,
-                       "height": 16},
-            "materials": {"m": mat}, "shapes": [{"type": "rectangle", "material": "m", "transform": {"scale": 5}}],
-            "lights": [{"type": "environment", "radiance": 1.0}]}
 
 
 @pytest.mark.parametrize("roughness,sheen", [(0.0, 0.0), (0.5, 0.0), (0.8, 0.7)])
@@ -33,7 +26,7 @@ def test_diffuse_retro_and_sheen_albedo_under_a_white_sky(roughness, sheen):
     # R_R = 2 roughness cos_d^2, F_D = (1 - cos_d)^5: computed here by quadrature; 0.5 (41/42) for roughness 0.
     base = 0.6
     mat = {"type": "principled", "base_color": base, "roughness": roughness, "eta": 1.0, "sheen": sheen}
-    img = caustica.render(plate(mat), spp=256, seed=3, max_depth=2, sampler="independent")
+    img = caustica.render(white_sky_plate(mat), spp=256, seed=3, max_depth=2, sampler="independent")
     n = 200000
     t = (np.arange(n) + 0.5) / n * (math.pi / 2)
     fl = (1 - np.cos(t)) ** 5
@@ -58,23 +51,10 @@ def spheres(glass=True):
         "glass": {"type": "principled", "base_color": [0.95, 0.8, 0.6], "spec_trans": 0.8, "roughness": 0.3,
                   "eta": 1.4},
     }
-    shapes = [{"type": "rectangle", "material": "floor", "transform": {"scale": 3, "rotate": {"axis": [1, 0, 0], "angle": -90}}}]
-    for i, name in enumerate(["sheen", "metal", "glass"]):
-        if name == "glass" and not glass:
-            continue
-        shapes.append({"type": "sphere", "material": name, "center": [-1.2 + 1.2 * i, 0.55, 0], "radius": 0.55})
-    shapes.append({"type": "rectangle", "emission": [30, 28, 24],
-                   "transform": {"scale": 0.5, "rotate": {"axis": [0, 0, 1], "angle": -70},
-                                 "translate": [-3, 1, 1]}})
-    return {"camera": {"position": [0, 2, 6], "target": [0, 0.7, 0], "up": [0, 1, 0], "fov": 40, "width": 32,
-                       "height": 32},
-            "materials": mats, "shapes": shapes, "lights": [{"type": "environment", "radiance": [0.2, 0.22, 0.25]}]}
-
-
-def regions(img, k=8):
-    h = img.shape[0] // k
-    r = img[:h * k, :h * k, 1].reshape(k, h, k, h)
-    return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / h
+    s = sphere_row(mats, "floor", ["sheen", "metal", "glass"])
+    if not glass:
+        s["shapes"] = [sh for sh in s["shapes"] if sh.get("material") != "glass"]
+    return s
 
 
 @pytest.mark.parametrize("integrator", ["bdpt", "vcm", "light"])
@@ -85,12 +65,8 @@ def test_integrators_agree_with_the_path_tracer(integrator):
     # whose heavy-tailed noise the pixel spread does not bound at this sample count: it is compared on the
     # scene without the glass (which BDPT and VCM check).
     s = spheres(glass=integrator != "light")
-    a = np.asarray(caustica.render(s, integrator="path", spp=256, seed=1, max_depth=6), np.float64)
-    b = np.asarray(caustica.render(s, integrator=integrator, spp=256, seed=2, max_depth=6), np.float64)
-    ma, sa = regions(a)
-    mb, sb = regions(b)
-    z = np.abs(ma - mb) / (np.sqrt(sa ** 2 + sb ** 2) + 1e-9 + 0.02 * ma)
-    assert z.max() < 4.5, (integrator, float(z.max()), np.unravel_index(np.argmax(z), z.shape))
+    z = worst_region_z(s, integrator, max_depth=6)
+    assert z < 4.5, (integrator, z)
 
 
 def test_mitsuba_xml_and_its_export_render_the_same(tmp_path):
@@ -127,7 +103,7 @@ def test_mitsuba_xml_and_its_export_render_the_same(tmp_path):
     ({"clearcoat_glos": 0.5}, "/clearcoat_glos", "unknown key (allowed: type, base_color, metallic, roughness"),
 ])
 def test_bad_json_is_a_clear_error(tmp_path, mat, path, message):
-    s = plate(dict({"type": "principled"}, **mat))
+    s = white_sky_plate(dict({"type": "principled"}, **mat))
     f = tmp_path / "s.json"
     f.write_text(json.dumps(s))
     with pytest.raises(caustica.InputError) as e:

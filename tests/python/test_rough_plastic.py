@@ -14,7 +14,7 @@ import pytest
 
 import caustica
 
-from conftest import mean_and_se
+from conftest import mean_and_se, sphere_row, white_sky_plate, worst_region_z
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
@@ -24,21 +24,7 @@ def scene(dist="ggx"):
             "red": {"type": "plastic", "diffuse": [0.7, 0.2, 0.1], "roughness": 0.1, "distribution": dist},
             "blue": {"type": "plastic", "diffuse": [0.2, 0.3, 0.8], "roughness": 0.5, "eta": 1.33,
                      "specular": [0.8, 0.9, 1.0], "distribution": dist}}
-    shapes = [{"type": "rectangle", "material": "floor", "transform": {"scale": 3, "rotate": {"axis": [1, 0, 0],
-                                                                                              "angle": -90}}}]
-    for i, name in enumerate(["red", "blue"]):
-        shapes.append({"type": "sphere", "material": name, "center": [-0.7 + 1.4 * i, 0.6, 0], "radius": 0.6})
-    shapes.append({"type": "rectangle", "emission": [30, 28, 24],
-                   "transform": {"scale": 0.5, "rotate": {"axis": [0, 0, 1], "angle": -70}, "translate": [-3, 1, 1]}})
-    return {"camera": {"position": [0, 2, 6], "target": [0, 0.7, 0], "up": [0, 1, 0], "fov": 40, "width": 32,
-                       "height": 32},
-            "materials": mats, "shapes": shapes, "lights": [{"type": "environment", "radiance": [0.2, 0.22, 0.25]}]}
-
-
-def regions(img, k=8):
-    h = img.shape[0] // k
-    r = img[:h * k, :h * k, 1].reshape(k, h, k, h)
-    return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / h
+    return sphere_row(mats, "floor", ["red", "blue"], radius=0.6, spacing=1.4)
 
 
 @pytest.mark.parametrize("integrator,dist", [("bdpt", "ggx"), ("vcm", "beckmann")])
@@ -46,27 +32,16 @@ def test_integrators_agree_with_the_path_tracer(integrator, dist):
     # Per 4 x 4-pixel region within 4.5 standard errors (each region's pixel spread) plus 2% of the region
     # (VCM's merging blurs highlights).
     s = scene(dist)
-    a = np.asarray(caustica.render(s, integrator="path", spp=256, seed=1, max_depth=6), np.float64)
-    b = np.asarray(caustica.render(s, integrator=integrator, spp=256, seed=2, max_depth=6), np.float64)
-    ma, sa = regions(a)
-    mb, sb = regions(b)
-    z = np.abs(ma - mb) / (np.sqrt(sa ** 2 + sb ** 2) + 1e-9 + 0.02 * ma)
-    assert z.max() < 4.5, float(z.max())
-
-
-def plate(mat):
-    return {"camera": {"position": [0, 0, 10], "target": [0, 0, 0], "up": [0, 1, 0], "fov": 3, "width": 16,
-                       "height": 16},
-            "materials": {"m": mat}, "shapes": [{"type": "rectangle", "material": "m", "transform": {"scale": 5}}],
-            "lights": [{"type": "environment", "radiance": 1.0}]}
+    z = worst_region_z(s, integrator, max_depth=6)
+    assert z < 4.5, (integrator, z)
 
 
 def test_black_base_reflects_the_coat_alone():
     # Diffuse 0: only the coat's lobe, F D G / (4 cos cos), which is a rough dielectric's reflection: the same
     # image as that glass seen head-on over black (max depth 2: the light refracted into the glass is lost), by
     # 4 standard errors of the difference.
-    coat = plate({"type": "plastic", "diffuse": 0.0, "roughness": 0.3, "eta": 1.5})
-    glass = plate({"type": "dielectric", "roughness": 0.3, "eta": 1.5})
+    coat = white_sky_plate({"type": "plastic", "diffuse": 0.0, "roughness": 0.3, "eta": 1.5})
+    glass = white_sky_plate({"type": "dielectric", "roughness": 0.3, "eta": 1.5})
     glass["shapes"].append({"type": "rectangle", "material": "black",
                             "transform": {"scale": 5, "translate": [0, 0, -0.01]}})
     glass["materials"]["black"] = {"type": "diffuse", "reflectance": 0.0}
@@ -97,7 +72,7 @@ def test_json_and_mitsuba_round_trip(tmp_path):
 
 def test_bad_roughness_is_an_error(tmp_path):
     f = tmp_path / "s.json"
-    f.write_text(json.dumps(plate({"type": "plastic", "roughness": -0.1})))
+    f.write_text(json.dumps(white_sky_plate({"type": "plastic", "roughness": -0.1})))
     with pytest.raises(caustica.InputError) as e:
         caustica.load_scene(str(f))
     assert str(e.value) == (f"{f}: /materials/m/roughness: expected a GGX alpha >= 0 (a number: rough plastic is "

@@ -17,28 +17,42 @@
 
 namespace caustica {
 
+// What both distributions' D and Lambda are made of. For a normal wm: e = tan^2 theta (cos^2 phi / ax^2 +
+// sin^2 phi / ay^2) and cos^4 theta (false where D vanishes: a horizontal normal). For a direction w:
+// alpha(phi)^2 tan^2 theta, alpha(phi)^2 = cos^2 phi ax^2 + sin^2 phi ay^2 (false for an infinite tangent).
+CHD bool microfacet_slope(Vec3f wm, float ax, float ay, float& e, float& c4) {
+  const float t2 = tan2_theta(wm);
+  if (!std::isfinite(t2)) return false;
+  c4 = sqr(cos2_theta(wm));
+  if (c4 < 1e-16f) return false;
+  const float s2 = sin2_theta(wm);
+  const float cos2_phi = s2 > 0.f ? wm.x * wm.x / s2 : 1.f;
+  const float sin2_phi = s2 > 0.f ? wm.y * wm.y / s2 : 0.f;
+  e = t2 * (cos2_phi / (ax * ax) + sin2_phi / (ay * ay));
+  return true;
+}
+CHD bool microfacet_alpha_tan2(Vec3f w, float ax, float ay, float& at2) {
+  const float t2 = tan2_theta(w);
+  if (!std::isfinite(t2)) return false;
+  const float s2 = sin2_theta(w);
+  const float cos2_phi = s2 > 0.f ? w.x * w.x / s2 : 1.f;
+  const float sin2_phi = s2 > 0.f ? w.y * w.y / s2 : 0.f;
+  at2 = (cos2_phi * ax * ax + sin2_phi * ay * ay) * t2;
+  return true;
+}
+
 struct GGX {
   float ax, ay;
 
   CHD float D(Vec3f wm) const {
-    float t2 = tan2_theta(wm);
-    if (!std::isfinite(t2)) return 0.f;
-    float c4 = sqr(cos2_theta(wm));
-    if (c4 < 1e-16f) return 0.f;
-    float s2 = sin2_theta(wm);
-    float cos2_phi = s2 > 0.f ? wm.x * wm.x / s2 : 1.f;
-    float sin2_phi = s2 > 0.f ? wm.y * wm.y / s2 : 0.f;
-    float e = t2 * (cos2_phi / (ax * ax) + sin2_phi / (ay * ay));
+    float e, c4;
+    if (!microfacet_slope(wm, ax, ay, e, c4)) return 0.f;
     return 1.f / (kPi * ax * ay * c4 * sqr(1.f + e));
   }
   CHD float lambda(Vec3f w) const {
-    float t2 = tan2_theta(w);
-    if (!std::isfinite(t2)) return 0.f;
-    float s2 = sin2_theta(w);
-    float cos2_phi = s2 > 0.f ? w.x * w.x / s2 : 1.f;
-    float sin2_phi = s2 > 0.f ? w.y * w.y / s2 : 0.f;
-    float alpha2 = cos2_phi * ax * ax + sin2_phi * ay * ay;
-    return (std::sqrt(1.f + alpha2 * t2) - 1.f) * 0.5f;
+    float at2;
+    if (!microfacet_alpha_tan2(w, ax, ay, at2)) return 0.f;
+    return (std::sqrt(1.f + at2) - 1.f) * 0.5f;
   }
   CHD float G1(Vec3f w) const { return 1.f / (1.f + lambda(w)); }
   CHD float G(Vec3f wo, Vec3f wi) const { return 1.f / (1.f + lambda(wo) + lambda(wi)); }
@@ -70,24 +84,14 @@ struct Beckmann {
   float ax, ay;
 
   CHD float D(Vec3f wm) const {
-    float t2 = tan2_theta(wm);
-    if (!std::isfinite(t2)) return 0.f;
-    float c4 = sqr(cos2_theta(wm));
-    if (c4 < 1e-16f) return 0.f;
-    float s2 = sin2_theta(wm);
-    float cos2_phi = s2 > 0.f ? wm.x * wm.x / s2 : 1.f;
-    float sin2_phi = s2 > 0.f ? wm.y * wm.y / s2 : 0.f;
-    float e = t2 * (cos2_phi / (ax * ax) + sin2_phi / (ay * ay));
+    float e, c4;
+    if (!microfacet_slope(wm, ax, ay, e, c4)) return 0.f;
     return std::exp(-e) / (kPi * ax * ay * c4);
   }
   CHD float lambda(Vec3f w) const {
-    float t2 = tan2_theta(w);
-    if (!std::isfinite(t2)) return 0.f;
-    if (t2 == 0.f) return 0.f;
-    float s2 = sin2_theta(w);
-    float cos2_phi = s2 > 0.f ? w.x * w.x / s2 : 1.f;
-    float sin2_phi = s2 > 0.f ? w.y * w.y / s2 : 0.f;
-    float a = 1.f / std::sqrt((cos2_phi * ax * ax + sin2_phi * ay * ay) * t2);
+    float at2;
+    if (!microfacet_alpha_tan2(w, ax, ay, at2) || at2 == 0.f) return 0.f;
+    const float a = 1.f / std::sqrt(at2);
     return 0.5f * (std::erf(a) - 1.f) + std::exp(-a * a) / (2.f * a * 1.7724538509055160f);
   }
   // A normal with density D(wm) cos theta_m (in the +z hemisphere).
