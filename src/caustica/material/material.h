@@ -64,7 +64,7 @@ struct Material {
   float alpha_x = 0.1f, alpha_y = 0.1f;  // GGX roughness (alpha_x along the anisotropy direction, scene/shading.h)
   float aniso_rotation = 0.f;  // anisotropy direction: radians from dp/du towards dp/dv (glTF anisotropyRotation)
   float exponent = 90.f;    // Phong exponent
-  float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed); rough plastic: the coat's
+  float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed); rough plastic: its coat's (prepare_rough_plastic)
   float metallic = 0.f;     // metallic-roughness: metal weight
   float transmission_weight = 0.f;  // metallic-roughness: KHR_materials_transmission; principled: spec_trans
   // Principled (material/principled.h): the Disney BSDF's other weights, each in [0, 1].
