@@ -56,7 +56,7 @@ nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv | tee "$OUT
 python3 -c "import caustica; print(caustica.devices())" 2>&1 | tee -a "$OUT/gpu.txt"
 step() { echo "== $*"; "$@"; echo "== exit $?"; }
 step $B/bin/caustica_tests --gtest_filter='Cuda*:Wavefront*:CpuBackend*' 2>&1 | tee "$OUT/gtest.txt"
-step python3 -m pytest -q -p no:cacheprovider tests/python/test_wavefront.py tests/python/test_cli.py tests/python/test_motion_blur.py tests/python/test_restir.py tests/python/test_light_sampler.py tests/python/test_study.py tests/python/test_media_photons.py tests/python/test_media_grid.py tests/python/test_media_grid_colour.py tests/python/test_media_emission.py tests/python/test_media_bidir.py tests/python/test_media_restir.py tests/python/test_hide_emitters.py tests/python/test_vertex_colors.py -k "gpu or device or cuda" 2>&1 | tee "$OUT/pytest.txt"
+step python3 -m pytest -q -p no:cacheprovider tests/python/test_wavefront.py tests/python/test_cli.py tests/python/test_motion_blur.py tests/python/test_restir.py tests/python/test_light_sampler.py tests/python/test_study.py tests/python/test_media_photons.py tests/python/test_media_grid.py tests/python/test_media_grid_colour.py tests/python/test_media_emission.py tests/python/test_media_bidir.py tests/python/test_media_restir.py tests/python/test_hide_emitters.py tests/python/test_vertex_colors.py tests/python/test_principled.py -k "gpu or device or cuda" 2>&1 | tee "$OUT/pytest.txt"
 step compute-sanitizer --tool memcheck --error-exitcode 1 $B/bin/caustica_tests \
   --gtest_filter='Cuda.SwitchesChangeNothingOnTheGpu' 2>&1 | tail -n 40 | tee "$OUT/memcheck.txt"
 for args in "--integrator path --sort-materials" "--integrator sppm --photons 5000" \

@@ -53,13 +53,13 @@ def region_means(img, k=8):
     return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / h
 
 
-def worst_region_z(scene, integrator, max_depth, spp=256, slack=0.02):
-    """Renders `scene` with path (seed 1) and `integrator` (seed 2) and returns the largest difference of the green
-    region means (region_means) in units of their combined standard error plus `slack` of the path tracer's
-    region (VCM's merging blurs highlights): below 4.5 when the two agree."""
+def worst_region_z(scene, integrator, max_depth, spp=256, slack=0.02, reference="path", device="cpu"):
+    """Renders `scene` with `reference` on the CPU (seed 1) and `integrator` on `device` (seed 2) and returns the
+    largest difference of the green region means (region_means) in units of their combined standard error plus
+    `slack` of the reference's region (VCM's merging blurs highlights): below 4.5 when the two agree."""
     import caustica
-    a = caustica.render(scene, integrator="path", spp=spp, seed=1, max_depth=max_depth)
-    b = caustica.render(scene, integrator=integrator, spp=spp, seed=2, max_depth=max_depth)
+    a = caustica.render(scene, integrator=reference, spp=spp, seed=1, max_depth=max_depth)
+    b = caustica.render(scene, integrator=integrator, spp=spp, seed=2, max_depth=max_depth, device=device)
     ma, sa = region_means(a)
     mb, sb = region_means(b)
     return float((np.abs(ma - mb) / (np.sqrt(sa ** 2 + sb ** 2) + 1e-9 + slack * ma)).max())
