@@ -185,7 +185,7 @@ Material make_rough_plastic(RGB diffuse, float eta, float alpha, bool beckmann, 
   m.diffuse = diffuse;
   m.eta = eta;
   m.specular = specular;
-  m.alpha_x = m.alpha_y = alpha;
+  m.alpha_x = m.alpha_y = std::max(alpha, 1e-4f);  // GGX's and Beckmann's D divide by alpha^2
   if (beckmann) m.flags |= kBeckmann;
   prepare_rough_plastic(m);
   return m;

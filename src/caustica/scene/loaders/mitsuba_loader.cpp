@@ -946,12 +946,11 @@ class Loader {
       float eta = p.get_ior("int_ior", 1.49f) / p.get_ior("ext_ior", 1.000277f);
       bool nonlinear = p.get_bool("nonlinear", false);
       // The coat: smooth, or rough (material/rough_plastic.h, with the coat's own internal reflectance).
-      if (type == "plastic") {
+      if (type == "roughplastic") microfacet(p, n, m, false, false);
+      if (type == "plastic" || m.alpha_x == 0.f)  // a roughplastic of alpha 0 is the smooth one
         m = make_plastic(kd.value, eta, ks);
-      } else {
-        microfacet(p, n, m, false, false);
+      else
         m = make_rough_plastic(kd.value, eta, m.alpha_x, (m.flags & kBeckmann) != 0u, ks);
-      }
       if (!nonlinear) {
         // Mitsuba's default (linear) model scales the base by 1/(1 - Fdr); caustica's
         // base term is Kd/(1 - Kd Fdr) (Mitsuba's nonlinear model). Choose Kd' so
