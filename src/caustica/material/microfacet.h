@@ -125,6 +125,8 @@ struct Microfacet {
   CHD float D(Vec3f wm) const { return beckmann ? Beckmann{ax, ay}.D(wm) : GGX{ax, ay}.D(wm); }
   CHD float lambda(Vec3f w) const { return beckmann ? Beckmann{ax, ay}.lambda(w) : GGX{ax, ay}.lambda(w); }
   CHD float G1(Vec3f w) const { return 1.f / (1.f + lambda(w)); }
+  // G1 with the sidedness Smith's masking needs: 0 where w sees the back of the microfacet wm.
+  CHD float G1_facing(Vec3f w, Vec3f wm) const { return dot(w, wm) * w.z > 0.f ? G1(w) : 0.f; }
   CHD float G(Vec3f wo, Vec3f wi) const { return 1.f / (1.f + lambda(wo) + lambda(wi)); }
   // Density of the normals visible from w (Heitz 2018 Eq. 2), whichever the sampler.
   CHD float D_visible(Vec3f w, Vec3f wm) const {

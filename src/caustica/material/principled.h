@@ -35,7 +35,7 @@
 // one); it is the reference's model, not a layered one (compare material/metallic_roughness.h).
 //
 // Sampling: with T = brdf + clearcoat / 4 + 1 (front; T = 1 from behind), the diffuse lobe (cosine-weighted)
-// with probability brdf / T, the clearcoat's GTR1 normals (Burley 2012 Appendix B.2, Eq. 2) with
+// with probability brdf / T, the clearcoat's GTR1 normals (Burley 2012 Appendix B.2) with
 // clearcoat / (4 T), else a GGX visible normal (Heitz 2018), refracted through it with probability
 // bsdf (1 - F) (1 - F from behind) and reflected otherwise; the pdf is the whole mixture's.
 #pragma once
@@ -77,7 +77,7 @@ CHD RGB principled_tint(RGB base) {
   const float lum = luminance(base);
   return lum > 0.f ? base / lum : RGB(1.f);
 }
-// GTR1 (Burley 2012 Appendix B.2, Eq. 4: the clearcoat's normal distribution, 0 < alpha < 1).
+// GTR1 (Burley 2012 Appendix B.2: the clearcoat's normal distribution, 0 < alpha < 1).
 CHD float principled_gtr1(float cos_h, float alpha) {
   const float a2 = alpha * alpha;
   const float d = (a2 - 1.f) / (kPi * std::log(a2) * (1.f + (a2 - 1.f) * cos_h * cos_h));
@@ -86,13 +86,6 @@ CHD float principled_gtr1(float cos_h, float alpha) {
 CHD float principled_clearcoat_alpha(const Material& m) {
   const float g = clampf(m.clearcoat_gloss, 0.f, 1.f);
   return 0.1f + (0.001f - 0.1f) * g;
-}
-// Smith's G1 for isotropic GGX of `alpha`, 0 where w sees the back of the microfacet h.
-CHD float principled_ggx_g1(Vec3f w, Vec3f h, float alpha) {
-  if (dot(w, h) * w.z <= 0.f) return 0.f;
-  const float c2 = w.z * w.z;
-  const float t2 = (1.f - c2) / c2;
-  return 2.f / (1.f + std::sqrt(1.f + alpha * alpha * t2));
 }
 
 // The geometry shared by eval and pdf: the half vector (generalised for refraction, Walter et al. 2007 Eq. 16,
@@ -163,7 +156,8 @@ CHD RGB principled_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mod
   if (cc > 0.f && H.reflect_ok) {
     const float Fcc = 0.04f + 0.96f * principled_schlick(c_oh, m.eta);
     const float Dcc = principled_gtr1(H.h.z, principled_clearcoat_alpha(m));
-    const float Gcc = principled_ggx_g1(wo, H.h, 0.25f) * principled_ggx_g1(wi, H.h, 0.25f);
+    const Microfacet gcc{0.25f, 0.25f, false};  // the clearcoat's masking: isotropic GGX of alpha 0.25
+    const float Gcc = gcc.G1_facing(wo, H.h) * gcc.G1_facing(wi, H.h);
     f += RGB(0.25f * cc * Fcc * Dcc * Gcc);
   }
   if (L.brdf > 0.f) {

@@ -111,7 +111,6 @@ namespace {
 // by D_visible / its sampling density (1 for GGX's visible normals); the integrands are smooth in it.
 double coat_expectation(const Microfacet& g, float eta, float mu, bool transmitted) {
   const Vec3f wo(std::sqrt(std::max(0.f, 1.f - mu * mu)), 0.f, mu);
-  auto g1 = [&](Vec3f v, Vec3f h) { return dot(v, h) * v.z > 0.f ? g.G1(v) : 0.f; };
   const int n = 64;
   double sum = 0.0;
   for (int i = 0; i < n; ++i)
@@ -126,11 +125,11 @@ double coat_expectation(const Microfacet& g, float eta, float mu, bool transmitt
       if (transmitted) {
         Vec3f wt;
         if (!refract(wo, h, eta, wt) || !(wt.z < 0.f)) continue;
-        sum += w * (1.0 - F) * g1(wt, h);
+        sum += w * (1.0 - F) * g.G1_facing(wt, h);
       } else {
         const Vec3f wr = reflect(wo, h);
         if (!(wr.z > 0.f)) continue;
-        sum += w * F * g1(wr, h);
+        sum += w * F * g.G1_facing(wr, h);
       }
     }
   return sum / (double(n) * n);

@@ -1005,9 +1005,12 @@ class Loader {
       // metallic, spec_trans, anisotropic, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss
       // (numbers in [0, 1]), eta or specular (eta = 2 / (1 - sqrt(0.08 specular)) - 1).
       ColorOrTexture base = p.get_color_tex("base_color", RGB(0.5f));
+      auto is_texture = [](xml_node e) {
+        return e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref");
+      };
       auto scalar = [&](const char* k, float def, float hi) {
         xml_node e = p.get(k);
-        if (e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref"))
+        if (is_texture(e))
           fail(e, std::string("a ") + k + " texture is not supported (give a number)");
         float v = p.get_float(k, def);
         if (!(v >= 0.f && v <= hi)) fail(e, std::string("expected ") + k + " in [0, " + (hi == 1.f ? "1" : "2") + "]");
@@ -1016,7 +1019,7 @@ class Loader {
       int tex_rough = -1;
       float roughness = 0.5f;
       xml_node re = p.get("roughness");
-      if (re && (std::string(re.name()) == "texture" || std::string(re.name()) == "ref")) {
+      if (is_texture(re)) {
         tex_rough = p.get_color_tex("roughness", RGB(1.f)).texture;
         roughness = 1.f;
       } else {
