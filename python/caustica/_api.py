@@ -23,7 +23,7 @@ class SceneWarning(UserWarning):
     """Something in a scene file was skipped or replaced (e.g. a default camera); the scene still loads."""
 
 SAMPLERS = ("sobol", "independent")
-FILTERS = ("box", "tent", "gaussian")
+FILTERS = ("box", "tent", "gaussian", "mitchell", "catmullrom", "lanczos")
 ACCELS = ("auto", "embree", "small", "bvh")
 
 
@@ -169,7 +169,7 @@ def _warn(scene_or_warnings, stacklevel: int = 3) -> None:
 
 def load_dict(d: dict, camera: Optional[str] = None, base_dir: Union[str, os.PathLike, None] = None,
               width: Optional[int] = None, height: Optional[int] = None,
-              filter: Optional[str] = None) -> "_native.Scene":
+              filter: Optional[Union[str, dict]] = None) -> "_native.Scene":
     """Loads a scene given as a dict in caustica's JSON format (docs/scene-format.md). Errors
     name "<dict>" and the JSON path. Relative file names (meshes, textures) are resolved against
     `base_dir` (default: the current directory)."""
@@ -182,13 +182,14 @@ def load_dict(d: dict, camera: Optional[str] = None, base_dir: Union[str, os.Pat
 
 
 def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Optional[int] = None,
-               height: Optional[int] = None, filter: Optional[str] = None, camera: Optional[str] = None,
+               height: Optional[int] = None, filter: Optional[Union[str, dict]] = None, camera: Optional[str] = None,
                params: Optional[dict] = None) -> "_native.Scene":
     """Loads a built-in scene by name, a scene file (.json, .obj, .ply, .gltf, .glb, .xml), or a
     scene given as a dict in caustica's JSON format, and returns a Scene for caustica.render.
 
     camera: a named camera of the file (glTF, XML, JSON "cameras"); params: Mitsuba XML
-    $name substitutions ({"spp": 64}). width/height/filter override the scene's. Problems in
+    $name substitutions ({"spp": 64}). width/height/filter override the scene's (filter: a name, or a
+    dict as the scene format's filter object, e.g. {"type": "mitchell", "B": 0, "C": 0.5}). Problems in
     the scene raise caustica.SceneError (an InputError); what was skipped or replaced is
     reported with warnings.warn (caustica.SceneWarning). scene.describe() gives counts, bounds, the
     camera's projection ("perspective", "thin lens", "orthographic") and its shutter (None unless it moves)."""
@@ -212,7 +213,9 @@ def _override(s, width, height, filter):
     if width is not None or height is not None:
         s.set_resolution(_positive_int("width", width if width is not None else s.width),
                          _positive_int("height", height if height is not None else s.height))
-    if filter is not None:
+    if isinstance(filter, dict):  # {"type": ..., parameters}: the scene format's filter object
+        s.set_filter_json(json.dumps(filter))
+    elif filter is not None:
         if filter not in FILTERS:
             raise InputError(f"unknown filter '{filter}' (allowed: {', '.join(FILTERS)})")
         s.set_filter(filter)

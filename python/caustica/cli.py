@@ -112,7 +112,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "default: the scene's")
     r.add_argument("--rr-depth", type=_positive_int("--rr-depth"), default=None,
                    help="Russian roulette starts after this many segments (default: the scene's, else 5)")
-    r.add_argument("--filter", default=None, help="pixel filter: box, tent or gaussian (default: the scene's)")
+    r.add_argument("--filter", default=None, help="pixel filter: box, tent, gaussian, mitchell, catmullrom or lanczos, with its default parameters "
+                   "(default: the scene's; a scene file sets parameters)")
     r.add_argument("--sampler", default=None, help="sobol (Owen-scrambled) or independent (default: the scene's, else sobol)")
     r.add_argument("--accel", default="auto",
                    help="auto (default: small for scenes of at most 128 triangles, else embree), embree, small "

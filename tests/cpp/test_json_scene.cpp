@@ -80,7 +80,7 @@ void expect_desc_eq(const SceneDesc& a, const SceneDesc& b, bool texture_names =
   expect_camera_eq(a.camera, b.camera, "camera");
   ASSERT_EQ(a.cameras.size(), b.cameras.size());
   for (size_t i = 0; i < a.cameras.size(); ++i) expect_camera_eq(a.cameras[i], b.cameras[i], "cameras/" + std::to_string(i));
-  EXPECT_EQ(int(a.filter), int(b.filter));
+  EXPECT_TRUE(a.filter == b.filter);
   EXPECT_EQ(a.material_names, b.material_names);
   ASSERT_EQ(a.materials.size(), b.materials.size());
   for (size_t i = 0; i < a.materials.size(); ++i) expect_material_eq(a.materials[i], b.materials[i], a.material_names[i]);
@@ -277,7 +277,7 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   side.width = 64;
   side.flip_x = true;
   d.cameras = {d.camera, side};
-  d.filter = FilterType::kTent;
+  d.filter = make_filter(FilterType::kMitchell, 2.5f, 0.2f, 0.4f);  // written as an object
   d.max_depth = 7;
   d.integrator.type = "sppm";
   d.integrator.spp = 12;
@@ -450,7 +450,7 @@ TEST(JsonLoader, OlderFilesStillLoad) {
                                      "old.json");
   EXPECT_EQ(d.camera.width, 40);
   EXPECT_EQ(d.camera.height, 30);
-  EXPECT_EQ(int(d.filter), int(FilterType::kTent));
+  EXPECT_EQ(int(d.filter.type), int(FilterType::kTent));
   EXPECT_EQ(d.max_depth, 5);
   EXPECT_EQ(d.lights[0].texture, -1);
   EXPECT_EQ(d.material_names, std::vector<std::string>{"default"});
@@ -471,7 +471,7 @@ TEST(JsonLoader, FilmCamerasAndIntegrator) {
   ASSERT_EQ(d.cameras.size(), 2u);
   EXPECT_EQ(d.cameras[0].name, "front");  // the file's order, not sorted
   EXPECT_EQ(d.cameras[0].width, 320);
-  EXPECT_EQ(int(d.filter), int(FilterType::kGaussian));
+  EXPECT_EQ(int(d.filter.type), int(FilterType::kGaussian));
   EXPECT_EQ(d.max_depth, 8);
   EXPECT_EQ(d.integrator.type, "sppm");
   EXPECT_EQ(d.integrator.spp, 64);

@@ -98,7 +98,7 @@ TEST(MitsubaCornell, EqualsBuiltin) {
   EXPECT_EQ(x.camera.height, b.camera.height);
   EXPECT_EQ(x.camera.flip_x, b.camera.flip_x);
   EXPECT_EQ(x.camera.aperture_radius, 0.f);
-  EXPECT_EQ(x.filter, b.filter);
+  EXPECT_TRUE(x.filter == b.filter);
   EXPECT_EQ(x.max_depth, b.max_depth);
   ASSERT_EQ(x.materials.size(), b.materials.size());
   for (size_t i = 0; i < b.materials.size(); ++i) {
@@ -136,7 +136,7 @@ TEST(MitsubaCornell, ParametersOverrideDefaults) {
   EXPECT_EQ(x.camera.width, 64);
   EXPECT_EQ(x.camera.height, 64);
   EXPECT_EQ(x.max_depth, 3);
-  EXPECT_EQ(x.filter, FilterType::kBox);
+  EXPECT_EQ(x.filter.type, FilterType::kBox);
 }
 
 // ---------------------------------------------------------------------------
@@ -786,6 +786,36 @@ TEST(MitsubaEmitter, Errors) {
 // ---------------------------------------------------------------------------
 // Sensor, film, integrator.
 
+TEST(MitsubaSensor, ReconstructionFilters) {
+  struct Case {
+    const char* rfilter;
+    Filter expected;
+  };
+  const float d = kFilterDefault;
+  const Case cases[] = {
+      {"<rfilter type=\"box\"/>", make_filter(FilterType::kBox)},
+      {"<rfilter type=\"tent\"><float name=\"radius\" value=\"2.5\"/></rfilter>", make_filter(FilterType::kTent, 2.5f)},
+      {"<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"0.3\"/></rfilter>",
+       make_filter(FilterType::kGaussian, 1.2f, 0.3f)},  // radius 4 stddev, as Mitsuba's
+      {"<rfilter type=\"mitchell\"/>", make_filter(FilterType::kMitchell, 2.f, 1.f / 3.f, 1.f / 3.f)},
+      {"<rfilter type=\"mitchell\"><float name=\"B\" value=\"0.2\"/><float name=\"C\" value=\"0.4\"/></rfilter>",
+       make_filter(FilterType::kMitchell, d, 0.2f, 0.4f)},
+      {"<rfilter type=\"catmullrom\"/>", make_filter(FilterType::kMitchell, 2.f, 0.f, 0.5f)},
+      {"<rfilter type=\"lanczos\"/>", make_filter(FilterType::kLanczos, 3.f, 3.f)},
+      {"<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"2\"/></rfilter>", make_filter(FilterType::kLanczos, 2.f, 2.f)},
+      {"", make_filter(FilterType::kGaussian, 2.f, 0.5f)},  // no rfilter: Mitsuba's default gaussian
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    std::string f = scene_file("rfilter" + std::to_string(k++) + ".xml",
+                               std::string("<shape type=\"cube\"/>\n<sensor type=\"perspective\"><film type=\"hdrfilm\">") +
+                                   c.rfilter + "</film></sensor>\n");
+    SceneDesc s = load_mitsuba_scene(f);
+    EXPECT_TRUE(s.filter == c.expected) << c.rfilter << ": type " << int(s.filter.type) << " radius " << s.filter.radius
+                                        << " a " << s.filter.a << " b " << s.filter.b;
+  }
+}
+
 TEST(MitsubaSensor, Cameras) {
   std::string f = scene_file("sensors.xml", "<shape type=\"cube\"/>\n"
       "<sensor type=\"perspective\" id=\"wide\"><float name=\"fov\" value=\"60\"/><string name=\"fov_axis\" value=\"larger\"/>"
@@ -799,7 +829,7 @@ TEST(MitsubaSensor, Cameras) {
   SceneDesc d = load_mitsuba_scene(f);
   ASSERT_EQ(d.cameras.size(), 3u);
   EXPECT_EQ(d.camera.name, "wide");
-  EXPECT_EQ(d.filter, FilterType::kTent);
+  EXPECT_EQ(d.filter.type, FilterType::kTent);
   const CameraDesc& a = d.cameras[0];
   expect_vec_near(a.position, {0, 0, 5});
   expect_vec_near(a.target, {0, 0, 4});
@@ -880,11 +910,18 @@ TEST(MitsubaSensor, Errors) {
        "pixels are square)"},
       {"<sensor type=\"orthographic\"><float name=\"fov\" value=\"30\"/></sensor>\n",
        ":2: <float name=\"fov\">: unknown property of sensor orthographic (supported: to_world)"},
-      {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"mitchell\"/></film></sensor>\n",
-       ":3: <rfilter type=\"mitchell\">: unsupported reconstruction filter (supported: box, tent, gaussian)"},
+      {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"bicubic\"/></film></sensor>\n",
+       ":3: <rfilter type=\"bicubic\">: unsupported reconstruction filter (supported: box, tent, gaussian, mitchell, "
+       "catmullrom, lanczos)"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"gaussian\"><float name=\"stddev\" "
-       "value=\"1\"/></rfilter></film></sensor>\n",
-       ":3: <float name=\"stddev\">: caustica's gaussian filter has stddev 0.5"},
+       "value=\"0\"/></rfilter></film></sensor>\n",
+       ":3: <float name=\"stddev\">: the gaussian filter's stddev must be positive"},
+      {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"tent\"><float name=\"radius\" "
+       "value=\"40\"/></rfilter></film></sensor>\n",
+       ":3: <float name=\"radius\">: a pixel filter's radius must be in (0, 16] pixels"},
+      {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"mitchell\"><float name=\"radius\" "
+       "value=\"3\"/></rfilter></film></sensor>\n",
+       ":3: <float name=\"radius\">: unknown property of rfilter mitchell (supported: B, C)"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><integer name=\"width\" value=\"0\"/></film></sensor>\n",
        ":3: <integer name=\"width\">: expected a positive width"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><float name=\"width\" value=\"10\"/></film></sensor>\n",

@@ -465,25 +465,26 @@ TEST(WavefrontPhoton, AdaptiveChainsStopWhenCancelled) {
 // light, bdpt, bpm, vcm and upg on the CPU backend (integrator/wavefront_vcm.h) run the CPU drivers' stage
 // functions in the same order per path, keep light vertices and splats in their path order, build the same
 // grid and add each pixel's terms in their order: the images are the CPU drivers' bit for bit. Scenes
-// with an area light, a point light inside glass, a sun, an environment, a point light; the box, tent and
-// gaussian filters (splats reach several pixels); one light subpath per pixel, fewer (camera path i connects
+// with an area light, a point light inside glass, a sun, an environment, a point light; the box, tent,
+// gaussian, mitchell and lanczos filters (splats reach several pixels; the last two with negative weights);
+// one light subpath per pixel, fewer (camera path i connects
 // to light subpath i mod n) and more; depth limits.
 TEST(WavefrontVcm, CpuBackendMatchesTheCpuDriverBitForBit) {
   struct Case {
     const char* scene;
-    FilterType filter;
+    const char* filter;
     int64_t photons;
     int max_depth;
   };
-  const Case cases[] = {{"cornell", FilterType::kBox, 0, 10},
-                        {"smallvcm-spheres", FilterType::kGaussian, 0, -1},
-                        {"point-in-glass", FilterType::kBox, 97, 8},
-                        {"smallvcm-sun", FilterType::kTent, 0, 4},
-                        {"smallvcm-env", FilterType::kBox, 300, 10},
-                        {"smallvcm-point", FilterType::kBox, 2000, -1}};  // more light subpaths than pixels
+  const Case cases[] = {{"cornell", "box", 0, 10},
+                        {"smallvcm-spheres", "gaussian", 0, -1},
+                        {"point-in-glass", "mitchell", 97, 8},
+                        {"smallvcm-sun", "tent", 0, 4},
+                        {"smallvcm-env", "lanczos", 300, 10},
+                        {"smallvcm-point", "box", 2000, -1}};  // more light subpaths than pixels
   for (const Case& c : cases) {
     SceneDesc d = builtin_scene(c.scene);
-    d.filter = c.filter;
+    d.filter = filter_by_name(c.filter);
     auto sc = Scene::build(d);
     sc->set_resolution(30, 22);
     for (const char* integrator : {"light", "bdpt", "bpm", "vcm", "upg"}) {

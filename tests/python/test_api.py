@@ -97,7 +97,7 @@ def test_bad_scenes():
     with pytest.raises(caustica.InputError, match=r"/shapes/0/material: no material named 'x'"):
         caustica.load_scene({"camera": {}, "shapes": [{"type": "cube", "material": "x"}]})
     with pytest.raises(caustica.InputError, match="unknown filter"):
-        caustica.load_scene("cornell", filter="mitchell")
+        caustica.load_scene("cornell", filter="bicubic")
     with pytest.raises(caustica.InputError, match="width must be a positive integer"):
         caustica.load_scene("cornell", width=0)
 

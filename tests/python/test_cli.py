@@ -86,7 +86,7 @@ BAD = [
     (["render", "cornell", "--time", "-2", "-o", "{d}/a.exr"], "--time expects a positive number"),
     (["render", "cornell", "--width", "1.5", "-o", "{d}/a.exr"], "--width expects a positive integer"),
     (["render", "cornell", "--max-depth", "0", "-o", "{d}/a.exr"], "--max-depth expects"),
-    (["render", "cornell", "--filter", "mitchell", "-o", "{d}/a.exr"], "unknown filter 'mitchell' (allowed: box, tent, gaussian)"),
+    (["render", "cornell", "--filter", "bicubic", "-o", "{d}/a.exr"], "unknown filter 'bicubic' (allowed: box, tent, gaussian, mitchell, catmullrom, lanczos)"),
     (["render", "cornell", "--sampler", "halton", "-o", "{d}/a.exr"], "unknown sampler 'halton'"),
     (["render", "cornell", "--frobnicate", "-o", "{d}/a.exr"], "unrecognized arguments: --frobnicate"),
     (["render", "cornell", "-o", "{d}/a.jpg"], "unknown output format '.jpg' (allowed: .exr, .pfm, .png)"),

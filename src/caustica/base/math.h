@@ -84,6 +84,9 @@ CHD float max_component(Vec3f a) { return maxf(a.x, maxf(a.y, a.z)); }
 CHD float min_component(Vec3f a) { return minf(a.x, minf(a.y, a.z)); }
 CHD float average(Vec3f a) { return (a.x + a.y + a.z) * (1.f / 3.f); }
 CHD bool is_black(Vec3f a) { return a.x == 0.f && a.y == 0.f && a.z == 0.f; }
+// The largest magnitude of a component (Russian roulette on throughputs that a pixel filter's negative lobe
+// made negative: film/filter.h).
+CHD float max_abs_component(Vec3f a) { return maxf(std::fabs(a.x), maxf(std::fabs(a.y), std::fabs(a.z))); }
 // Each component at least 0 (rounding below 0 set to 0).
 CHD Vec3f max0(Vec3f a) { return {a.x > 0.f ? a.x : 0.f, a.y > 0.f ? a.y : 0.f, a.z > 0.f ? a.z : 0.f}; }
 CHD Vec3f vsqrt(Vec3f a) { return {safe_sqrt(a.x), safe_sqrt(a.y), safe_sqrt(a.z)}; }

@@ -32,12 +32,6 @@ nb::ndarray<nb::numpy, float> to_numpy(std::vector<float>&& v, int h, int w) {
   return nb::ndarray<nb::numpy, float>(data->data(), 3, shape, owner);
 }
 
-FilterType parse_filter(const std::string& f) {
-  if (f == "box") return FilterType::kBox;
-  if (f == "tent") return FilterType::kTent;
-  if (f == "gaussian") return FilterType::kGaussian;
-  throw InputError("unknown filter '" + f + "' (allowed: box, tent, gaussian)");
-}
 
 // Scene-file problems reach Python as caustica.SceneError (a subclass of InputError).
 struct SceneError : InputError {
@@ -150,13 +144,6 @@ SceneDesc current_desc(const Scene& s) {
   return d;
 }
 
-const char* filter_name(FilterType f) {
-  switch (f) {
-    case FilterType::kTent: return "tent";
-    case FilterType::kGaussian: return "gaussian";
-    default: return "box";
-  }
-}
 
 }  // namespace
 
@@ -232,7 +219,7 @@ NB_MODULE(_native, m) {
       .def_prop_ro("name", [](const Scene& s) { return s.desc().name; })
       .def_prop_ro("width", [](const Scene& s) { return s.view().camera.width; })
       .def_prop_ro("height", [](const Scene& s) { return s.view().camera.height; })
-      .def_prop_ro("filter", [](const Scene& s) { return std::string(filter_name(s.view().filter)); })
+      .def_prop_ro("filter", [](const Scene& s) { return std::string(filter_type_name(s.view().filter.type)); })
       .def_prop_ro("max_depth", [](const Scene& s) { return s.desc().max_depth; })
       .def_prop_ro("num_triangles", [](const Scene& s) { return s.view().num_triangles; })
       .def_prop_ro("num_spheres", [](const Scene& s) { return s.view().num_spheres; })
@@ -242,7 +229,8 @@ NB_MODULE(_native, m) {
         if (w <= 0 || h <= 0) throw InputError("width and height must be positive integers");
         s.set_resolution(w, h);
       })
-      .def("set_filter", [](Scene& s, const std::string& f) { s.set_filter(parse_filter(f)); })
+      .def("set_filter", [](Scene& s, const std::string& f) { s.set_filter(filter_by_name(f)); })
+      .def("set_filter_json", [](Scene& s, const std::string& j) { s.set_filter(parse_filter_json(j, "filter")); })
       .def_prop_ro("warnings", [](const Scene& s) { return s.desc().warnings; })
       .def_prop_ro("cameras", [](const Scene& s) { return camera_names(s.desc()); })
       .def_prop_ro("camera", [](const Scene& s) { return s.desc().camera.name; })
@@ -263,7 +251,7 @@ NB_MODULE(_native, m) {
       .def_prop_ro("name", [](const SceneDesc& d) { return d.name; })
       .def_prop_ro("width", [](const SceneDesc& d) { return d.camera.width; })
       .def_prop_ro("height", [](const SceneDesc& d) { return d.camera.height; })
-      .def_prop_ro("filter", [](const SceneDesc& d) { return std::string(filter_name(d.filter)); })
+      .def_prop_ro("filter", [](const SceneDesc& d) { return std::string(filter_type_name(d.filter.type)); })
       .def_prop_ro("max_depth", [](const SceneDesc& d) { return d.max_depth; })
       .def_prop_ro("warnings", [](const SceneDesc& d) { return d.warnings; })
       .def_prop_ro("cameras", [](const SceneDesc& d) { return camera_names(d); })

@@ -126,7 +126,7 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
   st.pixel = py * uint32_t(s.camera.width) + px;
   st.sampler.start(pp.sampler, pp.seed, st.pixel, sample_index);
   FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
-  if (!pp.jitter) fs = FilterSample{Vec2f(0.f, 0.f), 1.f};
+  if (!pp.jitter) fs = FilterSample{Vec2f(0.f, 0.f), 1.f, 1.f};
   // A pinhole camera takes no lens sample (and spends no dimension on one).
   Vec2f lens = s.camera.aperture_radius > 0.f ? st.sampler.next_2d() : Vec2f(0.5f, 0.5f);
   Vec2f film(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y);

@@ -179,7 +179,8 @@ void PhotonIntegrator::trace_visible_points(int64_t abs_pass) {
         RGB L(0.f);
         size_t i = size_t(y) * W_ + x;
         Ray camera_ray = st.ray;
-        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(1.f), st.sampler, max_depth_, L, light_bvh, true,
+        // The camera weight starts at the pixel filter's h / p (film/filter.h; negative in a negative lobe).
+        VisiblePoint vp = trace_camera(v, accel, st.ray, RGB(st.weight), st.sampler, max_depth_, L, light_bvh, true,
                                        kCameraMedium, opt_.hide_emitters);
         if (kind_ != Kind::kPPM) vp_[i] = vp;
         else {
@@ -224,7 +225,8 @@ void PhotonIntegrator::render_pm_pass(int64_t abs_pass) {
       for (int x = 0; x < W_; ++x) {
         PathState st;
         path_start(v, pp, uint32_t(x), uint32_t(y), uint32_t(abs_pass), st);
-        const RGB L = pm_radiance(v, accel, PmMaps<PhotonKdTree>{caustic_, global_, volume_, volume_indirect_},
+        const RGB L = st.weight *
+                      pm_radiance(v, accel, PmMaps<PhotonKdTree>{caustic_, global_, volume_, volume_indirect_},
                                   global_paths_, k, st.ray, st.sampler, max_depth_, light_bvh, idx.data(), d2.data(),
                                   opt_.hide_emitters);
         if (!isfinite3(L)) continue;

@@ -115,8 +115,8 @@ CHD bool upg_trial_ray(const VcmParams& p, const VcmPathState& prev, PCG32& rng,
   RGB beta = prev.beta * bs.weight;
   if (is_black(beta) || !isfinite3(beta)) return false;
   if (prev.length >= p.rr_depth) {
-    float q = minf(1.f, max_component(beta) * vcm_rr_eta2(bs, TransportMode::kRadiance) /
-                            maxf(max_component(prev.beta), 1e-30f));
+    float q = minf(1.f, max_abs_component(beta) * vcm_rr_eta2(bs, TransportMode::kRadiance) /
+                            maxf(max_abs_component(prev.beta), 1e-30f));
     if (!(u_rr < q)) return false;
   }
   ray.o = vcm_origin_towards(prev, wi_world);
@@ -233,7 +233,7 @@ CHD bool upg_cone(const VcmParams& p, const VcmPathState& prev, Vec3f photon, fl
 template <typename Lands>
 CHD float upg_inv_p_cone(const VcmParams& p, const VcmPathState& prev, const UpgCone& c, PCG32& rng, uint32_t& trials,
                          Lands&& lands) {
-  const float mb = maxf(max_component(prev.beta), 1e-30f);
+  const float mb = maxf(max_abs_component(prev.beta), 1e-30f);
   for (uint32_t n = 1; n <= kUpgMaxTrials; ++n) {
     float omc = rng.next_float() * c.one_minus_cos;
     float phi = 2.f * kPi * rng.next_float();
@@ -247,7 +247,7 @@ CHD float upg_inv_p_cone(const VcmParams& p, const VcmPathState& prev, const Upg
     float acc = pdf;
     if (prev.length >= p.rr_depth) {
       RGB beta = prev.beta * bsdf_eval(prev.m, prev.wo, wl) * (std::fabs(wl.z) / pdf);
-      acc *= minf(1.f, max_component(beta) / mb);
+      acc *= minf(1.f, max_abs_component(beta) / mb);
     }
     if (!(u_acc * c.M < acc)) continue;  // accept with probability acc / M
     Ray ray;

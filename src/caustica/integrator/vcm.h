@@ -40,7 +40,10 @@
 // and measures h(d), the normalised filter. Camera strategies weight a sample
 // by h/p; light-tracing splats go to every pixel whose filter covers the raster
 // point, each with h(d) and its own MIS weight using p(d) as the camera's
-// raster density (box and tent: p = h; gaussian: p is the untruncated shape).
+// raster density (box and tent: p = h; gaussian: p is the untruncated shape;
+// mitchell and lanczos: p is tabulated |h|, and h/p < 0 in their negative lobes,
+// so a camera subpath's throughput may be negative: Russian roulette uses
+// magnitudes, max_abs_component).
 //
 // Participating media (`light`, `bdpt`, `bpm`, `vcm`, `upg`; upg's gathers in media: upg.h). Both subpaths
 // sample free-flight distances in the medium their ray is in with the path tracer's estimator (medium/medium.h:
@@ -322,28 +325,6 @@ CHD float vcm_weight_merge(const VcmParams& p, const VcmMis& light, const VcmMis
   float w_light = (light.dVCM * p.vc_factor + light.dVM * vcm_mis(p, cam_dir_pdf_w)) / vm_rel;
   float w_camera = (cam.dVCM * p.vc_factor + cam.dVM * vcm_mis(p, cam_rev_pdf_w)) / vm_rel;
   return 1.f / (w_light + 1.f + w_camera);
-}
-
-// ---------------------------------------------------------------------------
-// Pixel filters: the normalised measurement h and the sampling density p.
-CHD float vcm_filter_radius(FilterType t) {
-  return t == FilterType::kTent ? 1.f : t == FilterType::kGaussian ? 2.f : 0.5f;
-}
-CHD float vcm_gauss(float x) { return std::exp(-2.f * x * x); }  // sigma = 1/2
-// Integrals over [-2, 2] of g and of g - g(2) (sigma = 1/2): G = sigma sqrt(2 pi) erf(2 sqrt 2), F = G - 4 g(2).
-constexpr float kGaussG = 1.2532350f;
-constexpr float kGaussF = 1.2518932f;
-CHD float vcm_filter_h1(FilterType t, float x) {
-  float a = std::fabs(x);
-  switch (t) {
-    case FilterType::kTent: return a < 1.f ? 1.f - a : 0.f;
-    case FilterType::kGaussian: return a < 2.f ? maxf(0.f, vcm_gauss(x) - vcm_gauss(2.f)) / kGaussF : 0.f;
-    default: return a <= 0.5f ? 1.f : 0.f;
-  }
-}
-CHD float vcm_filter_p1(FilterType t, float x) {
-  if (t == FilterType::kGaussian) return std::fabs(x) < 2.f ? vcm_gauss(x) / kGaussG : 0.f;
-  return vcm_filter_h1(t, x);
 }
 
 // ---------------------------------------------------------------------------
@@ -819,7 +800,7 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   Vec2f raster;
   float cos_theta;
   if (!camera_project(c, pl, st.sh.p, raster, cos_theta)) return;
-  float fr = vcm_filter_radius(s.filter);
+  const float fr = s.filter.radius;
   if (raster.x < -fr || raster.y < -fr || raster.x > float(c.width) + fr || raster.y > float(c.height) + fr) return;
   Vec3f d = pl - st.sh.p;
   float d2 = length_sq(d);
@@ -845,10 +826,12 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
 template <typename Add>
 CHD void vcm_splat_pixels(const SceneView& s, const VcmParams& p, const VcmSplat& sp, Add&& add) {
   const Camera& c = s.camera;
-  float r = vcm_filter_radius(s.filter);
+  const Filter& f = s.filter;
+  const float r = f.radius;
   int x0 = int(std::ceil(sp.raster.x - 0.5f - r)), x1 = int(std::floor(sp.raster.x - 0.5f + r));
   int y0 = int(std::ceil(sp.raster.y - 0.5f - r)), y1 = int(std::floor(sp.raster.y - 0.5f + r));
-  if (s.filter == FilterType::kBox) {  // the pixel containing the point (half-open)
+  const bool pixel_box = f.type == FilterType::kBox && r == 0.5f;
+  if (pixel_box) {  // the pixel containing the point (half-open)
     x0 = x1 = int(std::floor(sp.raster.x));
     y0 = y1 = int(std::floor(sp.raster.y));
   }
@@ -856,12 +839,12 @@ CHD void vcm_splat_pixels(const SceneView& s, const VcmParams& p, const VcmSplat
     for (int x = x0 > 0 ? x0 : 0; x <= x1 && x < c.width; ++x) {
       float dx = sp.raster.x - (float(x) + 0.5f), dy = sp.raster.y - (float(y) + 0.5f);
       float h, pr;
-      if (s.filter == FilterType::kBox) h = pr = 1.f;
+      if (pixel_box) h = pr = 1.f;
       else {
-        h = vcm_filter_h1(s.filter, dx) * vcm_filter_h1(s.filter, dy);
-        pr = vcm_filter_p1(s.filter, dx) * vcm_filter_p1(s.filter, dy);
+        h = filter_h1(f, dx) * filter_h1(f, dy);  // negative in a negative lobe (mitchell, lanczos)
+        pr = filter_p1(f, dx) * filter_p1(f, dy);
       }
-      if (h <= 0.f) continue;
+      if (h == 0.f) continue;
       float w = p.mode == VcmMode::kLight ? 1.f : 1.f / (1.f + vcm_mis(p, pr * sp.K / p.n_light) * sp.Q);
       add(uint32_t(y) * uint32_t(c.width) + uint32_t(x), sp.C * (h * w));
     }
@@ -888,7 +871,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool vcm_scatter_medium(const Scen
   st.vm_ok = false;
   st.specular = false;
   if (st.length >= p.rr_depth) {
-    const float q = minf(1.f, max_component(st.beta) / maxf(max_component(st.beta_in), 1e-30f));
+    const float q = minf(1.f, max_abs_component(st.beta) / maxf(max_abs_component(st.beta_in), 1e-30f));
     if (!(u_rr < q)) return st.active = false;
     st.beta /= q;
   }
@@ -919,7 +902,7 @@ CHD bool vcm_scatter(const SceneView& s, const VcmParams& p, VcmPathState& st, T
   if (light) st.beta *= shading_normal_adjoint(st.sh, st.wo_world, wi_world);
   if (is_black(st.beta) || !isfinite3(st.beta)) return st.active = false;
   if (st.length >= p.rr_depth) {
-    float q = minf(1.f, max_component(st.beta) * vcm_rr_eta2(bs, mode) / maxf(max_component(prev), 1e-30f));
+    float q = minf(1.f, max_abs_component(st.beta) * vcm_rr_eta2(bs, mode) / maxf(max_abs_component(prev), 1e-30f));
     if (!(u_rr < q)) return st.active = false;
     st.beta /= q;
   }
@@ -959,16 +942,13 @@ CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, u
   st.ray = c.generate_ray(Vec2f(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y), lens);
   st.prev_p = st.ray.o;
   st.medium = s.camera_medium;
-  float h = 1.f, pr = 1.f;
-  if (s.filter != FilterType::kBox) {
-    h = vcm_filter_h1(s.filter, fs.offset.x) * vcm_filter_h1(s.filter, fs.offset.y);
-    pr = vcm_filter_p1(s.filter, fs.offset.x) * vcm_filter_p1(s.filter, fs.offset.y);
-  }
-  if (!(pr > 0.f) || !(h > 0.f)) {
+  // The sample's weight h / p (negative in a filter's negative lobe: Russian roulette compares magnitudes).
+  const float pr = fs.pdf;
+  if (!(pr > 0.f) || fs.weight == 0.f) {
     st.active = false;
     return;
   }
-  st.beta = RGB(h / pr);
+  st.beta = RGB(fs.weight);
   float ct = dot(st.ray.d, c.forward);
   float camera_pdf_w = pr / (camera_pixel_area(c) * ct * ct * ct);
   st.mis = vcm_camera_start_mis(p, camera_pdf_w);

@@ -322,7 +322,7 @@ class WavefrontPhoton {
         const Ray camera_ray = st.ray;
         RGB L(0.f);
         const VisiblePoint v =
-            trace_camera(s, tracer, st.ray, RGB(1.f), st.sampler, max_depth, L, light_bvh, true, kCameraMedium, hide);
+            trace_camera(s, tracer, st.ray, RGB(st.weight), st.sampler, max_depth, L, light_bvh, true, kCameraMedium, hide);
         if (!ppm) vp[i] = v;
         if (volume_points) vp[vbase + i] = v.volume ? v : VisiblePoint();
         if (measure) {
@@ -699,8 +699,8 @@ class WavefrontPhoton {
         path_start(s, pp, i % W, i / W, uint32_t(abs_pass), st);
         uint32_t idx[kWavefrontMaxK];
         float d2[kWavefrontMaxK];
-        const RGB L = pm_radiance(s, tracer, PmMaps<KnnTreeView>{caustic, global, volume, volume_indirect}, paths, k,
-                                  st.ray, st.sampler, max_depth, light_bvh, idx, d2, hide);
+        const RGB L = st.weight * pm_radiance(s, tracer, PmMaps<KnnTreeView>{caustic, global, volume, volume_indirect},
+                                              paths, k, st.ray, st.sampler, max_depth, light_bvh, idx, d2, hide);
         const bool ok = isfinite3(L);
         for (int c = 0; c < 3; ++c) lpass[3 * size_t(i) + c] = ok ? double(L[c]) : 0.0;
       });

@@ -496,12 +496,24 @@ struct Writer {
     return o;
   }
 
+  // A filter as its name where it has the type's defaults, else as an object with every parameter.
+  static JV filter_json(const Filter& f) {
+    const Filter def = make_filter(f.type);
+    if (f.radius == def.radius && f.a == def.a && f.b == def.b) return JV::str(filter_type_name(f.type));
+    JV o = JV::object();
+    o.set("type", JV::str(filter_type_name(f.type))).set("radius", JV::flt(f.radius));
+    if (f.type == FilterType::kGaussian) o.set("stddev", JV::flt(f.a));
+    if (f.type == FilterType::kMitchell) o.set("B", JV::flt(f.a)).set("C", JV::flt(f.b));
+    if (f.type == FilterType::kLanczos) o.set("lobes", JV::flt(f.a));
+    return o;
+  }
+
   JV scene() const {
     JV root = JV::object();
     root.set("name", JV::str(d.name));
     JV film = JV::object();
     film.set("width", JV::integer(d.camera.width)).set("height", JV::integer(d.camera.height));
-    film.set("filter", JV::str(d.filter == FilterType::kGaussian ? "gaussian" : d.filter == FilterType::kTent ? "tent" : "box"));
+    film.set("filter", filter_json(d.filter));
     root.set("film", film);
 
     const SceneDesc::IntegratorDefaults& in = d.integrator;

@@ -29,7 +29,7 @@ class Scene {
   const CpuAccel& cpu_accel(const std::string& accel) const;
   // Changes resolution (and the derived camera) without rebuilding geometry.
   void set_resolution(int width, int height);
-  void set_filter(FilterType f) { view_.filter = f; }
+  void set_filter(const Filter& f) { view_.filter = f; }
 
   std::vector<Vec3f> positions, normals;
   std::vector<Vec2f> uvs;  // empty, or one per position

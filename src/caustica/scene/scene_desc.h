@@ -106,7 +106,7 @@ struct SceneDesc {
   std::string name;
   CameraDesc camera;               // the camera used
   std::vector<CameraDesc> cameras; // all named cameras of the file (glTF, XML); may be empty
-  FilterType filter = FilterType::kBox;
+  Filter filter;  // the pixel filter (film/filter.h; make_filter)
   std::vector<std::string> material_names;
   std::vector<Material> materials;
   std::vector<MeshDesc> meshes;

@@ -97,7 +97,7 @@ struct SceneView {
   uint32_t num_textures = 0;
   EnvMapView envmap;  // the environment light's map when its Light::texture >= 0
   Camera camera;
-  FilterType filter = FilterType::kBox;
+  Filter filter;  // the pixel filter (film/filter.h)
   Bounds3 bounds;
   Vec3f bsphere_center;
   float bsphere_radius = 1.f;

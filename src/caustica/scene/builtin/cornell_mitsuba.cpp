@@ -25,7 +25,7 @@ SceneDesc make_cornell_mitsuba() {
   d.camera.up = {0.f, 1.f, 0.f};
   d.camera.fov_degrees = 39.3077f;
   d.camera.width = d.camera.height = 256;
-  d.filter = FilterType::kGaussian;  // Mitsuba's default reconstruction filter
+  d.filter = make_filter(FilterType::kGaussian);  // Mitsuba's default reconstruction filter
   d.max_depth = 8;
   int white = d.add_material("white", make_diffuse({0.885809f, 0.698859f, 0.666422f}));
   int green = d.add_material("green", make_diffuse({0.105421f, 0.37798f, 0.076425f}));

@@ -12,7 +12,7 @@ namespace caustica {
 SceneDesc make_smallvcm_cornell(bool large_mirror_sphere, bool small_spheres, SmallVCMLight light) {
   SceneDesc d;
   d.max_depth = 10;
-  d.filter = FilterType::kBox;
+  d.filter = make_filter(FilterType::kBox);
   d.camera.position = {-0.0439815f, -4.12529f, 0.222539f};
   d.camera.target = d.camera.position + normalize(Vec3f(0.00688625f, 0.998505f, -0.0542161f));
   d.camera.up = {3.73896e-4f, 0.0542148f, 0.998529f};

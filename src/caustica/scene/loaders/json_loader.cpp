@@ -982,12 +982,52 @@ void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDe
     c.fail(path + "/shutter_close", "expected a time in [shutter_open, 1]");
 }
 
-FilterType parse_filter(const Ctx& c, const json& j, const std::string& path) {
-  std::string f = str(c, j, path);
-  if (f == "box") return FilterType::kBox;
-  if (f == "tent") return FilterType::kTent;
-  if (f == "gaussian") return FilterType::kGaussian;
-  c.fail(path, "unknown filter '" + f + "' (allowed: box, tent, gaussian)");
+// A pixel filter: a name (the type's defaults) or {"type", and its parameters}: "radius" (every type),
+// "stddev" (gaussian), "B" and "C" (mitchell), "lobes" (lanczos).
+Filter parse_filter(const Ctx& c, const json& j, const std::string& path) {
+  if (!j.is_object()) {
+    const std::string name = str(c, j, path);
+    try {
+      return filter_by_name(name);
+    } catch (const InputError& e) {
+      c.fail(path, e.what());
+    }
+  }
+  if (!j.contains("type")) c.fail(path, "a filter object needs a \"type\" (" + std::string(kFilterNames) + ")");
+  const std::string type = str(c, j["type"], path + "/type");
+  auto opt = [&](const char* key) { return j.contains(key) ? num(c, j[key], path + "/" + key) : kFilterDefault; };
+  const float radius = opt("radius");
+  FilterType t;
+  float a = kFilterDefault, b = kFilterDefault;
+  if (type == "box" || type == "tent") {
+    check_keys(c, j, path, {"type", "radius"});
+    t = type == "box" ? FilterType::kBox : FilterType::kTent;
+  } else if (type == "gaussian") {
+    check_keys(c, j, path, {"type", "radius", "stddev"});
+    t = FilterType::kGaussian;
+    a = opt("stddev");
+  } else if (type == "mitchell") {
+    check_keys(c, j, path, {"type", "radius", "B", "C"});
+    t = FilterType::kMitchell;
+    a = opt("B");
+    b = opt("C");
+  } else if (type == "catmullrom") {
+    check_keys(c, j, path, {"type", "radius"});
+    t = FilterType::kMitchell;
+    a = 0.f;
+    b = 0.5f;
+  } else if (type == "lanczos") {
+    check_keys(c, j, path, {"type", "radius", "lobes"});
+    t = FilterType::kLanczos;
+    a = opt("lobes");
+  } else {
+    c.fail(path + "/type", "unknown filter '" + type + "' (allowed: " + kFilterNames + ")");
+  }
+  try {
+    return make_filter(t, radius, a, b);
+  } catch (const InputError& e) {
+    c.fail(path, e.what());
+  }
 }
 
 int parse_max_depth(const Ctx& c, const json& j, const std::string& path) {
@@ -1410,6 +1450,18 @@ SceneDesc load_json_scene_file(const std::string& path) {
   std::stringstream ss;
   ss << f.rdbuf();
   return load_json_scene_text(ss.str(), path, fs::path(path).parent_path().string());
+}
+
+Filter parse_filter_json(const std::string& text, const std::string& source) {
+  Ctx c;
+  c.source = source;
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception&) {
+    throw InputError(source + ": expected a filter name or object");
+  }
+  return parse_filter(c, j, "");
 }
 
 }  // namespace caustica

@@ -12,5 +12,8 @@ namespace caustica {
 SceneDesc load_json_scene_text(const std::string& text, const std::string& source, const std::string& base_dir = "");
 // Reads a file; relative names in it are resolved against its directory.
 SceneDesc load_json_scene_file(const std::string& path);
+// A pixel filter as the scene format's "filter" (a name, or an object with its parameters), in JSON text;
+// errors name `source` and the key.
+Filter parse_filter_json(const std::string& text, const std::string& source);
 
 }  // namespace caustica

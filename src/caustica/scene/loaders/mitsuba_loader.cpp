@@ -1625,7 +1625,7 @@ class Loader {
     std::vector<xml_node> films = p.take_objects("film");
     if (films.size() > 1) fail(films[1], "a sensor takes one film");
     int width = 768, height = 576;
-    FilterType filter = FilterType::kGaussian;
+    Filter filter = make_filter(FilterType::kGaussian);
     if (!films.empty()) parse_film(films[0], width, height, filter);
     cam.width = width;
     cam.height = height;
@@ -1733,7 +1733,7 @@ class Loader {
     if (d.cameras.size() == 1) d.camera = cam;
   }
 
-  void parse_film(xml_node f, int& width, int& height, FilterType& filter) {
+  void parse_film(xml_node f, int& width, int& height, Filter& filter) {
     check_attrs(f, {"type", "id", "name"});
     std::string type = attr(f, "type");
     if (type != "hdrfilm" && type != "ldrfilm") fail(f, "unsupported film type (supported: hdrfilm, ldrfilm)");
@@ -1750,23 +1750,37 @@ class Loader {
     }
     std::vector<xml_node> filters = p.take_objects("rfilter");
     if (filters.size() > 1) fail(filters[1], "a film takes one rfilter");
-    filter = FilterType::kGaussian;
+    filter = make_filter(FilterType::kGaussian);
     if (!filters.empty()) {
+      // Mitsuba 3's rfilters and their parameters (defaults there and here alike): box; tent (radius);
+      // gaussian (stddev; radius 4 stddev); mitchell (B, C; radius 2); catmullrom; lanczos (lobes; radius lobes).
       xml_node r = filters[0];
       check_attrs(r, {"type", "id", "name"});
       std::string rt = attr(r, "type");
       Props rp(*this, r);
+      const float def = kFilterDefault;
+      auto checked = [&](const char* key, FilterType t, float radius, float a, float b) {
+        try {
+          return make_filter(t, radius, a, b);
+        } catch (const InputError& e) {
+          fail(key ? rp.get(key) : r, e.what());
+        }
+      };
       if (rt == "box") {
-        filter = FilterType::kBox;
-        if (rp.get_float("radius", 0.5f) != 0.5f) fail(rp.get("radius"), "caustica's box filter has radius 0.5");
+        filter = make_filter(FilterType::kBox);
       } else if (rt == "tent") {
-        filter = FilterType::kTent;
-        if (rp.get_float("radius", 1.f) != 1.f) fail(rp.get("radius"), "caustica's tent filter has radius 1");
+        filter = checked("radius", FilterType::kTent, rp.has("radius") ? rp.get_float("radius", 1.f) : def, def, def);
       } else if (rt == "gaussian") {
-        filter = FilterType::kGaussian;
-        if (rp.get_float("stddev", 0.5f) != 0.5f) fail(rp.get("stddev"), "caustica's gaussian filter has stddev 0.5");
+        filter = checked("stddev", FilterType::kGaussian, def, rp.get_float("stddev", 0.5f), def);
+      } else if (rt == "mitchell") {
+        const float B = rp.get_float("B", 1.f / 3.f), C = rp.get_float("C", 1.f / 3.f);
+        filter = checked(nullptr, FilterType::kMitchell, def, B, C);
+      } else if (rt == "catmullrom") {
+        filter = make_filter(FilterType::kMitchell, def, 0.f, 0.5f);
+      } else if (rt == "lanczos") {
+        filter = checked("lobes", FilterType::kLanczos, def, float(rp.get_int("lobes", 3)), def);
       } else {
-        fail(r, "unsupported reconstruction filter (supported: box, tent, gaussian)");
+        fail(r, "unsupported reconstruction filter (supported: box, tent, gaussian, mitchell, catmullrom, lanczos)");
       }
       rp.finish();
     }
@@ -1838,7 +1852,7 @@ class Loader {
     cam.target = cam.position + Vec3f(0.f, 0.f, 1.f);
     cam.up = Vec3f(0.f, 1.f, 0.f);
     d.camera = cam;
-    d.filter = FilterType::kGaussian;
+    d.filter = make_filter(FilterType::kGaussian);
     d.warnings.push_back(files.front()->path +
                          ": no sensor in the file; using Mitsuba's default camera (fov 45, looking along +z at the scene)");
   }
