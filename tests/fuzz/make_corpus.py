@@ -76,7 +76,7 @@ def main():
                              "albedo": {"file": "albedo.vol", "transform": {"scale": 2}},
                              "emission": {"resolution": [1, 1, 2], "values": [0, 4], "filter": "nearest"}},
                   "glow": {"sigma_a": [0.5, 0.2, 0.1], "sigma_s": 0.1, "emission": [2, 1, 0.5]}},
-        "filter": "tent",
+        "filter": {"type": "mitchell", "B": 0.25, "C": 0.375, "radius": 2.5},
         "max_depth": 6,
         "materials": {
             "white": {"type": "diffuse", "reflectance": 0.8},
@@ -218,7 +218,7 @@ def main():
     <transform name="to_world"><lookat origin="0, 1, 5" target="0, 1, 0" up="0, 1, 0"/></transform>
     <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
     <film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" value="$res"/>
-      <rfilter type="gaussian"/></film>
+      <rfilter type="lanczos"><integer name="lobes" value="2"/></rfilter></film>
   </sensor>
   <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf></bsdf>
   <bsdf type="roughconductor" id="gold"><string name="material" value="Au"/><float name="alpha" value="0.2"/></bsdf>

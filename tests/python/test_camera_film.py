@@ -184,3 +184,24 @@ def test_filter_export_round_trip(tmp_path, spec):
     written = doc["film"]["filter"]
     assert written == spec if isinstance(spec, str) else written["type"] == spec["type"]
     assert np.array_equal(caustica.render(str(f), spp=8, seed=5), caustica.render(str(out), spp=8, seed=5))
+
+
+CUDA, WHY = caustica.cuda_status()
+
+
+@pytest.mark.skipif(not CUDA, reason=f"no CUDA device: {WHY}")
+@pytest.mark.parametrize("integrator", ["path", "light", "bdpt", "sppm"])
+@pytest.mark.parametrize("spec", ["mitchell", "lanczos", {"type": "gaussian", "stddev": 0.3}],
+                         ids=["mitchell", "lanczos", "gaussian-0.3"])
+def test_cuda_filter_edge_profile(spec, integrator):
+    """The filters on the GPU (the same filter.h through the wavefront drivers): the lit edge's profile against
+    the analytic filtered step, as test_filter_edge_profile_all_estimators on the CPU."""
+    seeds, spp = 16, 1024
+    rows = np.array([caustica.render(lit_edge_scene(spec), integrator=integrator, spp=spp, max_depth=2,
+                                     sampler="independent", seed=100 + k, device="cuda")[:, :, 0].mean(axis=0)
+                     for k in range(seeds)])
+    mean, se = rows.mean(axis=0), rows.std(axis=0, ddof=1) / math.sqrt(seeds)
+    for i in range(8):
+        expected = edge_fraction(spec, (i + 0.5) - 4.0)
+        # As on the CPU: 4.5 standard errors of the mean of 16 renders, plus 2e-3 for the perspective.
+        assert abs(mean[i] - expected) < 4.5 * se[i] + 2e-3, (spec, integrator, i, mean[i], expected, se[i])
