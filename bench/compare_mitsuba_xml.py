@@ -22,7 +22,7 @@ blends (blendbsdf with a texture weight on the floor, diffuse and rough copper o
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF, caustica's principled),
 and disney (every principled lobe: sheen, clearcoat, spec_tint, flatness, anisotropy, metal and glass mixed, a
 roughness texture), and beckmann (rough conductors, an anisotropic one, and a rough glass with Mitsuba's default
-distribution), and spotlit (spot lights with wide falloff bands), and plastics (smooth and rough plastics, Beckmann and GGX), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
+distribution), and spotlit (spot lights with wide falloff bands), and sides (cards with a different BSDF on each side: twosided of two BSDFs), and plastics (smooth and rough plastics, Beckmann and GGX), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
 cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
@@ -370,6 +370,29 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.05"/></emitter>
 </scene>
 """)
+    # Cards with a different BSDF on each side (twosided of two BSDFs), turned so that the camera sees some
+    # fronts and some backs, and light reaches both sides of each (a point light on one side, the sky all round).
+    card = """  <shape type="rectangle"><transform name="to_world"><scale x="0.45" y="0.6"/><rotate y="1" angle="{a}"/>
+    <translate x="{x}" y="0.6" z="{z}"/></transform>
+    <bsdf type="twosided">{front}{back}</bsdf></shape>"""
+    cards = "\n".join(card.format(a=a, x=x, z=z, front=fr, back=bk) for a, x, z, fr, bk in [
+        (30, -1.0, 0.0, '<bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.15, 0.1"/></bsdf>',
+         '<bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.2, 0.8"/></bsdf>'),
+        (20, 0.0, -0.2, '<bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="0.2"/></bsdf>',
+         '<bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.7, 0.2"/></bsdf>'),
+        (-140, 1.0, 0.1, '<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.7, 0.2"/></bsdf>',
+         '<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.6, 0.2, 0.6"/><float name="alpha" value="0.2"/></bsdf>')])
+    with open(os.path.join(OUT, "sides.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  {sensor}
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>
+{cards}
+  <emitter type="point"><point name="position" x="0.5" y="2.5" z="2"/><rgb name="intensity" value="6"/></emitter>
+  <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>
+</scene>
+""")
     # Every principled lobe: sheen with tint, clearcoat, spec_tint, flatness, anisotropy, a half-metal
     # half-glass, and a roughness texture (the checker's green) on the floor.
     with open(os.path.join(OUT, "disney.xml"), "w") as f:
@@ -689,7 +712,7 @@ def write_scenes(res):
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
             "disney": os.path.join(OUT, "disney.xml"),
             "beckmann": os.path.join(OUT, "beckmann.xml"),
-            "spotlit": os.path.join(OUT, "spotlit.xml"),
+            "spotlit": os.path.join(OUT, "spotlit.xml"), "sides": os.path.join(OUT, "sides.xml"),
             "plastics": os.path.join(OUT, "plastics.xml"),
             "foggy": os.path.join(OUT, "foggy.xml"), "smoky": os.path.join(OUT, "smoky.xml"),
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),

@@ -10,6 +10,7 @@
 #include "caustica/base/error.h"
 #include "caustica/base/rng.h"
 #include "caustica/scene/scene.h"
+#include "caustica/material/bsdf.h"
 #include "caustica/scene/shading.h"
 
 using namespace caustica;
@@ -131,4 +132,33 @@ TEST(Blend, SceneRefusesCyclesAndMissingMaterials) {
   EXPECT_THROW(Scene::build(square(chain, int(chain.size()) - 1)), InputError);
   chain.pop_back();
   EXPECT_NO_THROW(Scene::build(square(chain, int(chain.size()) - 1)));
+}
+
+// A pair of sides (kSides): make_surface_hit resolves it by the ray's side of the geometric normal (+z here),
+// the back's material made two-sided by Scene::build (a copy: the front and the description keep theirs), a
+// blend behind it resolved after the side; transmissive or null sides are refused.
+TEST(Blend, PairOfSidesResolvesByTheRaysSide) {
+  Material pair = blend(0, 2, 0.f);
+  pair.flags = kSides;
+  auto sc = Scene::build(square({grey(0.2f), grey(0.5f), blend(1, 1, 0.5f), pair}, 3));
+  const SceneView& v = sc->view();
+  for (int side : {1, -1}) {
+    Ray ray{Vec3f(0.3f, 0.6f, float(side)), Vec3f(0, 0, float(-side)), kInf};
+    Hit h;
+    ASSERT_TRUE(sc->cpu_accel("embree").intersect(ray, h));
+    SurfaceHit sh = make_surface_hit(v, ray, h);
+    const Material m = surface_material(v, sh);
+    EXPECT_LT(m.mix_b, 0);
+    EXPECT_EQ(m.diffuse.x, side > 0 ? 0.2f : 0.5f) << side;
+    EXPECT_EQ(bool(m.flags & kTwoSided), side < 0) << side;  // the back evaluated as if from its front
+    // The back's diffuse is seen from behind: f = albedo / pi there, as from the front.
+    const Vec3f wo(0.f, 0.f, float(side)), wi = normalize(Vec3f(0.3f, 0.f, float(side)));
+    EXPECT_NEAR(bsdf_eval(m, wo, wi).x, m.diffuse.x / kPi, 1e-6f) << side;
+  }
+  EXPECT_EQ(v.materials[0].flags & kTwoSided, 0u);  // the front material itself is untouched
+  Material glass;
+  glass.type = MaterialType::kDielectric;
+  Material glass_back = blend(0, 1, 0.f);
+  glass_back.flags = kSides;
+  EXPECT_THROW(Scene::build(square({grey(0.2f), glass, glass_back}, 2)), InputError);
 }

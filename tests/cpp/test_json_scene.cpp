@@ -647,7 +647,7 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /materials/m/roughness: expected a number or an array of 2 numbers"},
       {scene_with(R"("materials": {"m": {"type": "velvet"}})"),
        "s.json: /materials/m/type: unknown material type 'velvet' (allowed: diffuse, conductor, dielectric, "
-       "thindielectric, plastic, difftrans, phong, metallic_roughness, principled, blend, null)"},
+       "thindielectric, plastic, difftrans, phong, metallic_roughness, principled, blend, two_sided, null)"},
       {scene_with(R"("lights": [{"type": "environment", "file": "sky.hdr", "radiance": 1}])"),
        "s.json: /lights/0/radiance: give 'radiance' (constant) or 'file' and 'scale', not both"},
       {scene_with(R"("lights": [{"type": "environment", "file": "sky.hdr"}])"),

@@ -603,8 +603,11 @@ TEST(MitsubaBsdf, Errors) {
       {"<bsdf type=\"twosided\" id=\"v\">\n<bsdf type=\"dielectric\"/></bsdf>\n",
        ":3: <bsdf type=\"dielectric\">: twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, "
        "plastic, roughplastic, principled without spec_trans)"},
-      {"<bsdf type=\"twosided\" id=\"v\">\n<bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/></bsdf>\n",
-       ":4: <bsdf type=\"diffuse\">: a different BSDF on each side is not supported"},
+      {"<bsdf type=\"twosided\" id=\"v\">\n<bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/></bsdf>\n",
+       ":5: <bsdf type=\"diffuse\">: a twosided takes one BSDF, or two (front, back)"},
+      {"<bsdf type=\"twosided\" id=\"v\">\n<bsdf type=\"diffuse\"/>\n<bsdf type=\"roughdielectric\"/></bsdf>\n",
+       ":4: <bsdf type=\"roughdielectric\">: twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, "
+       "plastic, roughplastic, principled without spec_trans)"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<float value=\"1\"/></bsdf>\n", ":3: <float>: missing attribute 'name'"},
       {"<bsdf type=\"diffuse\" id=\"v\">\n<float name=\"reflectance\"/></bsdf>\n",
        ":3: <float name=\"reflectance\">: missing attribute 'value'"},

@@ -44,6 +44,9 @@ enum MaterialFlags : uint32_t {
   // Rough conductor and rough dielectric: the Beckmann distribution instead of GGX (material/microfacet.h;
   // Mitsuba's default `distribution`).
   kBeckmann = 128u,
+  // A pair of sides (Mitsuba 3's twosided of two BSDFs): with mix_a and mix_b, mix_a seen from the front (the
+  // side the geometric normal faces) and mix_b from behind (resolve_material, scene/interaction.h).
+  kSides = 256u,
 };
 
 // Entries of a rough plastic's coat transmittance table (Material::coat_t; material/rough_plastic.h).
@@ -97,8 +100,9 @@ struct Material {
   float opacity_cutoff = -1.f;
   // Blend (Mitsuba 3's blendbsdf, pbrt-v4's mix): when mix_b >= 0 this entry stands for materials mix_a and
   // mix_b (indices into the scene's materials), mix_b at a share mix_weight of the surface (times tex_mix's
-  // luminance). surface_material (scene/shading.h) picks one per point. Of the entry's other fields only
-  // the opacity is used (cut-outs of the blend as a whole).
+  // luminance), or with kSides mix_a on the front and mix_b behind. resolve_material (scene/interaction.h)
+  // picks one at each hit. Of the entry's other fields only the opacity is used (cut-outs of the blend as a
+  // whole).
   int32_t mix_a = -1, mix_b = -1, tex_mix = -1;
   float mix_weight = 0.5f;
   // Rough plastic: t(mu), the light its coat lets through at incidence cos mu, at mu = i / (kRoughPlasticTable
@@ -106,7 +110,7 @@ struct Material {
   uint16_t coat_t[kRoughPlasticTable] = {};
 };
 
-// How many blends inside blends surface_material resolves (the loaders refuse cycles).
+// How many blends inside blends resolve_material resolves (the loaders refuse cycles).
 constexpr uint32_t kMaxMixDepth = 8;
 
 CHD bool material_is_transmissive(const Material& m) {

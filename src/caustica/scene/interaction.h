@@ -1,5 +1,6 @@
 // Surface data at a ray hit, computed from the flat scene arrays.
 #pragma once
+#include "../base/rng.h"
 #include "scene_view.h"
 
 namespace caustica {
@@ -10,7 +11,7 @@ struct SurfaceHit {
   Vec3f ns;  // shading normal, on the same side as ng
   Vec2f uv;  // texture coordinates (v up); barycentrics (b1, b2) on meshes without UVs
   uint32_t prim;
-  uint32_t material;
+  uint32_t material;  // a leaf material: blends and pairs of sides resolved (resolve_material)
   int32_t light;
 };
 
@@ -57,6 +58,43 @@ CHD void triangle_vertices(const SceneView& s, uint32_t tri, Vec3f& p0, Vec3f& p
   p2 = s.positions[s.indices[3 * tri + 2]];
 }
 
+// A uniform number in [0, 1) from a surface point, its primitive and a salt: a blend's choice there
+// (resolve_material).
+CHD float point_hash(Vec3f p, uint32_t prim, uint32_t salt) {
+  uint64_t a = (uint64_t(float_bits(p.x)) << 32) | float_bits(p.y);
+  uint64_t b = (uint64_t(float_bits(p.z)) << 32) | prim;
+  return u32_to_unit_float(uint32_t(hash3(a, b, 0x5bd1e995ULL + salt) >> 32));
+}
+
+// The material that a ray travelling along d meets at sh, with the blends above it resolved
+// (Material::mix_a, mix_b):
+// - a pair of sides (kSides; Mitsuba 3's twosided of two BSDFs) is mix_a where the ray arrives on the front
+//   (the side ng faces) and mix_b where it arrives from behind (Scene::build makes mix_b's materials
+//   two-sided, so the back is evaluated as if seen from its own front);
+// - a blend is one of its two materials at each point, mix_b with probability w: the choice is a hash of the
+//   point (point_hash), so a point shows the same material to every ray, light subpath and photon, and over
+//   any area the shares are the weights, as a texture of fine grain would have them. pbrt-v4's MixMaterial
+//   chooses the same way from a hash of the point and the direction; Mitsuba 3's blendbsdf evaluates both
+//   and samples one, which has the same expected value.
+// Resolved once per hit (make_surface_hit), so SurfaceHit::material is always a leaf material.
+CHD uint32_t resolve_material(const SceneView& s, uint32_t mi, const SurfaceHit& sh, Vec3f d) {
+  for (uint32_t depth = 0; depth < kMaxMixDepth; ++depth) {
+    const Material& m = s.materials[mi];
+    if (m.mix_b < 0) break;
+    if (m.flags & kSides) {
+      mi = uint32_t(dot(d, sh.ng) > 0.f ? m.mix_b : m.mix_a);
+      continue;
+    }
+    float w = m.mix_weight;
+    if (m.tex_mix >= 0) {
+      RGBA c = texture_lookup(s.textures[m.tex_mix], sh.uv);
+      w *= 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b;
+    }
+    mi = uint32_t(point_hash(sh.p, sh.prim, depth) < w ? m.mix_b : m.mix_a);
+  }
+  return mi;
+}
+
 CHD SurfaceHit make_surface_hit(const SceneView& s, const Ray& r, const Hit& h) {
   SurfaceHit sh;
   sh.prim = h.prim;
@@ -83,6 +121,7 @@ CHD SurfaceHit make_surface_hit(const SceneView& s, const Ray& r, const Hit& h) 
     sh.ns = sh.ng;
     sh.uv = sphere_uv_at(s, h.prim - s.num_triangles, sh.ng);
   }
+  sh.material = resolve_material(s, sh.material, sh, r.d);
   return sh;
 }
 

@@ -289,6 +289,11 @@ struct Writer {
     if (m.mix_b >= 0) {
       JV names = JV::array();
       names.push(JV::str(keys.at(size_t(m.mix_a)))).push(JV::str(keys.at(size_t(m.mix_b))));
+      if (m.flags & kSides) {
+        o.set("type", JV::str("two_sided")).set("materials", names);
+        opacity(m, o);
+        return o;
+      }
       o.set("type", JV::str("blend")).set("materials", names);
       if (m.tex_mix >= 0) {
         JV s = JV::flt(m.mix_weight);

@@ -43,14 +43,6 @@ CHD float opacity_hash(const Ray& r, uint32_t prim, uint32_t crossing) {
   return u32_to_unit_float(uint32_t(h >> 32));
 }
 
-// A uniform number in [0, 1) from a surface point, its primitive and a salt: a blend's choice there
-// (surface_material, scene/shading.h).
-CHD float point_hash(Vec3f p, uint32_t prim, uint32_t salt) {
-  uint64_t a = (uint64_t(float_bits(p.x)) << 32) | float_bits(p.y);
-  uint64_t b = (uint64_t(float_bits(p.z)) << 32) | prim;
-  return u32_to_unit_float(uint32_t(hash3(a, b, 0x5bd1e995ULL + salt) >> 32));
-}
-
 // Whether a ray stops at the candidate hit on primitive `prim` with texture coordinates uv.
 CHD bool opacity_keeps(const SceneView& s, const Material& m, Vec2f uv, const Ray& r, uint32_t prim,
                        uint32_t crossing) {

@@ -710,6 +710,45 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
       if (visit(i) > int(kMaxMixDepth))
         throw InputError("scene '" + desc.name + "': blends nest more than " + std::to_string(kMaxMixDepth) + " deep");
   }
+  {
+    // Pairs of sides: both sides' materials reflect only (a surface seen from both sides lets nothing
+    // through), and the back's are evaluated as if seen from their front: resolve_material hands the back to
+    // rays arriving from behind, so each back is replaced by a copy with kTwoSided (blends below it copied
+    // the same way; the copies are appended, the description keeps its materials).
+    std::function<void(int32_t)> check = [&](int32_t i) {
+      const Material& m = s.materials[size_t(i)];
+      if (m.mix_b >= 0) {
+        check(m.mix_a);
+        check(m.mix_b);
+      } else if (material_is_transmissive(m) || m.type == MaterialType::kNull) {
+        throw InputError("scene '" + desc.name + "': the materials of a pair of sides must reflect only (not " +
+                         "transmit or be null surfaces)");
+      }
+    };
+    std::map<int32_t, int32_t> copies;
+    std::function<int32_t(int32_t)> two_sided = [&](int32_t i) -> int32_t {
+      auto found = copies.find(i);
+      if (found != copies.end()) return found->second;
+      Material m = s.materials[size_t(i)];
+      if (m.mix_b >= 0) {
+        m.mix_a = two_sided(m.mix_a);
+        m.mix_b = two_sided(m.mix_b);
+      } else if (m.flags & kTwoSided) {
+        return copies[i] = i;
+      }
+      m.flags |= kTwoSided;  // on a blend's entry it changes nothing
+      s.materials.push_back(m);
+      return copies[i] = int32_t(s.materials.size() - 1);
+    };
+    const size_t n = s.materials.size();
+    for (size_t i = 0; i < n; ++i)
+      if (s.materials[i].flags & kSides) {
+        if (s.materials[i].mix_b < 0) throw InputError("scene '" + desc.name + "': a pair of sides needs two materials");
+        check(int32_t(i));
+        const int32_t back = two_sided(s.materials[i].mix_b);
+        s.materials[i].mix_b = back;
+      }
+  }
   struct PendingArea {
     uint32_t prim;  // triangle index or sphere index (offset later)
     bool sphere;

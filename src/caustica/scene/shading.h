@@ -177,20 +177,7 @@ CHD RGB& main_colour(Material& m) {
 }
 
 CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
-  Material m = s.materials[sh.material];
-  // A blend is one of its two materials at each point, mix_b with probability w: the choice is a hash of the
-  // point (point_hash), so a point shows the same material to every ray, light subpath and photon, and over
-  // any area the shares are the weights, as a texture of fine grain would have them. pbrt-v4's MixMaterial
-  // chooses the same way from a hash of the point and the direction; Mitsuba 3's blendbsdf evaluates both
-  // and samples one, which has the same expected value.
-  for (uint32_t depth = 0; m.mix_b >= 0 && depth < kMaxMixDepth; ++depth) {
-    float w = m.mix_weight;
-    if (m.tex_mix >= 0) {
-      RGBA c = texture_lookup(s.textures[m.tex_mix], sh.uv);
-      w *= 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b;
-    }
-    m = s.materials[point_hash(sh.p, sh.prim, depth) < w ? m.mix_b : m.mix_a];
-  }
+  Material m = s.materials[sh.material];  // blends already resolved (make_surface_hit, resolve_material)
   if (m.tex_color >= 0) main_colour(m) *= texture_lookup(s.textures[m.tex_color], sh.uv).rgb();
   if ((m.flags & kVertexColor) && s.colors && sh.prim < s.num_triangles) main_colour(m) *= triangle_color(s, sh.prim, sh.p);
   if (m.tex_roughness >= 0) {

@@ -310,7 +310,7 @@ RGB color_or_texture(Ctx& c, const json& j, const std::string& path, int& tex, b
 
 const char* kMaterialTypes =
     "diffuse, conductor, dielectric, thindielectric, plastic, difftrans, phong, metallic_roughness, principled, blend, "
-    "null";
+    "two_sided, null";
 
 // names: every material's index (a blend names two others).
 Material parse_material(Ctx& c, const json& j, const std::string& path, const std::map<std::string, int>& names) {
@@ -467,12 +467,14 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     m.flatness = unit("flatness", get_f("flatness", 0.f));
     m.clearcoat = unit("clearcoat", get_f("clearcoat", 0.f));
     m.clearcoat_gloss = unit("clearcoat_gloss", get_f("clearcoat_gloss", 0.f));
-  } else if (type == "blend") {
-    // Two materials by name, the second at a share `weight` of the surface (scene/shading.h).
-    check_keys(c, j, path, {"type", "materials", "weight", "opacity", "opacity_cutoff"});
+  } else if (type == "blend" || type == "two_sided") {
+    // Two materials by name: a blend's second at a share `weight` of the surface; two_sided's first seen from
+    // the front (the side the surface's normal faces) and its second from behind (scene/interaction.h).
+    if (type == "blend") check_keys(c, j, path, {"type", "materials", "weight", "opacity", "opacity_cutoff"});
+    else check_keys(c, j, path, {"type", "materials", "opacity", "opacity_cutoff"});
     std::string mp = path + "/materials";
     if (!j.contains("materials") || !j["materials"].is_array() || j["materials"].size() != 2)
-      c.fail(mp, "expected two material names [first, second]");
+      c.fail(mp, type == "blend" ? "expected two material names [first, second]" : "expected two material names [front, back]");
     int32_t idx[2];
     for (int k = 0; k < 2; ++k) {
       std::string n = str(c, j["materials"][k], mp + "/" + std::to_string(k));
@@ -482,6 +484,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     }
     m.mix_a = idx[0];
     m.mix_b = idx[1];
+    if (type == "two_sided") m.flags |= kSides;
     if (j.contains("weight")) {
       const json& v = j["weight"];
       std::string p = path + "/weight";
@@ -1265,14 +1268,19 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
     for (auto it = mats.begin(); it != mats.end(); ++it) mat_index[it.key()] = d.add_material(it.key(), Material());
     for (auto it = mats.begin(); it != mats.end(); ++it)
       d.materials[size_t(mat_index[it.key()])] = parse_material(c, it.value(), "/materials/" + esc(it.key()), mat_index);
-    // A blend may not contain itself, through any chain of blends.
+    // A blend may not contain itself, through any chain of blends; a two_sided's materials reflect only.
     for (auto it = mats.begin(); it != mats.end(); ++it) {
       std::vector<int> stack{mat_index[it.key()]};
       std::vector<int> seen;
+      const bool sides = d.materials[size_t(mat_index[it.key()])].flags & kSides;
       while (!stack.empty()) {
         int i = stack.back();
         stack.pop_back();
         const Material& m = d.materials[size_t(i)];
+        if (sides && m.mix_b < 0 && (material_is_transmissive(m) || m.type == MaterialType::kNull))
+          c.fail("/materials/" + esc(it.key()) + "/materials",
+                 "a two_sided material's materials must reflect only ('" + d.material_names[size_t(i)] +
+                     "' transmits or is null)");
         if (m.mix_b < 0) continue;
         for (int k : {m.mix_a, m.mix_b}) {
           if (k == mat_index[it.key()])

@@ -1084,9 +1084,9 @@ class Loader {
     } else if (type == "twosided") {
       std::vector<xml_node> inner = p.take_bsdfs();
       if (inner.empty()) fail(n, "expected a nested <bsdf> or <ref>");
-      if (inner.size() > 1) fail(inner[1], "a different BSDF on each side is not supported");
-      int idx = parse_bsdf(inner[0]);
+      if (inner.size() > 2) fail(inner[2], "a twosided takes one BSDF, or two (front, back)");
       // Around a blendbsdf: the blend of two-sided copies of its BSDFs (each checked as below).
+      xml_node where = inner[0];
       std::function<Material(int)> two_sided = [&](int i) {
         Material x = d.materials[size_t(i)];
         if (x.mix_b >= 0) {
@@ -1104,12 +1104,23 @@ class Loader {
           case MaterialType::kPrincipled:
             if (!material_is_transmissive(x)) break;
             [[fallthrough]];
-          default: fail(inner[0], "twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, plastic, roughplastic, principled without spec_trans)");
+          default: fail(where, "twosided applies to reflecting BSDFs only (diffuse, conductor, roughconductor, plastic, roughplastic, principled without spec_trans)");
         }
         x.flags |= kTwoSided;
         return x;
       };
-      m = two_sided(idx);
+      if (inner.size() == 1) {
+        m = two_sided(parse_bsdf(inner[0]));
+      } else {
+        // Two BSDFs: the first seen from the front, the second from behind (as if from its own front):
+        // caustica's pair of sides (Material kSides, resolved per hit in scene/interaction.h).
+        const int front = parse_bsdf(inner[0]), back = parse_bsdf(inner[1]);
+        m = Material();
+        m.flags = kSides;
+        m.mix_a = d.add_material(d.material_names[size_t(front)] + "/front", two_sided(front));
+        where = inner[1];
+        m.mix_b = d.add_material(d.material_names[size_t(back)] + "/back", two_sided(back));
+      }
     } else if (type == "null") {
       m.type = MaterialType::kNull;  // a boundary of media that rays cross unchanged
     } else {
