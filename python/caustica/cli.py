@@ -436,7 +436,8 @@ def cmd_info(a) -> int:
     lo, hi = d["bounds"]
     fmt = lambda v: "[" + ", ".join(f"{x:.6g}" for x in v) + "]"
     print(f"name:        {d['name']}")
-    print(f"image:       {scene.width}x{scene.height}, {scene.filter} filter"
+    fp = ", ".join(f"{k} {v:.4g}" for k, v in scene.filter_parameters.items())
+    print(f"image:       {scene.width}x{scene.height}, {scene.filter} filter ({fp})"
           + (f", camera '{scene.camera}'" if scene.camera else ""))
     if scene.cameras:
         print(f"cameras:     {', '.join(scene.cameras)}")
@@ -503,6 +504,11 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("caustica: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader of stdout went away (`caustica info x | head`): stop quietly, as other command-line tools
+        # do; stdout is pointed at /dev/null so that Python's final flush does not fail again.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

@@ -154,6 +154,7 @@ TEST(Filter, MeanWeightIsOne) {
 TEST(Filter, InvalidParametersAreErrors) {
   EXPECT_THROW(make_filter(FilterType::kGaussian, kFilterDefault, 0.f), InputError);
   EXPECT_THROW(make_filter(FilterType::kTent, 0.f), InputError);
+  EXPECT_THROW(make_filter(FilterType::kGaussian, kFilterDefault, 1e-5f), InputError);  // radius 4e-5 < 0.001
   EXPECT_THROW(make_filter(FilterType::kBox, 17.f), InputError);
   EXPECT_THROW(make_filter(FilterType::kLanczos, kFilterDefault, 0.5f), InputError);
   EXPECT_THROW(make_filter(FilterType::kMitchell, kFilterDefault, 11.f), InputError);

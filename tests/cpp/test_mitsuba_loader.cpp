@@ -921,7 +921,7 @@ TEST(MitsubaSensor, Errors) {
        ":3: <float name=\"stddev\">: the gaussian filter's stddev must be positive"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"tent\"><float name=\"radius\" "
        "value=\"40\"/></rfilter></film></sensor>\n",
-       ":3: <float name=\"radius\">: a pixel filter's radius must be in (0, 16] pixels"},
+       ":3: <float name=\"radius\">: a pixel filter's radius must be in [0.001, 16] pixels"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"mitchell\"><float name=\"radius\" "
        "value=\"3\"/></rfilter></film></sensor>\n",
        ":3: <float name=\"radius\">: unknown property of rfilter mitchell (supported: B, C)"},

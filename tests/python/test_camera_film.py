@@ -157,8 +157,9 @@ def test_filter_edge_profile_all_estimators(spec, integrator):
 def test_filter_object_in_scene_and_api():
     s = caustica.load_scene(lit_edge_scene({"type": "mitchell", "B": 0, "C": 0.5}))
     assert s.filter == "mitchell"
+    assert s.filter_parameters == {"radius": 2.0, "B": 0.0, "C": 0.5}
     s = caustica.load_scene(lit_edge_scene("box"), filter={"type": "lanczos", "lobes": 2})
-    assert s.filter == "lanczos"
+    assert s.filter == "lanczos" and s.filter_parameters == {"radius": 2.0, "lobes": 2.0}
     with pytest.raises(caustica.InputError, match=r"/film/filter/stddev: expected a number"):
         bad = {k: v for k, v in lit_edge_scene("box").items() if k != "filter"}
         caustica.load_scene({**bad, "film": {"filter": {"type": "gaussian", "stddev": "wide"}}})

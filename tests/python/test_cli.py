@@ -183,3 +183,13 @@ def test_devices_and_the_device_option(caustica_bin, tmp_path):
     r = run(caustica_bin, "render", "cornell", "--spp", "1", "--width", "8", "--height", "8", "--quiet",
             "--device", "cpu", "-o", str(out))
     assert r.returncode == 0 and out.exists(), r.stderr
+
+
+def test_a_closed_pipe_ends_quietly(caustica_bin):
+    # `caustica info cornell | head -1`: the reader is gone before anything is written (its end is closed
+    # at once); caustica stops with exit status 141 (128 + SIGPIPE, as a shell reports a tool killed by it)
+    # and no traceback.
+    p = subprocess.Popen([caustica_bin, "info", "cornell"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=60) == 141 and "Traceback" not in err, err

@@ -137,6 +137,19 @@ std::vector<std::string> camera_names(const SceneDesc& d) {
   return n;
 }
 
+// A filter's parameters by the scene format's names (radius, and stddev, B and C, or lobes).
+nb::dict filter_parameters(const Filter& f) {
+  nb::dict d;
+  d["radius"] = f.radius;
+  if (f.type == FilterType::kGaussian) d["stddev"] = f.a;
+  if (f.type == FilterType::kMitchell) {
+    d["B"] = f.a;
+    d["C"] = f.b;
+  }
+  if (f.type == FilterType::kLanczos) d["lobes"] = f.a;
+  return d;
+}
+
 // The description with the overrides applied since loading (resolution is in desc; the filter only in the view).
 SceneDesc current_desc(const Scene& s) {
   SceneDesc d = s.desc();
@@ -220,6 +233,8 @@ NB_MODULE(_native, m) {
       .def_prop_ro("width", [](const Scene& s) { return s.view().camera.width; })
       .def_prop_ro("height", [](const Scene& s) { return s.view().camera.height; })
       .def_prop_ro("filter", [](const Scene& s) { return std::string(filter_type_name(s.view().filter.type)); })
+      .def_prop_ro("filter_parameters", [](const Scene& s) { return filter_parameters(s.view().filter); },
+                   "the pixel filter's parameters: radius (pixels), and stddev, B and C, or lobes")
       .def_prop_ro("max_depth", [](const Scene& s) { return s.desc().max_depth; })
       .def_prop_ro("num_triangles", [](const Scene& s) { return s.view().num_triangles; })
       .def_prop_ro("num_spheres", [](const Scene& s) { return s.view().num_spheres; })
@@ -252,6 +267,7 @@ NB_MODULE(_native, m) {
       .def_prop_ro("width", [](const SceneDesc& d) { return d.camera.width; })
       .def_prop_ro("height", [](const SceneDesc& d) { return d.camera.height; })
       .def_prop_ro("filter", [](const SceneDesc& d) { return std::string(filter_type_name(d.filter.type)); })
+      .def_prop_ro("filter_parameters", [](const SceneDesc& d) { return filter_parameters(d.filter); })
       .def_prop_ro("max_depth", [](const SceneDesc& d) { return d.max_depth; })
       .def_prop_ro("warnings", [](const SceneDesc& d) { return d.warnings; })
       .def_prop_ro("cameras", [](const SceneDesc& d) { return camera_names(d); })

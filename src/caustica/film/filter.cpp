@@ -52,7 +52,7 @@ Filter make_filter(FilterType type, float radius, float a, float b) {
       f.radius = given(radius, f.a);
       break;
   }
-  require(f.radius > 0.f && f.radius <= 16.f, "a pixel filter's radius must be in (0, 16] pixels");
+  require(f.radius >= 1e-3f && f.radius <= 16.f, "a pixel filter's radius must be in [0.001, 16] pixels");
   const double r = f.radius;
   switch (type) {
     case FilterType::kBox: f.norm = float(1.0 / (2.0 * r)); break;
