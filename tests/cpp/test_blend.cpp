@@ -1,6 +1,7 @@
-// Blends (Material::mix_a / mix_b, scene/shading.h): surface_material picks one of the two materials per point
-// by a hash of the point, so the shares over a surface follow the weight (constant, textured, nested), a point
-// always shows the same material, and Scene::build refuses cycles and dangling indices.
+// Blends (Material::mix_a / mix_b, scene/interaction.h): resolve_material (in make_surface_hit) picks one of the
+// two materials per point by a hash of the point, so the shares over a surface follow the weight (constant,
+// textured, nested), a point always shows the same material, and Scene::build refuses cycles and dangling
+// indices; and a pair of sides by the ray's side.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -126,7 +127,7 @@ TEST(Blend, SceneRefusesCyclesAndMissingMaterials) {
   EXPECT_THROW(Scene::build(square({blend(2, 1, 0.5f), blend(0, 2, 0.5f), grey(0.1f)}, 1)), InputError);  // 0 <-> 1
   EXPECT_THROW(Scene::build(square({grey(0.2f), blend(0, 7, 0.5f)}, 1)), InputError);            // no material 7
   EXPECT_THROW(Scene::build(square({grey(0.2f), blend(0, 0, 1.5f)}, 1)), InputError);            // weight > 1
-  // Nine blends deep is more than surface_material resolves.
+  // Nine blends deep is more than resolve_material resolves.
   std::vector<Material> chain{grey(0.2f)};
   for (int i = 0; i < 9; ++i) chain.push_back(blend(0, int(chain.size()) - 1, 0.5f));
   EXPECT_THROW(Scene::build(square(chain, int(chain.size()) - 1)), InputError);

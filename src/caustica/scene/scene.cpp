@@ -695,7 +695,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     if (m.opacity < 1.f || m.tex_opacity >= 0) m.flags |= kAlphaTested;
   }
   {
-    // Blends inside blends: no cycles, and at most kMaxMixDepth deep (what surface_material resolves).
+    // Blends inside blends: no cycles, and at most kMaxMixDepth deep (what resolve_material resolves).
     std::vector<int> depth(s.materials.size(), -1);  // -2: being visited
     std::function<int(size_t)> visit = [&](size_t i) -> int {
       const Material& m = s.materials[i];
