@@ -3,11 +3,12 @@ from __future__ import annotations
 
 import json
 import math
+import operator
 import os
 import time as _time
 import warnings as _warnings
 from dataclasses import dataclass, field
-from typing import Any, Callable, Optional, Union
+from typing import Any, Callable, Optional, Sequence, Union
 
 import numpy as np
 
@@ -169,7 +170,7 @@ def _warn(scene_or_warnings, stacklevel: int = 3) -> None:
 
 def load_dict(d: dict, camera: Optional[str] = None, base_dir: Union[str, os.PathLike, None] = None,
               width: Optional[int] = None, height: Optional[int] = None,
-              filter: Optional[Union[str, dict]] = None) -> "_native.Scene":
+              filter: Optional[Union[str, dict]] = None, crop: Optional[Sequence[int]] = None) -> "_native.Scene":
     """Loads a scene given as a dict in caustica's JSON format (docs/scene-format.md). Errors
     name "<dict>" and the JSON path. Relative file names (meshes, textures) are resolved against
     `base_dir` (default: the current directory)."""
@@ -178,18 +179,21 @@ def load_dict(d: dict, camera: Optional[str] = None, base_dir: Union[str, os.Pat
     s = _native.load_scene_json(_dict_text(d), "<dict>", os.fspath(base_dir) if base_dir is not None else "",
                                 _camera(camera))
     _warn(s)
-    return _override(s, width, height, filter)
+    return _override(s, width, height, filter, crop)
 
 
 def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Optional[int] = None,
                height: Optional[int] = None, filter: Optional[Union[str, dict]] = None, camera: Optional[str] = None,
-               params: Optional[dict] = None) -> "_native.Scene":
+               params: Optional[dict] = None, crop: Optional[Sequence[int]] = None) -> "_native.Scene":
     """Loads a built-in scene by name, a scene file (.json, .obj, .ply, .gltf, .glb, .xml), or a
     scene given as a dict in caustica's JSON format, and returns a Scene for caustica.render.
 
     camera: a named camera of the file (glTF, XML, JSON "cameras"); params: Mitsuba XML
     $name substitutions ({"spp": 64}). width/height/filter override the scene's (filter: a name, or a
-    dict as the scene format's filter object, e.g. {"type": "mitchell", "B": 0, "C": 0.5}). Problems in
+    dict as the scene format's filter object, e.g. {"type": "mitchell", "B": 0, "C": 0.5}); width/height
+    are the film's. crop=(x, y, w, h) renders only the film's pixels [x, x + w) x [y, y + h), into a w x h
+    image that equals that part of the whole render (scene.crop, scene.film_size; (0, 0, 0, 0) removes a
+    scene file's crop). Problems in
     the scene raise caustica.SceneError (an InputError); what was skipped or replaced is
     reported with warnings.warn (caustica.SceneWarning). scene.describe() gives counts, bounds, the
     camera's projection ("perspective", "thin lens", "orthographic") and its shutter (None unless it moves)."""
@@ -200,19 +204,37 @@ def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Opt
     elif isinstance(scene, dict):
         if params:
             raise InputError("params apply to Mitsuba XML files, not to a dict")
-        return load_dict(scene, camera=camera, width=width, height=height, filter=filter)
+        return load_dict(scene, camera=camera, width=width, height=height, filter=filter, crop=crop)
     elif isinstance(scene, (str, os.PathLike)):
         s = _native.load_scene(os.fspath(scene), _camera(camera), _params(params))
         _warn(s)
     else:
         raise InputError(f"scene: expected a name, a path or a dict, got {type(scene).__name__}")
-    return _override(s, width, height, filter)
+    return _override(s, width, height, filter, crop)
 
 
-def _override(s, width, height, filter):
-    if width is not None or height is not None:
-        s.set_resolution(_positive_int("width", width if width is not None else s.width),
-                         _positive_int("height", height if height is not None else s.height))
+def _override(s, width, height, filter, crop=None):
+    if crop is not None:
+        try:
+            x, y, w, h = (operator.index(v) for v in crop)
+        except (TypeError, ValueError):
+            raise InputError(f"crop: expected (x, y, width, height) in pixels, got {crop!r}") from None
+    fw, fh = s.film_size
+    new_w = _positive_int("width", width) if width is not None else fw
+    new_h = _positive_int("height", height) if height is not None else fh
+    old_crop = s.crop or (0, 0, 0, 0)
+    try:
+        if crop is not None:
+            s.set_crop(0, 0, 0, 0)  # the new window is checked against the new film
+        if (new_w, new_h) != (fw, fh):
+            s.set_resolution(new_w, new_h)
+        if crop is not None:
+            s.set_crop(x, y, w, h)
+    except InputError:  # a window that does not fit: the scene stays as it was
+        s.set_crop(0, 0, 0, 0)
+        s.set_resolution(fw, fh)
+        s.set_crop(*old_crop)
+        raise
     if isinstance(filter, dict):  # {"type": ..., parameters}: the scene format's filter object
         s.set_filter_json(json.dumps(filter))
     elif filter is not None:

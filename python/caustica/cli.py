@@ -105,6 +105,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="render whole passes until this many seconds are spent")
     r.add_argument("--width", type=_positive_int("--width"), default=None)
     r.add_argument("--height", type=_positive_int("--height"), default=None)
+    r.add_argument("--crop", type=_nonneg_int("--crop"), nargs=4, default=None, metavar=("X", "Y", "W", "H"),
+                   help="render only the film's pixels [X, X+W) x [Y, Y+H) into a WxH image, the same as that part of "
+                        "the whole render (width/height stay the whole film's); 0 0 0 0 removes the scene's crop")
     r.add_argument("--seed", type=_nonneg_int("--seed"), default=0)
     r.add_argument("--threads", type=_nonneg_int("--threads"), default=0, help="0: all cores")
     r.add_argument("--max-depth", type=_depth, default=None,
@@ -321,7 +324,7 @@ def cmd_render(a) -> int:
         raise _api.InputError(f"--volume-radius expects a positive number, got '{a.volume_radius}'")
     if a.strategy_images is not None and not os.path.isdir(a.strategy_images):
         raise _api.InputError(f"--strategy-images: '{a.strategy_images}' is not a directory")
-    scene = _load(a, width=a.width, height=a.height, filter=a.filter)
+    scene = _load(a, width=a.width, height=a.height, filter=a.filter, crop=a.crop)
     o = _api.resolve_options(scene, a.integrator, a.spp, a.time, a.rr_depth, a.sampler, a.photons, a.radius,
                              a.alpha, a.k)
     integrator, spp, seconds = o["integrator"], o["spp"], o["time"]
@@ -429,7 +432,9 @@ def cmd_info(a) -> int:
     _print_warnings(caught)
     d = scene.describe()
     if a.json:
+        clip = None if d["clip"] is None else [v if math.isfinite(v) else None for v in d["clip"]]
         d = dict(d, bounds=[list(d["bounds"][0]), list(d["bounds"][1])], width=scene.width, height=scene.height,
+                 film_size=list(scene.film_size), crop=None if d["crop"] is None else list(d["crop"]), clip=clip,
                  camera=scene.camera, cameras=list(scene.cameras), integrator=dict(scene.integrator_defaults))
         print(json.dumps(d, indent=2))
         return 0
@@ -437,12 +442,15 @@ def cmd_info(a) -> int:
     fmt = lambda v: "[" + ", ".join(f"{x:.6g}" for x in v) + "]"
     print(f"name:        {d['name']}")
     fp = ", ".join(f"{k} {v:.4g}" for k, v in scene.filter_parameters.items())
-    print(f"image:       {scene.width}x{scene.height}, {scene.filter} filter ({fp})"
+    crop = ("" if d["crop"] is None else
+            f" (crop at {d['crop'][0]}, {d['crop'][1]} of the {scene.film_size[0]}x{scene.film_size[1]} film)")
+    print(f"image:       {scene.width}x{scene.height}{crop}, {scene.filter} filter ({fp})"
           + (f", camera '{scene.camera}'" if scene.camera else ""))
     if scene.cameras:
         print(f"cameras:     {', '.join(scene.cameras)}")
     print(f"projection:  {d['projection']}" + ("" if d["shutter"] is None else
-          f", moving camera (motion blur, shutter {d['shutter'][0]:g} to {d['shutter'][1]:g})"))
+          f", moving camera (motion blur, shutter {d['shutter'][0]:g} to {d['shutter'][1]:g})")
+          + ("" if d["clip"] is None else f", clipped to depths {d['clip'][0]:g} to {d['clip'][1]:g}"))
     for key in ("shapes", "meshes", "triangles", "spheres", "materials", "lights", "area_lights", "textures", "media"):
         kinds = [f"{d[k + '_media']} {k}" for k in ("heterogeneous", "emissive") if key == "media" and d[k + "_media"]]
         print(f"{key + ':':12s} {d[key]}" + (f" ({', '.join(kinds)})" if kinds else ""))

@@ -160,3 +160,115 @@ TEST(Camera, StaticCameraIsTheSameAtEveryTime) {
   EXPECT_EQ(a.d.y, b.d.y);
   EXPECT_EQ(a.d.z, b.d.z);
 }
+
+// ---------------------------------------------------------------------------
+// Crop windows and clipping planes.
+
+#include "caustica/base/error.h"
+#include "caustica/integrator/vcm.h"
+
+namespace {
+CameraDesc crop_test_desc(int kind) {
+  CameraDesc d;
+  d.position = Vec3f(0.5f, 1.f, 4.f);
+  d.target = Vec3f(-0.2f, 0.3f, 0.f);
+  d.width = 96;
+  d.height = 64;
+  if (kind == 1) {  // thin lens
+    d.aperture_radius = 0.2f;
+    d.focus_distance = 3.f;
+  } else if (kind == 2) {
+    d.orthographic = true;
+    d.view_size = 3.f;
+  }
+  return d;
+}
+}  // namespace
+
+// A cropped camera's pixel (x, y) is the whole film's pixel (crop_x + x, crop_y + y): the same ray for the
+// same film and lens sample, and light vertices project to the shifted raster position.
+TEST(Camera, CropWindowIsThatPartOfTheFilm) {
+  for (int kind = 0; kind < 3; ++kind) {
+    SCOPED_TRACE(kind);
+    CameraDesc d = crop_test_desc(kind);
+    Camera full = make_camera(d);
+    d.crop_x = 13;
+    d.crop_y = 40;
+    d.crop_width = 50;
+    d.crop_height = 21;
+    Camera crop = make_camera(d);
+    EXPECT_EQ(crop.width, 50);
+    EXPECT_EQ(crop.height, 21);
+    EXPECT_NEAR(camera_pixel_area(crop), camera_pixel_area(full), 1e-6f * camera_pixel_area(full));
+    PCG32 rng(7, 2);
+    for (int i = 0; i < 200; ++i) {
+      Vec2f f(rng.next_float() * 50.f, rng.next_float() * 21.f), lens(rng.next_float(), rng.next_float());
+      Ray a = crop.generate_ray(f, lens), b = full.generate_ray(Vec2f(f.x + 13.f, f.y + 40.f), lens);
+      expect_near(a.o, b.o, 1e-5f);
+      expect_near(a.d, b.d, 1e-5f);
+      // A point along the ray projects back to the cropped raster position.
+      Vec3f p = a.o + a.d * (1.f + 3.f * rng.next_float());
+      Vec3f pl = camera_eye_point(crop, p, lens);
+      Vec2f r;
+      float ct;
+      ASSERT_TRUE(camera_project(crop, pl, p, r, ct));
+      EXPECT_NEAR(r.x, f.x, 2e-3f);
+      EXPECT_NEAR(r.y, f.y, 2e-3f);
+    }
+  }
+}
+
+TEST(Camera, CropWindowMustFitTheFilm) {
+  CameraDesc d = crop_test_desc(0);
+  d.crop_x = 50;
+  d.crop_y = 0;
+  d.crop_width = 47;  // 50 + 47 > 96
+  d.crop_height = 10;
+  EXPECT_THROW(make_camera(d), InputError);
+  EXPECT_NE(crop_problem(d).find("does not fit the 96x64 film"), std::string::npos) << crop_problem(d);
+  d.crop_width = 46;
+  EXPECT_EQ(crop_problem(d), "");
+  d.crop_y = -1;
+  EXPECT_NE(crop_problem(d), "");
+  d = crop_test_desc(0);  // all zero: no crop
+  EXPECT_EQ(crop_problem(d), "");
+  EXPECT_EQ(make_camera(d).width, 96);
+}
+
+// Camera rays start on the near plane and end on the far plane (depths along the view axis from the lens
+// plane); a point is seen only between them.
+TEST(Camera, ClippingPlanesBoundTheRaysAndTheProjection) {
+  for (int kind = 0; kind < 3; ++kind) {
+    SCOPED_TRACE(kind);
+    CameraDesc d = crop_test_desc(kind);
+    Camera open = make_camera(d);
+    d.near_clip = 1.5f;
+    d.far_clip = 6.f;
+    Camera c = make_camera(d);
+    PCG32 rng(3, 2);
+    for (int i = 0; i < 100; ++i) {
+      Vec2f f(rng.next_float() * 96.f, rng.next_float() * 64.f), lens(rng.next_float(), rng.next_float());
+      Ray a = c.generate_ray(f, lens), u = open.generate_ray(f, lens);
+      expect_near(a.d, u.d, 1e-6f);
+      // The unclipped ray's origin is on the lens plane; the clipped one starts at depth 1.5 along it.
+      EXPECT_NEAR(dot(a.o - u.o, c.forward), 1.5f, 1e-4f);
+      EXPECT_NEAR(length(cross(a.o - u.o, u.d)), 0.f, 1e-4f);
+      EXPECT_NEAR(c.near_distance(a.d), kind == 2 ? 1.5f : 1.5f / dot(a.d, c.forward), 1e-5f);
+      EXPECT_NEAR(dot(a.o + a.d * a.tmax - u.o, c.forward), 6.f, 1e-3f);
+      EXPECT_EQ(u.tmax, kInf);
+      // Points on the ray at depths 1, 3 and 7: only the middle one projects.
+      for (float depth : {1.f, 3.f, 7.f}) {
+        Vec3f p = u.o + u.d * (depth / dot(u.d, c.forward));
+        Vec3f pl = camera_eye_point(c, p, lens);
+        Vec2f r;
+        float ct;
+        EXPECT_EQ(camera_project(c, pl, p, r, ct), depth == 3.f) << depth;
+        EXPECT_TRUE(camera_project(open, pl, p, r, ct));
+      }
+    }
+  }
+  CameraDesc d = crop_test_desc(0);
+  d.near_clip = 2.f;
+  d.far_clip = 2.f;
+  EXPECT_THROW(make_camera(d), InputError);
+}

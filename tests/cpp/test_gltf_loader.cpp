@@ -211,11 +211,12 @@ TEST(GltfLoader, CamerasDefaultAndByName) {
   int mesh = b.quad();
   b.push("cameras", {{"type", "perspective"}, {"name", "front"},
                      {"perspective", {{"yfov", 0.5}, {"znear", 0.1}, {"aspectRatio", 1.5}}}});
-  b.push("cameras", {{"type", "perspective"}, {"perspective", {{"yfov", 1.0}, {"znear", 0.1}}}});
+  b.push("cameras", {{"type", "perspective"}, {"perspective", {{"yfov", 1.0}, {"znear", 0.1}, {"zfar", 50}}}});
   b.push("cameras", {{"type", "orthographic"}, {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"zfar", 10}, {"znear", 0}}}});
   const float s45 = std::sqrt(0.5f);
   int n0 = b.push("nodes", {{"mesh", mesh}});
-  int n1 = b.push("nodes", {{"camera", 1}, {"translation", {4, 0, 0}}, {"rotation", {0, s45, 0, s45}}});  // looks down -x
+  int n1 = b.push("nodes", {{"camera", 1}, {"translation", {4, 0, 0}}, {"rotation", {0, s45, 0, s45}},
+                            {"scale", {2, 2, 2}}});  // looks down -x; twice the size
   int n2 = b.push("nodes", {{"camera", 0}, {"translation", {0, 0, 5}}});
   int n3 = b.push("nodes", {{"camera", 2}});
   b.scene({n0, n1, n2, n3});
@@ -242,6 +243,13 @@ TEST(GltfLoader, CamerasDefaultAndByName) {
   EXPECT_EQ(d.cameras[2].width, 512);
   EXPECT_FALSE(has_warning(d, "orthographic"));
   EXPECT_FALSE(has_warning(d, "no camera in the file"));
+  // znear and zfar are the clipping planes (a perspective camera's zfar is optional: infinity), in the node's scale.
+  EXPECT_FLOAT_EQ(d.cameras[0].near_clip, 0.1f);
+  EXPECT_EQ(d.cameras[0].far_clip, kInf);
+  EXPECT_NEAR(d.cameras[1].near_clip, 0.2f, 1e-6f);
+  EXPECT_NEAR(d.cameras[1].far_clip, 100.f, 1e-4f);
+  EXPECT_EQ(d.cameras[2].near_clip, 0.f);
+  EXPECT_FLOAT_EQ(d.cameras[2].far_clip, 10.f);
   LoadOptions opt;
   opt.camera = "camera1";
   SceneDesc d2 = load_scene_desc(path, opt);
@@ -585,6 +593,10 @@ TEST(GltfLoader, MalformedInputMessages) {
   }
   p = write_text("badcam.gltf", R"({"asset": {"version": "2.0"}, "cameras": [{"type": "perspective", "perspective": {"znear": 0.1}}]})");
   EXPECT_EQ(error_of(p), p + ": /cameras/0/perspective/yfov: missing (the vertical field of view in radians)");
+  p = write_text("badfar.gltf", R"({"asset": {"version": "2.0"}, "cameras": [{"type": "perspective", "perspective": {"yfov": 1, "znear": 0.1, "zfar": 0.1}}]})");
+  EXPECT_EQ(error_of(p), p + ": /cameras/0/perspective/zfar: expected a distance beyond znear");
+  p = write_text("badnear.gltf", R"({"asset": {"version": "2.0"}, "cameras": [{"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": -1, "zfar": 2}}]})");
+  EXPECT_EQ(error_of(p), p + ": /cameras/0/orthographic/znear: expected a distance >= 0");
   p = write_text("badlight.gltf", R"({"asset": {"version": "2.0"}, "extensions": {"KHR_lights_punctual": {"lights": [{"type": "area"}]}}})");
   EXPECT_EQ(error_of(p), p + ": /extensions/KHR_lights_punctual/lights/0/type: unknown light type 'area' (expected point, spot or directional)");
   {  // Negative emissive factor.

@@ -123,7 +123,10 @@ TEST(MitsubaCornell, EqualsBuiltin) {
   // The sensor's sampler gives the scene's default spp and sampler (render options override them).
   EXPECT_EQ(x.integrator.spp, 64);
   EXPECT_EQ(x.integrator.sampler, "independent");
-  EXPECT_TRUE(has_warning(x, f + ":17: <float name=\"near_clip\">: ignored (no effect on caustica's light transport)"))
+  // The clipping planes are the sensor's (no longer ignored with a warning).
+  EXPECT_FLOAT_EQ(x.camera.near_clip, 0.001f);
+  EXPECT_FLOAT_EQ(x.camera.far_clip, 100.f);
+  EXPECT_FALSE(has_warning(x, f + ":17: <float name=\"near_clip\">: ignored (no effect on caustica's light transport)"))
       << all_warnings(x);
   // It builds, through the format dispatch too.
   SceneDesc y = load_scene_desc(f);
@@ -912,7 +915,7 @@ TEST(MitsubaSensor, Errors) {
        ":2: <sensor type=\"orthographic\">: an orthographic sensor's to_world must scale x and y alike (caustica's "
        "pixels are square)"},
       {"<sensor type=\"orthographic\"><float name=\"fov\" value=\"30\"/></sensor>\n",
-       ":2: <float name=\"fov\">: unknown property of sensor orthographic (supported: to_world)"},
+       ":2: <float name=\"fov\">: unknown property of sensor orthographic (supported: to_world, near_clip, far_clip)"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><rfilter type=\"bicubic\"/></film></sensor>\n",
        ":3: <rfilter type=\"bicubic\">: unsupported reconstruction filter (supported: box, tent, gaussian, mitchell, "
        "catmullrom, lanczos)"},
@@ -929,13 +932,18 @@ TEST(MitsubaSensor, Errors) {
        ":3: <integer name=\"width\">: expected a positive width"},
       {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><float name=\"width\" value=\"10\"/></film></sensor>\n",
        ":3: <float name=\"width\">: expected an <integer>"},
-      {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><integer name=\"crop_width\" value=\"10\"/></film></sensor>\n",
-       ":3: <film type=\"hdrfilm\">: cropped films are not supported"},
+      {"<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><integer name=\"crop_width\" value=\"1000\"/></film></sensor>\n",
+       ":3: <film type=\"hdrfilm\">: the crop window (x 0, y 0, width 1000, height 576) does not fit the 768x576 film "
+       "(expected x, y >= 0, width, height > 0, x + width <= 768, y + height <= 576)"},
+      {"<sensor type=\"perspective\">\n<float name=\"near_clip\" value=\"-1\"/></sensor>\n",
+       ":3: <float name=\"near_clip\">: expected a depth >= 0"},
+      {"<sensor type=\"perspective\">\n<float name=\"near_clip\" value=\"2\"/><float name=\"far_clip\" value=\"1\"/></sensor>\n",
+       ":3: <float name=\"far_clip\">: expected far_clip beyond near_clip"},
       {"<sensor type=\"perspective\">\n<string name=\"fov_axis\" value=\"z\"/></sensor>\n",
        ":3: <string name=\"fov_axis\">: fov_axis applies only together with fov"},
       {"<sensor type=\"perspective\">\n<float name=\"fvo\" value=\"40\"/></sensor>\n",
        ":3: <float name=\"fvo\">: unknown property of sensor perspective (supported: fov, fov_axis, focal_length, "
-       "to_world, focus_distance)"},
+       "to_world, near_clip, far_clip, focus_distance)"},
       {"<sensor type=\"perspective\">\n<float name=\"fov\" value=\"40\"/><string name=\"fov_axis\" value=\"z\"/></sensor>\n",
        ":3: <string name=\"fov_axis\">: unknown fov_axis 'z' (allowed: x, y, smaller, larger, diagonal)"},
       {"<sensor type=\"perspective\">\n<float name=\"fov\" value=\"180\"/></sensor>\n",

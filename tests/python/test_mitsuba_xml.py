@@ -67,7 +67,8 @@ def test_warnings_are_reported():
     s = load(CORNELL)
     assert not any("sampler" in w for w in s.warnings)
     assert s.integrator_defaults["spp"] == 64 and s.integrator_defaults["sampler"] == "independent"
-    assert any("<float name=\"near_clip\">: ignored" in w for w in s.warnings)
+    assert not any("near_clip" in w for w in s.warnings)  # read: the sensor's clipping planes
+    assert s.describe()["clip"] == pytest.approx((0.001, 100.0))
 
 
 def test_bad_file_raises_input_error(tmp_path):

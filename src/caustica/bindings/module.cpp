@@ -75,6 +75,12 @@ std::shared_ptr<Scene> build_scene(const SceneDesc& d) {
   return scene_call([&] { return Scene::build(d); });
 }
 
+// A camera's crop window as (x, y, width, height), or None for the whole film.
+nb::object crop_tuple(const CameraDesc& c) {
+  if (c.crop_width <= 0) return nb::none();
+  return nb::make_tuple(c.crop_x, c.crop_y, c.crop_width, c.crop_height);
+}
+
 nb::dict describe(const SceneDesc& d) {
   SceneStats st = scene_stats(d);
   nb::dict r;
@@ -105,6 +111,9 @@ nb::dict describe(const SceneDesc& d) {
   r["projection"] = c.orthographic ? "orthographic" : (c.aperture_radius > 0.f ? "thin lens" : "perspective");
   if (c.moving) r["shutter"] = nb::make_tuple(c.shutter_open, c.shutter_close);
   else r["shutter"] = nb::none();
+  r["crop"] = crop_tuple(c);
+  if (c.near_clip > 0.f || c.far_clip < kInf) r["clip"] = nb::make_tuple(c.near_clip, c.far_clip);
+  else r["clip"] = nb::none();
   return r;
 }
 
@@ -243,7 +252,13 @@ NB_MODULE(_native, m) {
       .def("set_resolution", [](Scene& s, int w, int h) {
         if (w <= 0 || h <= 0) throw InputError("width and height must be positive integers");
         s.set_resolution(w, h);
-      })
+      }, "sets the film's size (with a crop window, the whole film's; the window must still fit)")
+      .def_prop_ro("film_size", [](const Scene& s) { return nb::make_tuple(s.desc().camera.width, s.desc().camera.height); },
+                   "the whole film's (width, height); width and height are the image's (the crop window's)")
+      .def_prop_ro("crop", [](const Scene& s) { return crop_tuple(s.desc().camera); },
+                   "the crop window (x, y, width, height) in pixels of the film, or None")
+      .def("set_crop", [](Scene& s, int x, int y, int w, int h) { s.set_crop(x, y, w, h); },
+           "renders the film's pixels [x, x + w) x [y, y + h) only (all 0: the whole film)")
       .def("set_filter", [](Scene& s, const std::string& f) { s.set_filter(filter_by_name(f)); })
       .def("set_filter_json", [](Scene& s, const std::string& j) { s.set_filter(parse_filter_json(j, "filter")); })
       .def_prop_ro("warnings", [](const Scene& s) { return s.desc().warnings; })
@@ -264,8 +279,10 @@ NB_MODULE(_native, m) {
   // A loaded description without acceleration structures (for info and export of large scenes).
   nb::class_<SceneDesc>(m, "SceneDesc")
       .def_prop_ro("name", [](const SceneDesc& d) { return d.name; })
-      .def_prop_ro("width", [](const SceneDesc& d) { return d.camera.width; })
-      .def_prop_ro("height", [](const SceneDesc& d) { return d.camera.height; })
+      .def_prop_ro("width", [](const SceneDesc& d) { return d.camera.crop_width > 0 ? d.camera.crop_width : d.camera.width; })
+      .def_prop_ro("height", [](const SceneDesc& d) { return d.camera.crop_width > 0 ? d.camera.crop_height : d.camera.height; })
+      .def_prop_ro("film_size", [](const SceneDesc& d) { return nb::make_tuple(d.camera.width, d.camera.height); })
+      .def_prop_ro("crop", [](const SceneDesc& d) { return crop_tuple(d.camera); })
       .def_prop_ro("filter", [](const SceneDesc& d) { return std::string(filter_type_name(d.filter.type)); })
       .def_prop_ro("filter_parameters", [](const SceneDesc& d) { return filter_parameters(d.filter); })
       .def_prop_ro("max_depth", [](const SceneDesc& d) { return d.max_depth; })

@@ -9,6 +9,21 @@
 // along `forward` from the plane through `position` spanned by `right` and `up`,
 // over [-tan_half_x, tan_half_x] x [-tan_half_y, tan_half_y] in scene units.
 //
+// Crop window (Mitsuba 3's crop_offset/crop_size, pbrt-v4's pixel bounds): a
+// camera that renders pixels [crop_x, crop_x + w) x [crop_y, crop_y + h) of a
+// W x H film is a w x h camera whose image-plane window is that part of the
+// film's: tan_half scaled by w / W and h / H and the window's centre shifted by
+// (shift_x, shift_y) (make_camera). Pixels keep their size, so every pixel's
+// rays, importance and footprint are those of the uncropped film's pixel.
+//
+// Clipping planes (Mitsuba 3's near_clip / far_clip, glTF's znear / zfar):
+// camera rays start where they cross the plane at depth near_clip along the
+// view axis and end at depth far_clip; a light vertex is seen only between
+// them (camera_project), and nothing nearer than near_clip occludes it.
+// Measured from the lens plane (the pinhole, or the orthographic camera's
+// plane), as in Mitsuba, so a thin-lens ray from lens point o along unit d
+// starts at o + d near_clip / d_z.
+//
 // Motion blur (camera motion): a moving camera holds its pose at shutter open
 // and at shutter close; a ray's time u in [0, 1) picks the pose in between, the
 // position interpolated linearly and the orientation by spherical linear
@@ -127,6 +142,10 @@ struct Camera {
   float aperture_radius = 0.f;  // (perspective only)
   float focus_distance = 1.f;
   int width = 256, height = 256;
+  // The image plane window's centre (a crop window; 0 for a whole film), in the units of tan_half.
+  float shift_x = 0.f, shift_y = 0.f;
+  // Clipping planes: depths along `forward` from the lens plane (0 and infinity: none).
+  float near_clip = 0.f, far_clip = kInf;
   // Motion blur: the pose at shutter close; time u in [0, 1) spans the shutter.
   bool moving = false;
   CameraPose close_pose;
@@ -155,13 +174,14 @@ struct Camera {
   // film: raster position in pixels; lens: a sample of [0,1)^2. The pose is
   // this camera's own (the shutter-open one of a moving camera: use at(u)).
   CHD Ray generate_ray(Vec2f film, Vec2f lens) const {
-    float sx = (2.f * film.x / float(width) - 1.f) * tan_half_x;
-    float sy = (1.f - 2.f * film.y / float(height)) * tan_half_y;
+    float sx = (2.f * film.x / float(width) - 1.f) * tan_half_x + shift_x;
+    float sy = (1.f - 2.f * film.y / float(height)) * tan_half_y + shift_y;
     Ray r;
     r.tmax = kInf;
     if (orthographic) {
       r.o = position + right * sx + up * sy;
       r.d = forward;
+      clip(r);
       return r;
     }
     Vec3f d_cam(sx, sy, 1.f);
@@ -174,7 +194,18 @@ struct Camera {
     }
     r.o = position + right * o_cam.x + up * o_cam.y;
     r.d = normalize(right * d_cam.x + up * d_cam.y + forward * d_cam.z);
+    clip(r);
     return r;
+  }
+  // The distance along a camera ray (unit d) from the lens plane to the near plane.
+  CHD float near_distance(Vec3f d) const {
+    return near_clip > 0.f ? near_clip / dot(d, forward) : 0.f;
+  }
+  // Moves a camera ray's origin (on the lens plane) to the near plane and ends it at the far plane.
+  CHD void clip(Ray& r) const {
+    const float dz = dot(r.d, forward);
+    if (far_clip < kInf) r.tmax = (far_clip - near_clip) / dz;
+    if (near_clip > 0.f) r.o = r.o + r.d * (near_clip / dz);
   }
 };
 

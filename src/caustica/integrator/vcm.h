@@ -356,11 +356,13 @@ CHD Vec3f camera_eye_point(const Camera& c, Vec3f p, Vec2f u) {
   return camera_lens_point(c, u);
 }
 // Raster position of the camera ray from lens point `pl` towards `p`, and the
-// cosine of that ray with the view axis; false behind the camera.
+// cosine of that ray with the view axis; false behind the camera or outside its
+// clipping planes (the depth along the view axis from the lens plane, as the
+// camera rays' clipping in Camera::clip).
 CHD bool camera_project(const Camera& c, Vec3f pl, Vec3f p, Vec2f& raster, float& cos_theta) {
   Vec3f d = p - pl;
   float dz = dot(d, c.forward);
-  if (!(dz > 0.f)) return false;
+  if (!(dz > 0.f) || dz < c.near_clip || dz > c.far_clip) return false;
   float dx = dot(d, c.right), dy = dot(d, c.up);
   float sx, sy;
   if (c.orthographic) {
@@ -376,6 +378,8 @@ CHD bool camera_project(const Camera& c, Vec3f pl, Vec3f p, Vec2f& raster, float
     sx = dx / dz;
     sy = dy / dz;
   }
+  sx -= c.shift_x;  // a crop window's centre
+  sy -= c.shift_y;
   raster = Vec2f((sx / c.tan_half_x + 1.f) * 0.5f * float(c.width), (1.f - sy / c.tan_half_y) * 0.5f * float(c.height));
   cos_theta = c.orthographic ? 1.f : dz / length(d);
   return std::isfinite(raster.x) && std::isfinite(raster.y);
@@ -817,7 +821,9 @@ CHD void vcm_light_to_camera(const SceneView& s, const VcmParams& p, VcmPathStat
   sp.Q = p.mode == VcmMode::kLight ? 0.f : vcm_lt_vm(p, st.vm_rel) + lm.dVCM + lm.dVC * vcm_mis(p, e.pdf_rev);
   sp.raster = raster;
   sp.length = st.length;
-  sp.ray = spawn_ray_to(vcm_origin_towards(st, w), pl, Vec3f(0.f));
+  // A near clipping plane: what lies between it and the lens does not occlude (camera rays start there).
+  const Vec3f eye = c.near_clip > 0.f ? pl + (st.sh.p - pl) * (c.near_clip / dot(st.sh.p - pl, c.forward)) : pl;
+  sp.ray = spawn_ray_to(vcm_origin_towards(st, w), eye, Vec3f(0.f));
   sp.medium = vcm_medium_towards(s, st, w);
   sp.active = isfinite3(sp.C) && !is_black(sp.C);
 }
@@ -940,7 +946,8 @@ CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, u
   Camera moved;
   const Camera& c = s.camera.moving ? (moved = s.camera.at(st.sampler.next_1d())) : s.camera;
   st.ray = c.generate_ray(Vec2f(float(px) + 0.5f + fs.offset.x, float(py) + 0.5f + fs.offset.y), lens);
-  st.prev_p = st.ray.o;
+  st.seg_t = c.near_distance(st.ray.d);  // a near clipping plane: the first segment starts at the lens
+  st.prev_p = st.ray.o - st.ray.d * st.seg_t;
   st.medium = s.camera_medium;
   // The sample's weight h / p (negative in a filter's negative lobe: Russian roulette compares magnitudes).
   const float pr = fs.pdf;

@@ -416,6 +416,8 @@ struct Writer {
     if (c.aperture_radius != 0.f && !c.orthographic) o.set("aperture_radius", JV::flt(c.aperture_radius));
     if (c.focus_distance != 0.f && !c.orthographic) o.set("focus_distance", JV::flt(c.focus_distance));
     if (c.flip_x) o.set("flip_x", JV::boolean(true));
+    if (c.near_clip != 0.f) o.set("near_clip", JV::flt(c.near_clip));
+    if (c.far_clip < kInf) o.set("far_clip", JV::flt(c.far_clip));
     if (c.moving) {
       JV m = JV::object();
       m.set("position", vec(c.position1)).set("target", vec(c.target1)).set("up", vec(c.up1));
@@ -519,6 +521,12 @@ struct Writer {
     JV film = JV::object();
     film.set("width", JV::integer(d.camera.width)).set("height", JV::integer(d.camera.height));
     film.set("filter", filter_json(d.filter));
+    if (d.camera.crop_width > 0) {
+      JV crop = JV::array();
+      for (int v : {d.camera.crop_x, d.camera.crop_y, d.camera.crop_width, d.camera.crop_height})
+        crop.push(JV::integer(v));
+      film.set("crop", crop);
+    }
     root.set("film", film);
 
     const SceneDesc::IntegratorDefaults& in = d.integrator;

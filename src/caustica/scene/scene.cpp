@@ -1,6 +1,7 @@
 #include "scene.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <functional>
 #include <cmath>
 #include <numeric>
@@ -248,6 +249,25 @@ Camera make_camera(const CameraDesc& c) {
     cam.tan_half_y = t;
     cam.tan_half_x = t * aspect;
   }
+  if (const std::string why = crop_problem(c); !why.empty()) throw InputError(why);
+  if (c.crop_width > 0) {
+    // The crop's part of the image plane: its size and the offset of its centre from the film's.
+    const float W = float(c.width), H = float(c.height);
+    cam.shift_x = cam.tan_half_x * (2.f * (float(c.crop_x) + 0.5f * float(c.crop_width)) / W - 1.f);
+    cam.shift_y = cam.tan_half_y * (1.f - 2.f * (float(c.crop_y) + 0.5f * float(c.crop_height)) / H);
+    cam.tan_half_x *= float(c.crop_width) / W;
+    cam.tan_half_y *= float(c.crop_height) / H;
+    cam.width = c.crop_width;
+    cam.height = c.crop_height;
+  }
+  if (!(c.near_clip >= 0.f) || !(c.far_clip > c.near_clip)) {
+    char msg[160];
+    std::snprintf(msg, sizeof msg, "the camera's clipping planes need 0 <= near_clip < far_clip (got %g and %g)",
+                  double(c.near_clip), double(c.far_clip));
+    throw InputError(msg);
+  }
+  cam.near_clip = c.near_clip;
+  cam.far_clip = c.far_clip;
   cam.aperture_radius = c.orthographic ? 0.f : c.aperture_radius;
   cam.focus_distance = c.focus_distance > 0.f ? c.focus_distance : length(c.target - c.position);
   return cam;
@@ -1203,9 +1223,33 @@ const CpuAccel& Scene::cpu_accel(const std::string& accel) const {
 }
 
 void Scene::set_resolution(int width, int height) {
-  desc_.camera.width = width;
-  desc_.camera.height = height;
-  view_.camera = make_camera(desc_.camera);
+  CameraDesc c = desc_.camera;
+  c.width = width;
+  c.height = height;
+  view_.camera = make_camera(c);  // throws (and changes nothing) if the crop window no longer fits
+  desc_.camera = c;
+}
+
+void Scene::set_crop(int x, int y, int width, int height) {
+  CameraDesc c = desc_.camera;
+  c.crop_x = x;
+  c.crop_y = y;
+  c.crop_width = width;
+  c.crop_height = height;
+  view_.camera = make_camera(c);
+  desc_.camera = c;
+}
+
+std::string crop_problem(const CameraDesc& c) {
+  if (c.crop_width == 0 && c.crop_height == 0 && c.crop_x == 0 && c.crop_y == 0) return "";
+  auto str = [](int v) { return std::to_string(v); };
+  if (c.crop_width <= 0 || c.crop_height <= 0 || c.crop_x < 0 || c.crop_y < 0 ||
+      int64_t(c.crop_x) + c.crop_width > c.width || int64_t(c.crop_y) + c.crop_height > c.height)
+    return "the crop window (x " + str(c.crop_x) + ", y " + str(c.crop_y) + ", width " + str(c.crop_width) +
+           ", height " + str(c.crop_height) + ") does not fit the " + str(c.width) + "x" + str(c.height) +
+           " film (expected x, y >= 0, width, height > 0, x + width <= " + str(c.width) + ", y + height <= " +
+           str(c.height) + ")";
+  return "";
 }
 
 }  // namespace caustica

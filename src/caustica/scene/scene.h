@@ -28,7 +28,9 @@ class Scene {
   // accel().
   const CpuAccel& cpu_accel(const std::string& accel) const;
   // Changes resolution (and the derived camera) without rebuilding geometry.
-  void set_resolution(int width, int height);
+  void set_resolution(int width, int height);  // the film's size (a crop window stays, and must fit)
+  // Renders the pixels [x, x + width) x [y, y + height) of the film (all zero: the whole film).
+  void set_crop(int x, int y, int width, int height);
   void set_filter(const Filter& f) { view_.filter = f; }
 
   std::vector<Vec3f> positions, normals;

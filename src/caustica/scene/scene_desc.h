@@ -92,7 +92,12 @@ struct CameraDesc {
   enum class FovAxis { kSmaller, kX, kY } fov_axis = FovAxis::kSmaller;
   float aperture_radius = 0.f;
   float focus_distance = 0.f;  // 0: distance to target
-  int width = 256, height = 256;
+  int width = 256, height = 256;  // the film (the whole of it, when a crop window renders a part)
+  // Crop window: the pixels [crop_x, crop_x + crop_width) x [crop_y, crop_y + crop_height) of the film are
+  // rendered, into a crop_width x crop_height image (Mitsuba's crop_offset / crop_size). crop_width 0: no crop.
+  int crop_x = 0, crop_y = 0, crop_width = 0, crop_height = 0;
+  // Clipping planes: depths along the view axis from the lens plane (Camera::clip); 0 and infinity: none.
+  float near_clip = 0.f, far_clip = kInf;
   bool flip_x = false;  // mirror the image horizontally (a camera matrix with negative determinant)
   // Motion blur: with `moving`, the fields above are the pose at time 0 and these the pose
   // at time 1 (JSON "motion"); the shutter is open over [shutter_open, shutter_close] within [0, 1].
@@ -101,6 +106,10 @@ struct CameraDesc {
   float shutter_open = 0.f, shutter_close = 1.f;
   int medium = -1;  // the participating medium the camera is in (index into SceneDesc::media, -1: vacuum)
 };
+
+// Why a camera's crop window is invalid (it must lie inside the film), or "" when it is valid or absent
+// (scene.cpp).
+std::string crop_problem(const CameraDesc& c);
 
 struct SceneDesc {
   std::string name;

@@ -392,7 +392,11 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
       std::string pp = P(p, "perspective");
       double yfov = number(c, req(per, "yfov", pp, "the vertical field of view in radians"), P(pp, "yfov"));
       if (!(yfov > 0.0 && yfov < kPi)) c.fail(P(pp, "yfov"), "expected radians in (0, pi)");
-      number(c, req(per, "znear", pp, "the near plane distance"), P(pp, "znear"));
+      if (!(number(c, req(per, "znear", pp, "the near plane distance"), P(pp, "znear")) >= 0.0))
+        c.fail(P(pp, "znear"), "expected a distance >= 0");
+      if (const json* zf = member(per, "zfar"))
+        if (!(number(c, *zf, P(pp, "zfar")) > per["znear"].get<double>()))
+          c.fail(P(pp, "zfar"), "expected a distance beyond znear");
       if (const json* ar = member(per, "aspectRatio"))
         if (!(number(c, *ar, P(pp, "aspectRatio")) > 0.0)) c.fail(P(pp, "aspectRatio"), "expected a positive number");
     } else if (type == "orthographic") {
@@ -401,6 +405,9 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
         number(c, req(o, k, P(p, "orthographic"), "a number"), P(P(p, "orthographic"), k));
       for (const char* k : {"xmag", "ymag"})
         if (!(o[k].get<double>() > 0.0)) c.fail(P(P(p, "orthographic"), k), "expected a positive half-extent");
+      if (!(o["znear"].get<double>() >= 0.0)) c.fail(P(P(p, "orthographic"), "znear"), "expected a distance >= 0");
+      if (!(o["zfar"].get<double>() > o["znear"].get<double>()))
+        c.fail(P(P(p, "orthographic"), "zfar"), "expected a distance beyond znear");
     } else {
       c.fail(P(p, "type"), type.empty() ? "missing (expected \"perspective\" or \"orthographic\")"
                                         : "unknown camera type '" + type + "' (expected perspective or orthographic)");
@@ -1273,6 +1280,12 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
         cd.fov_degrees = float(per["yfov"].get<double>() * 180.0 / kPi);
         if (const json* ar = member(per, "aspectRatio")) cd.width = std::max(1, int(std::lround(512.0 * ar->get<double>())));
       }
+      // The clipping planes, as a viewer draws the camera: depths along the view axis in the camera's frame
+      // (scaled by the node's transform, as everything in it).
+      const json& proj = cam[ortho ? "orthographic" : "perspective"];
+      const float depth_scale = length(fwd);
+      cd.near_clip = float(proj["znear"].get<double>()) * depth_scale;
+      if (const json* zf = member(proj, "zfar")) cd.far_clip = float(zf->get<double>()) * depth_scale;
       cams_.emplace_back(ci, cd);
     }
   }

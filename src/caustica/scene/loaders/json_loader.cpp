@@ -923,7 +923,7 @@ int medium_ref(const Ctx& c, const json& j, const std::string& p) {
 void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDesc& cam) {
   check_keys(c, j, path, {"name", "type", "position", "target", "up", "fov", "view_size", "fov_axis", "width", "height",
                           "aperture_radius", "focus_distance", "flip_x", "motion", "shutter_open", "shutter_close",
-                          "medium"});
+                          "medium", "near_clip", "far_clip"});
   if (j.contains("medium")) cam.medium = medium_ref(c, j["medium"], path + "/medium");
   if (j.contains("name")) cam.name = str(c, j["name"], path + "/name");
   if (j.contains("type")) {
@@ -961,6 +961,12 @@ void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDe
   if (j.contains("focus_distance")) cam.focus_distance = num(c, j["focus_distance"], path + "/focus_distance");
   if (cam.focus_distance < 0.f) c.fail(path + "/focus_distance", "expected a distance >= 0 (0: the distance to the target)");
   if (j.contains("flip_x")) cam.flip_x = boolean(c, j["flip_x"], path + "/flip_x");
+  if (j.contains("near_clip")) cam.near_clip = num(c, j["near_clip"], path + "/near_clip");
+  if (!(cam.near_clip >= 0.f && std::isfinite(cam.near_clip)))
+    c.fail(path + "/near_clip", "expected a depth >= 0 along the view axis");
+  if (j.contains("far_clip")) cam.far_clip = num(c, j["far_clip"], path + "/far_clip");
+  if (!(cam.far_clip > cam.near_clip))
+    c.fail(path + "/far_clip", "expected a depth along the view axis beyond near_clip");
   if (length(cam.target - cam.position) == 0.f) c.fail(path + "/target", "must differ from the position");
   if (length(cross(cam.target - cam.position, cam.up)) == 0.f) c.fail(path + "/up", "must not be parallel to the view direction");
   // Motion blur: "motion" is the pose at time 1 (keys left out keep their time-0 value).
@@ -1205,11 +1211,23 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
   CameraDesc film_cam;
   if (root.contains("film")) {
     const json& f = root["film"];
-    check_keys(c, f, "/film", {"width", "height", "filter"});
+    check_keys(c, f, "/film", {"width", "height", "filter", "crop"});
     if (f.contains("width")) film_cam.width = integer(c, f["width"], "/film/width");
     if (f.contains("height")) film_cam.height = integer(c, f["height"], "/film/height");
     if (film_cam.width <= 0) c.fail("/film/width", "expected a positive integer");
     if (film_cam.height <= 0) c.fail("/film/height", "expected a positive integer");
+    if (f.contains("crop")) {
+      // [x, y, width, height] in pixels of the film, top left (0, 0).
+      const json& cr = f["crop"];
+      if (!cr.is_array() || cr.size() != 4)
+        c.fail("/film/crop", "expected [x, y, width, height]: the part of the film to render, in pixels");
+      film_cam.crop_x = integer(c, cr[0], "/film/crop/0");
+      film_cam.crop_y = integer(c, cr[1], "/film/crop/1");
+      film_cam.crop_width = integer(c, cr[2], "/film/crop/2");
+      film_cam.crop_height = integer(c, cr[3], "/film/crop/3");
+      if (film_cam.crop_width <= 0 || film_cam.crop_height <= 0)
+        c.fail("/film/crop", "the crop window's width and height must be positive");
+    }
     if (f.contains("filter")) {
       if (root.contains("filter")) c.fail("/filter", "give the filter once (here or in /film)");
       d.filter = parse_filter(c, f["filter"], "/film/filter");
@@ -1259,6 +1277,9 @@ SceneDesc load_json_scene_text(const std::string& text, const std::string& sourc
   } else {
     c.fail("/camera", "missing (a scene needs a camera, or named cameras in /cameras)");
   }
+  for (const CameraDesc& cam : d.cameras)
+    if (std::string why = crop_problem(cam); !why.empty()) c.fail("/film/crop", why);
+  if (std::string why = crop_problem(d.camera); !why.empty()) c.fail("/film/crop", why);
 
   std::map<std::string, int> mat_index;
   if (root.contains("materials")) {

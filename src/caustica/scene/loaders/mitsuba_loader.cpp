@@ -1627,8 +1627,8 @@ class Loader {
       fail(n, "unsupported sensor type (supported: perspective, thinlens, orthographic)");
     const bool ortho = type == "orthographic";
     Props p(*this, n);
-    if (ortho) p.declare({"to_world"});
-    else p.declare({"fov", "fov_axis", "focal_length", "to_world"});
+    if (ortho) p.declare({"to_world", "near_clip", "far_clip"});
+    else p.declare({"fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip"});
     if (type == "thinlens") p.declare({"aperture_radius", "focus_distance"});
     CameraDesc cam;
     cam.name = has_attr(n, "id") ? attr(n, "id") : "sensor" + std::to_string(d.cameras.size());
@@ -1637,7 +1637,7 @@ class Loader {
     if (films.size() > 1) fail(films[1], "a sensor takes one film");
     int width = 768, height = 576;
     Filter filter = make_filter(FilterType::kGaussian);
-    if (!films.empty()) parse_film(films[0], width, height, filter);
+    if (!films.empty()) parse_film(films[0], width, height, filter, cam);
     cam.width = width;
     cam.height = height;
     if (d.cameras.empty()) d.filter = filter;
@@ -1702,6 +1702,13 @@ class Loader {
     cam.target = to_vec(V3{o.x + z.x / lz, o.y + z.y / lz, o.z + z.z / lz});
     cam.up = to_vec(scale3(y, 1.0 / ly));
     cam.flip_x = det3(tw) < 0;
+    // Clipping planes, Mitsuba's defaults 0.01 and 10000: depths along the view axis in the sensor's
+    // local frame (the orthographic sensor's rays then run far_clip - near_clip in world units).
+    const float near_clip = p.get_float("near_clip", 0.01f), far_clip = p.get_float("far_clip", 1e4f);
+    if (!(near_clip >= 0.f && std::isfinite(near_clip))) fail(p.get("near_clip"), "expected a depth >= 0");
+    if (!(far_clip > near_clip)) fail(p.get("far_clip") ? p.get("far_clip") : p.get("near_clip"), "expected far_clip beyond near_clip");
+    cam.near_clip = near_clip * float(lz);
+    cam.far_clip = cam.near_clip + (far_clip - near_clip);
     if (type == "thinlens") {
       xml_node an = p.get("aperture_radius");
       if (!an) fail(n, "missing <float name=\"aperture_radius\">");
@@ -1739,12 +1746,12 @@ class Loader {
         fail(n, "a principal point offset is not supported");
     }
     if (p.has("srf")) fail(p.get("srf"), "spectral response functions are not supported");
-    p.finish({"near_clip", "far_clip", "shutter_open", "shutter_close"});
+    p.finish({"shutter_open", "shutter_close"});
     d.cameras.push_back(cam);
     if (d.cameras.size() == 1) d.camera = cam;
   }
 
-  void parse_film(xml_node f, int& width, int& height, Filter& filter) {
+  void parse_film(xml_node f, int& width, int& height, Filter& filter, CameraDesc& cam) {
     check_attrs(f, {"type", "id", "name"});
     std::string type = attr(f, "type");
     if (type != "hdrfilm" && type != "ldrfilm") fail(f, "unsupported film type (supported: hdrfilm, ldrfilm)");
@@ -1757,7 +1764,15 @@ class Loader {
     if (p.has("crop_offset_x") || p.has("crop_offset_y") || p.has("crop_width") || p.has("crop_height")) {
       int cx = p.get_int("crop_offset_x", 0), cy = p.get_int("crop_offset_y", 0);
       int cw = p.get_int("crop_width", width), ch = p.get_int("crop_height", height);
-      if (cx != 0 || cy != 0 || cw != width || ch != height) fail(f, "cropped films are not supported");
+      if (cx != 0 || cy != 0 || cw != width || ch != height) {
+        cam.crop_x = cx;
+        cam.crop_y = cy;
+        cam.crop_width = cw;
+        cam.crop_height = ch;
+        cam.width = width;
+        cam.height = height;
+        if (std::string why = crop_problem(cam); !why.empty()) fail(f, why);
+      }
     }
     std::vector<xml_node> filters = p.take_objects("rfilter");
     if (filters.size() > 1) fail(filters[1], "a film takes one rfilter");
