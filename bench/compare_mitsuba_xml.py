@@ -28,7 +28,8 @@ three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world 
 box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegroup with an icosphere and a cylinder
 instanced three times, a checkerboard texture with a to_uv, a cylinder light), and direct (Mitsuba's `direct`
 integrator) and ptracer (Mitsuba's particle tracer; caustica renders it with its light tracer), and colored (vertex
-colours through Mitsuba's mesh_attribute texture, from PLY files with float colours), and spectral (reflectances,
+colours through Mitsuba's mesh_attribute texture, from PLY files with float colours), and clipped (a crop window of
+the film, near and far clipping planes cutting the floor), and spectral (reflectances,
 a conductor's eta and k, a transmittance and emitters given as wavelength:value spectra, from a .spd file and as
 single values on emitters), and smoothed (a coarse sphere as PLY and OBJ files without normals, which both
 renderers smooth).
@@ -704,6 +705,30 @@ def write_scenes(res):
   <emitter type="constant"><rgb name="radiance" value="0.3, 0.3, 0.35"/></emitter>
 </scene>
 """)
+    # Crop window and clipping planes: the film's middle-right quarter, the floor's near part cut away by the near
+    # plane (the sky below shows through) and its far part by the far plane; spheres between them.
+    c0, c1, cw = res * 5 // 16, res * 3 // 16, res // 2
+    with open(os.path.join(OUT, "clipped.xml"), "w") as f:
+        f.write(f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  <sensor type="perspective"><float name="fov" value="40"/><float name="near_clip" value="4.5"/>
+    <float name="far_clip" value="8"/>
+    <transform name="to_world"><lookat origin="0, 2, 6" target="0, 0.7, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
+      <integer name="crop_offset_x" value="{c0}"/><integer name="crop_offset_y" value="{c1}"/>
+      <integer name="crop_width" value="{cw}"/><integer name="crop_height" value="{cw}"/>
+      <rfilter type="gaussian"/></film></sensor>
+  <shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="checker.exr"/>
+      <string name="filter_type" value="nearest"/></texture></bsdf></shape>
+  <shape type="sphere"><point name="center" x="-0.6" y="0.6" z="0"/><float name="radius" value="0.6"/>
+    <bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.7, 0.3, 0.2"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0.8" y="0.5" z="-0.5"/><float name="radius" value="0.5"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.3, 0.6, 0.8"/></bsdf></shape>
+{top_light}
+  <emitter type="constant"><rgb name="radiance" value="0.3, 0.3, 0.35"/></emitter>
+</scene>
+""")
     return {"cornell": os.path.join(ROOT, "tests", "data", "mitsuba", "cornell.xml"),
             "envmap": os.path.join(OUT, "envmap.xml"), "textured": os.path.join(OUT, "textured.xml"),
             "orthographic": os.path.join(OUT, "orthographic.xml"), "anisotropic": os.path.join(OUT, "anisotropic.xml"),
@@ -718,7 +743,7 @@ def write_scenes(res):
             "tinted": os.path.join(OUT, "tinted.xml"), "instanced": os.path.join(OUT, "instanced.xml"),
             "direct": os.path.join(OUT, "direct.xml"), "ptracer": os.path.join(OUT, "ptracer.xml"),
             "colored": os.path.join(OUT, "colored.xml"), "spectral": os.path.join(OUT, "spectral.xml"),
-            "smoothed": os.path.join(OUT, "smoothed.xml")}
+            "smoothed": os.path.join(OUT, "smoothed.xml"), "clipped": os.path.join(OUT, "clipped.xml")}
 
 
 def render_caustica(path, res, spp, seed, integrator=None):
