@@ -29,7 +29,7 @@ box whose albedo is a gridvolume), and instanced (serialized meshes, a shapegrou
 instanced three times, a checkerboard texture with a to_uv, a cylinder light), and direct (Mitsuba's `direct`
 integrator) and ptracer (Mitsuba's particle tracer; caustica renders it with its light tracer), and colored (vertex
 colours through Mitsuba's mesh_attribute texture, from PLY files with float colours), and clipped (a crop window of
-the film, near and far clipping planes cutting the floor), and spectral (reflectances,
+the film, near and far clipping planes cutting the floor, a principal point offset), and spectral (reflectances,
 a conductor's eta and k, a transmittance and emitters given as wavelength:value spectra, from a .spd file and as
 single values on emitters), and smoothed (a coarse sphere as PLY and OBJ files without normals, which both
 renderers smooth).
@@ -706,13 +706,15 @@ def write_scenes(res):
 </scene>
 """)
     # Crop window and clipping planes: the film's middle-right quarter, the floor's near part cut away by the near
-    # plane (the sky below shows through) and its far part by the far plane; spheres between them.
+    # plane (the sky below shows through) and its far part by the far plane; spheres between them; the principal
+    # point moved right and up.
     c0, c1, cw = res * 5 // 16, res * 3 // 16, res // 2
     with open(os.path.join(OUT, "clipped.xml"), "w") as f:
         f.write(f"""<scene version="3.0.0">
   <integrator type="path"><integer name="max_depth" value="6"/></integrator>
   <sensor type="perspective"><float name="fov" value="40"/><float name="near_clip" value="4.5"/>
-    <float name="far_clip" value="8"/>
+    <float name="far_clip" value="8"/><float name="principal_point_offset_x" value="0.08"/>
+    <float name="principal_point_offset_y" value="-0.06"/>
     <transform name="to_world"><lookat origin="0, 2, 6" target="0, 0.7, 0" up="0, 1, 0"/></transform>
     <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
       <integer name="crop_offset_x" value="{c0}"/><integer name="crop_offset_y" value="{c1}"/>

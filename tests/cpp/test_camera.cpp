@@ -272,3 +272,30 @@ TEST(Camera, ClippingPlanesBoundTheRaysAndTheProjection) {
   d.far_clip = 2.f;
   EXPECT_THROW(make_camera(d), InputError);
 }
+
+// A principal point offset (x, y) shows what the centred camera sees (x W, y H) pixels right and down, with or
+// without a crop window.
+TEST(Camera, PrincipalPointShiftsTheWindow) {
+  for (int kind = 0; kind < 3; ++kind) {
+    SCOPED_TRACE(kind);
+    CameraDesc d = crop_test_desc(kind);
+    Camera centred = make_camera(d);
+    d.principal_point = Vec2f(0.125f, -0.25f);  // 12 pixels right, 16 up
+    Camera shifted = make_camera(d);
+    d.crop_x = 5;
+    d.crop_y = 9;
+    d.crop_width = 30;
+    d.crop_height = 20;
+    Camera both = make_camera(d);
+    PCG32 rng(5, 2);
+    for (int i = 0; i < 100; ++i) {
+      Vec2f f(rng.next_float() * 30.f, rng.next_float() * 20.f), lens(rng.next_float(), rng.next_float());
+      Ray a = shifted.generate_ray(f, lens), b = centred.generate_ray(Vec2f(f.x + 12.f, f.y - 16.f), lens);
+      expect_near(a.o, b.o, 1e-5f);
+      expect_near(a.d, b.d, 1e-5f);
+      Ray c = both.generate_ray(f, lens), e = centred.generate_ray(Vec2f(f.x + 5.f + 12.f, f.y + 9.f - 16.f), lens);
+      expect_near(c.o, e.o, 1e-5f);
+      expect_near(c.d, e.d, 1e-5f);
+    }
+  }
+}

@@ -148,7 +148,7 @@ def test_far_plane_cuts_away_what_is_beyond_it(integrator):
 def test_clip_values_in_the_scene_file(tmp_path):
     import os
     import jsonschema
-    d = cornell(near_clip=0.25, far_clip=20)
+    d = cornell(near_clip=0.25, far_clip=20, principal_point=[0.1, 0])
     d["film"]["crop"] = [3, 4, 50, 40]
     s = caustica.load_scene(d)
     assert s.describe()["clip"] == pytest.approx((0.25, 20.0))
@@ -205,3 +205,35 @@ def test_cuda_crop_and_clip(integrator):
                           **OPTS[integrator])
     assert img.shape == ref.shape == (32, 32, 3)
     assert region_z(img, ref) < 4.5
+
+
+# The principal point offset (a shift lens): the image is the centred camera's, moved by (x W, y H) pixels.
+def test_principal_point_moves_the_image(tmp_path):
+    d = cornell(principal_point=[0.125, -0.25])  # 8 pixels right, 16 up
+    s = caustica.load_scene(d)
+    shifted = caustica.render(s, seed=1, spp=64)
+    big = cornell()
+    big["film"] = {"width": 128, "height": 128, "filter": "gaussian", "crop": [32 + 8, 32 - 16, 64, 64]}
+    big["camera"]["fov"] = 2 * math.degrees(math.atan(2 * math.tan(math.radians(39.3077 / 2))))
+    same = caustica.render(caustica.load_scene(big), seed=2, spp=64)  # that window of a twice-as-wide view
+    assert region_z(shifted, same) < 4.5
+    assert region_z(shifted, caustica.render(cornell(), seed=2, spp=64)) > 8  # and not the centred image
+    p = tmp_path / "c.json"
+    s.write_json(str(p))
+    assert json.loads(p.read_text())["camera"]["principal_point"] == [0.125, -0.25]
+    for bad, msg in ((0.1, "/camera/principal_point"), ([0.1, "a"], "/camera/principal_point/1")):
+        with pytest.raises(caustica.SceneError, match=msg):
+            caustica.load_scene(cornell(principal_point=bad))
+    xml = """<scene version="3.0.0"><sensor type="SENSOR"><float name="principal_point_offset_x" value="0.1"/>
+    <float name="principal_point_offset_y" value="-0.2"/>APERTURE</sensor>
+  <shape type="sphere"><emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter></shape></scene>"""
+    x = tmp_path / "s.xml"
+    x.write_text(xml.replace("SENSOR", "perspective").replace("APERTURE", ""))
+    x_json = tmp_path / "x.json"
+    caustica.load_scene(str(x)).write_json(str(x_json))
+    doc = json.loads(x_json.read_text())
+    cam = doc["camera"] if isinstance(doc["camera"], dict) else doc["cameras"][doc["camera"]]
+    assert cam["principal_point"] == pytest.approx([0.1, -0.2])
+    x.write_text(xml.replace("SENSOR", "thinlens").replace("APERTURE", '<float name="aperture_radius" value="0.1"/>'))
+    with pytest.raises(caustica.SceneError, match="applies to a perspective sensor"):
+        caustica.load_scene(str(x))

@@ -142,7 +142,8 @@ struct Camera {
   float aperture_radius = 0.f;  // (perspective only)
   float focus_distance = 1.f;
   int width = 256, height = 256;
-  // The image plane window's centre (a crop window; 0 for a whole film), in the units of tan_half.
+  // The image plane window's centre (a crop window, a principal point offset; 0 for a whole, centred
+  // film), in the units of tan_half.
   float shift_x = 0.f, shift_y = 0.f;
   // Clipping planes: depths along `forward` from the lens plane (0 and infinity: none).
   float near_clip = 0.f, far_clip = kInf;

@@ -416,6 +416,7 @@ struct Writer {
     if (c.aperture_radius != 0.f && !c.orthographic) o.set("aperture_radius", JV::flt(c.aperture_radius));
     if (c.focus_distance != 0.f && !c.orthographic) o.set("focus_distance", JV::flt(c.focus_distance));
     if (c.flip_x) o.set("flip_x", JV::boolean(true));
+    if (c.principal_point.x != 0.f || c.principal_point.y != 0.f) o.set("principal_point", vec2(c.principal_point));
     if (c.near_clip != 0.f) o.set("near_clip", JV::flt(c.near_clip));
     if (c.far_clip < kInf) o.set("far_clip", JV::flt(c.far_clip));
     if (c.moving) {

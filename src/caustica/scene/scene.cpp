@@ -250,11 +250,14 @@ Camera make_camera(const CameraDesc& c) {
     cam.tan_half_x = t * aspect;
   }
   if (const std::string why = crop_problem(c); !why.empty()) throw InputError(why);
+  // The principal point moves the whole film's window on the image plane (raster +x right, +y down).
+  cam.shift_x = 2.f * c.principal_point.x * cam.tan_half_x;
+  cam.shift_y = -2.f * c.principal_point.y * cam.tan_half_y;
   if (c.crop_width > 0) {
     // The crop's part of the image plane: its size and the offset of its centre from the film's.
     const float W = float(c.width), H = float(c.height);
-    cam.shift_x = cam.tan_half_x * (2.f * (float(c.crop_x) + 0.5f * float(c.crop_width)) / W - 1.f);
-    cam.shift_y = cam.tan_half_y * (1.f - 2.f * (float(c.crop_y) + 0.5f * float(c.crop_height)) / H);
+    cam.shift_x += cam.tan_half_x * (2.f * (float(c.crop_x) + 0.5f * float(c.crop_width)) / W - 1.f);
+    cam.shift_y += cam.tan_half_y * (1.f - 2.f * (float(c.crop_y) + 0.5f * float(c.crop_height)) / H);
     cam.tan_half_x *= float(c.crop_width) / W;
     cam.tan_half_y *= float(c.crop_height) / H;
     cam.width = c.crop_width;

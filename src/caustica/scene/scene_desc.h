@@ -96,6 +96,9 @@ struct CameraDesc {
   // Crop window: the pixels [crop_x, crop_x + crop_width) x [crop_y, crop_y + crop_height) of the film are
   // rendered, into a crop_width x crop_height image (Mitsuba's crop_offset / crop_size). crop_width 0: no crop.
   int crop_x = 0, crop_y = 0, crop_width = 0, crop_height = 0;
+  // Principal point offset (a shift lens; Mitsuba's principal_point_offset_x/y): the image shows what the
+  // unshifted camera sees offset by (x W, y H) pixels, right and down (W x H: the whole film).
+  Vec2f principal_point{0.f, 0.f};
   // Clipping planes: depths along the view axis from the lens plane (Camera::clip); 0 and infinity: none.
   float near_clip = 0.f, far_clip = kInf;
   bool flip_x = false;  // mirror the image horizontally (a camera matrix with negative determinant)

@@ -923,7 +923,7 @@ int medium_ref(const Ctx& c, const json& j, const std::string& p) {
 void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDesc& cam) {
   check_keys(c, j, path, {"name", "type", "position", "target", "up", "fov", "view_size", "fov_axis", "width", "height",
                           "aperture_radius", "focus_distance", "flip_x", "motion", "shutter_open", "shutter_close",
-                          "medium", "near_clip", "far_clip"});
+                          "medium", "near_clip", "far_clip", "principal_point"});
   if (j.contains("medium")) cam.medium = medium_ref(c, j["medium"], path + "/medium");
   if (j.contains("name")) cam.name = str(c, j["name"], path + "/name");
   if (j.contains("type")) {
@@ -961,6 +961,14 @@ void parse_camera(const Ctx& c, const json& j, const std::string& path, CameraDe
   if (j.contains("focus_distance")) cam.focus_distance = num(c, j["focus_distance"], path + "/focus_distance");
   if (cam.focus_distance < 0.f) c.fail(path + "/focus_distance", "expected a distance >= 0 (0: the distance to the target)");
   if (j.contains("flip_x")) cam.flip_x = boolean(c, j["flip_x"], path + "/flip_x");
+  if (j.contains("principal_point")) {
+    const json& pp = j["principal_point"];
+    if (!pp.is_array() || pp.size() != 2)
+      c.fail(path + "/principal_point", "expected [x, y]: the offset as fractions of the film's width and height");
+    cam.principal_point = Vec2f(num(c, pp[0], path + "/principal_point/0"), num(c, pp[1], path + "/principal_point/1"));
+    if (!std::isfinite(cam.principal_point.x) || !std::isfinite(cam.principal_point.y))
+      c.fail(path + "/principal_point", "expected finite offsets");
+  }
   if (j.contains("near_clip")) cam.near_clip = num(c, j["near_clip"], path + "/near_clip");
   if (!(cam.near_clip >= 0.f && std::isfinite(cam.near_clip)))
     c.fail(path + "/near_clip", "expected a depth >= 0 along the view axis");

@@ -1742,8 +1742,14 @@ class Loader {
     if (media.size() > 1) fail(media[1], "a sensor takes one medium");
     if (!media.empty()) cam.medium = parse_medium(media[0]);
     if (p.has("principal_point_offset_x") || p.has("principal_point_offset_y")) {
-      if (p.get_float("principal_point_offset_x", 0.f) != 0.f || p.get_float("principal_point_offset_y", 0.f) != 0.f)
-        fail(n, "a principal point offset is not supported");
+      // Mitsuba's perspective sensor: fractions of the film's width and height (its other sensors have none).
+      const float px = p.get_float("principal_point_offset_x", 0.f), py = p.get_float("principal_point_offset_y", 0.f);
+      if (type == "perspective") {
+        if (!std::isfinite(px) || !std::isfinite(py)) fail(n, "expected finite principal point offsets");
+        cam.principal_point = Vec2f(px, py);
+      } else if (px != 0.f || py != 0.f) {
+        fail(n, "a principal point offset applies to a perspective sensor (as in Mitsuba)");
+      }
     }
     if (p.has("srf")) fail(p.get("srf"), "spectral response functions are not supported");
     p.finish({"shutter_open", "shutter_close"});
