@@ -65,7 +65,8 @@ def main():
     scene = {
         "name": "fuzz",
         "camera": {"position": [0, 1, 5], "target": [0, 1, 0], "up": [0, 1, 0], "fov": 40, "width": 16, "height": 12,
-                   "medium": "fog"},
+                   "medium": "fog", "near_clip": 0.5, "far_clip": 50, "principal_point": [0.05, -0.1]},
+        "film": {"width": 16, "height": 12, "crop": [2, 1, 10, 8]},
         "media": {"fog": {"sigma_a": 0.01, "sigma_s": 0.05, "g": 0.3},
                   "milk": {"sigma_t": [1, 2, 3], "albedo": 0.9, "scale": 2},
                   "smoke": {"type": "heterogeneous", "sigma_t": 2, "albedo": 0.9, "g": 0.2,
@@ -169,7 +170,7 @@ def main():
             "textures": [{"source": 0, "sampler": 0}],
             "samplers": [{"magFilter": 9728, "wrapS": 33071, "wrapT": 10497}],
             "images": [image],
-            "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "aspectRatio": 1.5, "znear": 0.1}}],
+            "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "aspectRatio": 1.5, "znear": 0.1, "zfar": 100}}],
             "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 20, "color": [1, 1, 1]}]}},
             "buffers": [dict({"byteLength": len(buffer_uri[1])}, **({"uri": buffer_uri[0]} if buffer_uri[0] else {}))],
             "bufferViews": [
@@ -214,10 +215,12 @@ def main():
       <string name="filter_type" value="nearest"/></volume></medium>
   <sensor type="perspective">
     <ref id="fog"/>
-    <float name="fov" value="40"/>
+    <float name="fov" value="40"/><float name="near_clip" value="0.5"/><float name="far_clip" value="50"/>
+    <float name="principal_point_offset_x" value="0.05"/>
     <transform name="to_world"><lookat origin="0, 1, 5" target="0, 1, 0" up="0, 1, 0"/></transform>
     <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
     <film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" value="$res"/>
+      <integer name="crop_offset_x" value="1"/><integer name="crop_width" value="4"/>
       <rfilter type="lanczos"><integer name="lobes" value="2"/></rfilter></film>
   </sensor>
   <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.8, 0.8"/></bsdf></bsdf>
