@@ -346,7 +346,15 @@ float light_power(const SceneView& s, const Light& l) {
       return kPi * 4.f * kPi * r * r * lum * (l.two_sided ? 2.f : 1.f);
     }
     case LightType::kPoint: return 4.f * kPi * lum;
-    case LightType::kSpot: return 2.f * kPi * lum * (1.f - 0.5f * (l.cos_falloff_start + l.cos_total));
+    case LightType::kSpot: {
+      // 2 pi lum times the integral of spot_falloff over cos(theta): the inner cone's 1 - cos(start), plus the
+      // band's. Smoothstep in cos: half the band, (cos start - cos total) / 2. Linear in the angle from a = start
+      // to b = total: the integral of (b - theta) / (b - a) sin(theta) over [a, b], cos a - (sin b - sin a) / (b - a).
+      if (!l.spot_linear_angle || !(l.cos_falloff_start > l.cos_total))
+        return 2.f * kPi * lum * (1.f - 0.5f * (l.cos_falloff_start + l.cos_total));
+      const double a = std::acos(double(l.cos_falloff_start)), b = std::acos(double(l.cos_total));
+      return float(2.0 * kPi * lum * (1.0 - (std::sin(b) - std::sin(a)) / (b - a)));
+    }
     case LightType::kDirectional: return kPi * R * R * lum;
     case LightType::kEnvironment: return 4.f * kPi * kPi * R * R * lum;
   }
