@@ -237,3 +237,11 @@ def test_principal_point_moves_the_image(tmp_path):
     x.write_text(xml.replace("SENSOR", "thinlens").replace("APERTURE", '<float name="aperture_radius" value="0.1"/>'))
     with pytest.raises(caustica.SceneError, match="applies to a perspective sensor"):
         caustica.load_scene(str(x))
+
+
+def test_photon_radius_counts_from_the_lens():
+    # The automatic gather radius (a pixel's footprint at the median hit) is measured from the lens, so a near
+    # plane in front of everything leaves it unchanged.
+    def radius(d):
+        return caustica.render_job(d, "sppm", 1, None, 0, 0, None, None, None, "auto", None).stats["radius"]
+    assert radius(cornell(near_clip=2.5)) == pytest.approx(radius(cornell()), rel=1e-5)

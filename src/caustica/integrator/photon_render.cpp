@@ -31,7 +31,9 @@ float automatic_radius(const Scene& scene) {
       Ray r = v.camera.generate_ray(Vec2f(x + 0.5f, y + 0.5f), Vec2f(0.5f, 0.5f));
       Hit h;
       // A pixel's footprint at the hit: distance x pixel angle, or the pixel's own size (orthographic).
-      if (scene.accel().intersect(r, h)) fp.push_back(v.camera.orthographic ? pixel_angle : h.t * pixel_angle);
+      // (The distance from the lens: a near clipping plane moves the ray's origin.)
+      if (scene.accel().intersect(r, h))
+        fp.push_back(v.camera.orthographic ? pixel_angle : (h.t + v.camera.near_distance(r.d)) * pixel_angle);
     }
   if (fp.empty()) return 1e-3f * v.bsphere_radius;
   std::nth_element(fp.begin(), fp.begin() + fp.size() / 2, fp.end());
@@ -70,7 +72,11 @@ int32_t outer_medium(const Scene& scene, const CpuAccel& accel, const std::strin
   // Paths from lights start in the medium that encloses the light (locate_medium). Where the camera's forward
   // ray meets no boundary, the camera is in the region outside every boundary, whose medium is then the
   // camera's; where it meets one, the camera's medium must be the side it is on.
-  Ray forward = v.camera.generate_ray(Vec2f(0.5f * v.camera.width, 0.5f * v.camera.height), Vec2f(0.5f, 0.5f));
+  // (From the lens itself: without the clipping planes.)
+  Camera unclipped = v.camera;
+  unclipped.near_clip = 0.f;
+  unclipped.far_clip = kInf;
+  Ray forward = unclipped.generate_ray(Vec2f(0.5f * v.camera.width, 0.5f * v.camera.height), Vec2f(0.5f, 0.5f));
   const int32_t found = locate_medium(v, [&](const Ray& r, Hit& h) { accel.intersect(r, h); }, forward, -2);
   if (found == -2) return v.camera_medium;
   if (found != v.camera_medium)
