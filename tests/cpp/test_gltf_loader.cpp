@@ -297,7 +297,7 @@ TEST(GltfLoader, PunctualLights) {
 TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
   Builder b;
   b.j["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                           "KHR_materials_emissive_strength", "KHR_materials_clearcoat", "EXT_made_up"};
+                           "KHR_materials_emissive_strength", "KHR_materials_sheen", "EXT_made_up"};
   b.push("materials", {{"name", "glass"},
                        {"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 0.8, 0.7, 1}}, {"metallicFactor", 0.0},
                                                  {"roughnessFactor", 0.1}}},
@@ -328,9 +328,56 @@ TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
   expect_near(d.shapes[0].emission, RGB(0.f));
   expect_near(d.shapes[1].emission, RGB(5.f));  // emissiveFactor * emissiveStrength
   EXPECT_TRUE(d.shapes[1].emission_two_sided);
-  EXPECT_TRUE(has_warning(d, "extension KHR_materials_clearcoat is not supported; its properties are ignored"));
+  EXPECT_TRUE(has_warning(d, "extension KHR_materials_sheen is not supported; its properties are ignored"));
   EXPECT_TRUE(has_warning(d, "unknown extension EXT_made_up ignored"));
   EXPECT_FALSE(has_warning(d, "no lights"));  // the emissive quad is an area light
+}
+
+TEST(GltfLoader, Clearcoat) {
+  // KHR_materials_clearcoat: the factor and the roughness (alpha = roughness^2), their textures (linear), the
+  // coat normal warned about; no coat without the extension or with factor 0 (its textures unused then).
+  Builder b;
+  b.j["extensionsUsed"] = {"KHR_materials_clearcoat"};
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {200, 100, 50}))}});
+  b.push("textures", {{"source", 0}});
+  b.push("materials", {{"name", "paint"},
+                       {"extensions",
+                        {{"KHR_materials_clearcoat",
+                          {{"clearcoatFactor", 0.8}, {"clearcoatRoughnessFactor", 0.3}, {"clearcoatTexture", {{"index", 0}}},
+                           {"clearcoatRoughnessTexture", {{"index", 0}}}, {"clearcoatNormalTexture", {{"index", 0}}}}}}}});
+  b.push("materials", {{"name", "plain"}});
+  b.push("materials", {{"name", "off"},
+                       {"extensions", {{"KHR_materials_clearcoat", {{"clearcoatTexture", {{"index", 0}}}}}}}});
+  int q0 = b.quad(0), q1 = b.quad(1), q2 = b.quad(2);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}}), b.push("nodes", {{"mesh", q2}})});
+  SceneDesc d = load_gltf_scene(b.write("clearcoat"));
+  ASSERT_EQ(d.materials.size(), 3u);
+  const Material& m = d.materials[0];
+  EXPECT_FLOAT_EQ(m.clearcoat, 0.8f);
+  EXPECT_NEAR(m.clearcoat_alpha, 0.09f, 1e-7f);
+  ASSERT_GE(m.tex_clearcoat, 0);
+  EXPECT_EQ(m.tex_clearcoat_roughness, m.tex_clearcoat);  // one image, both linear: decoded once
+  EXPECT_FALSE(d.textures[size_t(m.tex_clearcoat)].srgb);
+  EXPECT_NEAR(d.textures[size_t(m.tex_clearcoat)].rgba[0], 200.f / 255.f, 1e-6f);
+  EXPECT_TRUE(has_warning(d, "KHR_materials_clearcoat's clearcoatNormalTexture is not supported; the coat uses the "
+                             "base's shading normal"));
+  EXPECT_EQ(d.materials[1].clearcoat, 0.f);
+  EXPECT_EQ(d.materials[1].tex_clearcoat, -1);
+  EXPECT_EQ(d.materials[2].clearcoat, 0.f);  // clearcoatFactor defaults to 0: the texture scales nothing
+  EXPECT_EQ(d.materials[2].tex_clearcoat, -1);
+  // Bad values name the JSON path.
+  Builder e;
+  e.push("materials", {{"extensions", {{"KHR_materials_clearcoat", {{"clearcoatRoughnessFactor", 1.5}}}}}});
+  e.scene({e.push("nodes", {{"mesh", e.quad(0)}})});
+  std::string p = e.write("badcoat");
+  EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_clearcoat/clearcoatRoughnessFactor: expected a "
+                             "number in [0, 1]");
+  Builder f;
+  f.push("materials", {{"extensions", {{"KHR_materials_clearcoat", {{"clearcoatTexture", {{"index", 3}}}}}}}});
+  f.scene({f.push("nodes", {{"mesh", f.quad(0)}})});
+  p = f.write("badcoattex");
+  EXPECT_NE(error_of(p).find("/materials/0/extensions/KHR_materials_clearcoat/clearcoatTexture/index"), std::string::npos)
+      << error_of(p);
 }
 
 TEST(GltfLoader, TexturesSamplersAndTransforms) {
@@ -527,7 +574,7 @@ TEST(GltfLoader, MalformedInputMessages) {
   p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_draco_mesh_compression"]})");
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_draco_mesh_compression' is required but not supported "
                              "(supported: EXT_mesh_gpu_instancing, KHR_lights_punctual, KHR_materials_anisotropy, "
-                             "KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_pbrSpecularGlossiness, "
+                             "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_pbrSpecularGlossiness, "
                              "KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
                              "KHR_texture_transform)");
   // A missing buffer file names both files.

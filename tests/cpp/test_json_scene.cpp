@@ -69,6 +69,10 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_TRUE(same(a.normal_scale, b.normal_scale)) << w << ".normal_scale";
   EXPECT_EQ(a.tex_bump, b.tex_bump) << w;
   EXPECT_EQ(a.tex_aniso, b.tex_aniso) << w;
+  EXPECT_TRUE(same(a.clearcoat, b.clearcoat)) << w << ".clearcoat";
+  EXPECT_TRUE(same(a.clearcoat_alpha, b.clearcoat_alpha)) << w << ".clearcoat_alpha";
+  EXPECT_EQ(a.tex_clearcoat, b.tex_clearcoat) << w;
+  EXPECT_EQ(a.tex_clearcoat_roughness, b.tex_clearcoat_roughness) << w;
   EXPECT_TRUE(same(a.bump_scale, b.bump_scale)) << w << ".bump_scale";
   expect_same(a.absorption, b.absorption, w + ".absorption");
 }
@@ -345,6 +349,16 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   pbr_odd.tex_roughness = 1;
   pbr_odd.tex_color = 0;
   d.add_material("pbr odd alpha", pbr_odd);
+  Material paint = make_metallic_roughness(RGB(0.6f, 0.05f, 0.05f), 0.4f, 0.5f);
+  paint.clearcoat = 0.9f;
+  paint.clearcoat_alpha = 0.3f * 0.3f;
+  paint.tex_clearcoat_roughness = 1;
+  d.add_material("clear coated", paint);
+  Material paint_tex = paint;
+  paint_tex.clearcoat_alpha = 0.f;
+  paint_tex.tex_clearcoat = 1;
+  paint_tex.tex_clearcoat_roughness = -1;
+  d.add_material("clear coat texture", paint_tex);
   Material vc = make_diffuse(RGB(0.7f));
   vc.flags |= kVertexColor;
   d.add_material("vertex coloured", vc);
@@ -604,6 +618,12 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /shapes/0/uvs: expected one [u,v] per position"},
       {scene_with(R"("materials": {"m": {"type": "diffuse", "normal_map": "a.png", "bump_map": "b.png"}})"),
        "s.json: /materials/m/bump_map: give normal_map or bump_map, not both"},
+      {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "clearcoat": 1.2}})"),
+       "s.json: /materials/m/clearcoat: expected a number in [0, 1]"},
+      {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "clearcoat_roughness": {"texture": "a.png", "scale": -1}}})"),
+       "s.json: /materials/m/clearcoat_roughness/scale: expected a number in [0, 1]"},
+      {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "clearcoat": {"scale": 1}}})"),
+       "s.json: /materials/m/clearcoat: expected a number in [0, 1] or a texture ({\"texture\": file, \"scale\": s})"},
       {scene_with(R"("materials": {"m": {"type": "conductor", "roughness": 0.2, "anisotropy_texture": "a.png"}})"),
        "s.json: /materials/m/anisotropy_texture: needs anisotropic roughness ([alpha_x, alpha_y] with alpha_x != alpha_y)"},
       {scene_with("", R"({"type": "mesh", "positions": [[0,0,0],[1,0,0],[0,1,0]], "indices": [0,1,2], "tangents": [[1,0,0,1]]})"),

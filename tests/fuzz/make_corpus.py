@@ -87,6 +87,8 @@ def main():
             "bound": {"type": "null"},
             "disney": {"type": "principled", "base_color": [0.8, 0.3, 0.2], "metallic": 0.2, "roughness": 0.4,
                        "anisotropic": 0.3, "spec_trans": 0.1, "sheen": 0.5, "clearcoat": 0.6},
+            "paint": {"type": "metallic_roughness", "base_color": [0.6, 0.1, 0.1], "roughness": 0.5,
+                      "clearcoat": 0.9, "clearcoat_roughness": 0.1},
         },
         "shapes": [
             {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
@@ -95,6 +97,7 @@ def main():
             {"type": "cube", "material": "gold", "transform": {"scale": 0.3, "translate": [1.5, 0.3, 0]}},
             {"type": "sphere", "center": [-1.5, 0.3, 0], "radius": 0.3, "material": "disney"},
             {"type": "mesh", "material": "plastic", "positions": [[-2, 0, 0], [-1, 0, 0], [-1, 1, 0]], "indices": [0, 1, 2]},
+            {"type": "sphere", "center": [2.5, 0.3, 0], "radius": 0.3, "material": "paint"},
             {"type": "disk", "material": "white", "emission": [10, 10, 10],
              "transform": {"scale": 0.5, "rotate": {"axis": [1, 0, 0], "angle": 90}, "translate": [0, 4, 0]}},
         ],
@@ -148,7 +151,7 @@ def main():
         off_uv, off_idx, off_tri = len(pos), len(pos) + len(uv), len(pos) + len(uv) + len(idx) + 2
         return {
             "asset": {"version": "2.0"},
-            "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
+            "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat"],
             "scene": 0,
             "scenes": [{"nodes": [0, 3, 4]}],
             "nodes": [
@@ -164,7 +167,9 @@ def main():
             ],
             "materials": [
                 {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.2, "roughnessFactor": 0.5},
-                 "doubleSided": True},
+                 "doubleSided": True,
+                 "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
+                                                            "clearcoatTexture": {"index": 0}}}},
                 {"emissiveFactor": [1, 0.8, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}},
             ],
             "textures": [{"source": 0, "sampler": 0}],

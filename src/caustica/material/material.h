@@ -3,6 +3,7 @@
 // All BSDF routines work in the local shading frame, normal = +z, and take
 // wo (towards the viewer or the previous vertex) and wi (towards the light).
 #pragma once
+#include <array>
 #include <cstdint>
 #include "../base/math.h"
 
@@ -70,8 +71,11 @@ struct Material {
   float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed); rough plastic: its coat's (prepare_rough_plastic)
   float metallic = 0.f;     // metallic-roughness: metal weight
   float transmission_weight = 0.f;  // metallic-roughness: KHR_materials_transmission; principled: spec_trans
-  // Principled (material/principled.h): the Disney BSDF's other weights, each in [0, 1].
+  // Principled (material/principled.h): the Disney BSDF's other weights, each in [0, 1]. `clearcoat` is also
+  // metallic-roughness's coat weight (KHR_materials_clearcoat's clearcoatFactor), whose GGX alpha is
+  // clearcoat_alpha (clearcoatRoughness^2; material/metallic_roughness.h).
   float spec_tint = 0.f, sheen = 0.f, sheen_tint = 0.f, flatness = 0.f, clearcoat = 0.f, clearcoat_gloss = 0.f;
+  float clearcoat_alpha = 0.f;
   // Textures (indices into SceneView::textures, -1 = none), applied at the hit:
   //   tex_color multiplies the main colour (diffuse/base colour; a tinted
   //     mirror's or conductor's `specular`; a dielectric's `transmission`);
@@ -83,7 +87,10 @@ struct Material {
   //     there is no normal map (scene/shading.h, apply_bump_map).
   //   tex_aniso: KHR_materials_anisotropy's anisotropyTexture: RG (2 rg - 1) a direction in the tangent
   //     frame that turns the anisotropy direction further, B scales the anisotropy strength.
+  //   tex_clearcoat: metallic-roughness's coat weight times R (KHR_materials_clearcoat's clearcoatTexture);
+  //   tex_clearcoat_roughness: the coat's roughness times G (alpha = (G sqrt(alpha))^2; clearcoatRoughnessTexture).
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
+  int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
   // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
   // applied to path segments that end on the back side of this material
@@ -110,6 +117,13 @@ struct Material {
   uint16_t coat_t[kRoughPlasticTable] = {};
 };
 
+// Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
+// writers' lists of used images).
+inline std::array<int32_t, 9> material_textures(const Material& m) {
+  return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
+          m.tex_clearcoat_roughness, m.tex_opacity, m.tex_mix};
+}
+
 // How many blends inside blends resolve_material resolves (the loaders refuse cycles).
 constexpr uint32_t kMaxMixDepth = 8;
 
@@ -124,7 +138,7 @@ CHD bool material_is_delta(const Material& m) {
   return m.type == MaterialType::kConductor || m.type == MaterialType::kDielectric ||
          m.type == MaterialType::kThinDielectric ||
          (m.type == MaterialType::kMetallicRoughness && m.alpha_x < 1e-3f && m.alpha_y < 1e-3f &&
-          (m.metallic >= 1.f || m.transmission_weight >= 1.f));
+          (m.metallic >= 1.f || m.transmission_weight >= 1.f) && (!(m.clearcoat > 0.f) || m.clearcoat_alpha < 1e-3f));
 }
 
 struct BSDFSample {

@@ -28,6 +28,16 @@
 // the dielectric, specular with probability Fo / (Fo + (1-Fo) lum(base)));
 // continuous samples are weighted by the full mixture f / pdf, delta samples
 // by their own lobe.
+//
+// KHR_materials_clearcoat (m.clearcoat = clearcoatFactor c, m.clearcoat_alpha = clearcoatRoughness^2): a GGX
+// coat of IOR 1.5 over all of the above. The extension's fresnel_coat mixes base and coat by c Fc(n.v), the coat
+// being the specular BRDF D V; here the coat lobe is c Fc(|wo.h|) D G / (4 cos_o cos_i) (the exact dielectric
+// Fresnel at the microfacet, as the dielectric's specular lobe above), and, as for the dielectric's base, the
+// base is attenuated on both sides, (1 - c Fc(cos_o)) (1 - c Fc(cos_i)), a direction below the surface (glass
+// seen from inside) passing no coat: reciprocal, and the albedo stays <= 1 (the coat reflects at most
+// c Fc(cos_o) of the light, the base gets the rest). The coat shares the shading normal (a
+// clearcoatNormalTexture is not used). Sampling picks the coat with probability c Fc(cos_o), its reflectance,
+// and the base mixture otherwise; a coat with alpha below kSmoothAlpha is a mirror (a delta lobe).
 #pragma once
 #include "dielectric.h"
 #include "microfacet.h"
@@ -53,7 +63,6 @@ CHD MRWeights mr_weights(const Material& m) {
   return {metal, (1.f - metal) * tw, (1.f - metal) * (1.f - tw)};
 }
 CHD bool mr_smooth(const Material& m) { return m.alpha_x < kSmoothAlpha && m.alpha_y < kSmoothAlpha; }
-CHD bool mr_is_delta(const Material& m) { return mr_smooth(m) && mr_weights(m).dielectric == 0.f; }
 CHD Material mr_glass(const Material& m) {
   Material g = m;
   g.type = mr_smooth(m) ? MaterialType::kDielectric : MaterialType::kRoughDielectric;
@@ -66,8 +75,9 @@ CHD float mr_specular_prob(const Material& m, float Fo) {
   return ws + wd > 0.f ? ws / (ws + wd) : 1.f;
 }
 
-// Continuous parts of f (delta lobes evaluate to zero), without the cosine.
-CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
+// The base mixture (metal, glass, dielectric) without the coat. Continuous parts of f (delta lobes evaluate to
+// zero), without the cosine.
+CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
   MRWeights w = mr_weights(m);
   RGB f(0.f);
   if (w.glass > 0.f && !mr_smooth(m)) f += rough_dielectric_eval(mr_glass(m), wo, wi, mode) * w.glass;
@@ -88,8 +98,8 @@ CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, Transport
   return f;
 }
 
-// Density of the continuous parts of the sampling mixture.
-CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
+// Density of the continuous parts of the base's sampling mixture.
+CHD float mr_base_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   MRWeights w = mr_weights(m);
   float pdf = 0.f;
   // Seen from behind only the glass is sampled (selection probability 1).
@@ -107,8 +117,9 @@ CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   return pdf;
 }
 
-CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode,
-                                   BSDFSample& s) {
+// Samples the base mixture: a delta lobe's sample complete (its own weight and discrete probability), a
+// continuous one only its direction (s.wi, s.eta; s.delta false), weighted by the caller.
+CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode, BSDFSample& s) {
   MRWeights w = mr_weights(m);
   bool smooth = mr_smooth(m);
   s.eta = 1.f;
@@ -152,6 +163,70 @@ CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f 
     }
     if (s.wi.z <= 0.f) return false;
     s.eta = 1.f;
+  }
+  s.delta = false;
+  return true;
+}
+
+// The clear coat (KHR_materials_clearcoat; see the top of this file).
+constexpr float kCoatEta = 1.5f;
+CHD bool mr_coat_smooth(const Material& m) { return m.clearcoat_alpha < kSmoothAlpha; }
+// The share of the light the coat lets through towards w: 1 - c Fc(cos), and 1 below the surface.
+CHD float mr_coat_through(const Material& m, Vec3f w) {
+  return w.z > 0.f ? 1.f - m.clearcoat * fresnel_dielectric(w.z, kCoatEta) : 1.f;
+}
+// The coat's reflectance seen from wo, c Fc(cos_o): its lobe's selection probability.
+CHD float mr_coat_prob(const Material& m, Vec3f wo) {
+  return wo.z > 0.f && m.clearcoat > 0.f ? m.clearcoat * fresnel_dielectric(wo.z, kCoatEta) : 0.f;
+}
+CHD Microfacet mr_coat_microfacet(const Material& m) { return Microfacet{m.clearcoat_alpha, m.clearcoat_alpha, false}; }
+
+// Continuous parts of f (delta lobes evaluate to zero), without the cosine.
+CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
+  RGB f = mr_base_eval(m, wo, wi, mode);
+  if (!(m.clearcoat > 0.f)) return f;
+  f = f * (mr_coat_through(m, wo) * mr_coat_through(m, wi));
+  if (wo.z <= 0.f || wi.z <= 0.f || mr_coat_smooth(m)) return f;
+  Vec3f wm = normalize(wo + wi);
+  Microfacet g = mr_coat_microfacet(m);
+  return f + RGB(m.clearcoat * fresnel_dielectric(absdot(wo, wm), kCoatEta) * g.D(wm) * g.G(wo, wi) /
+                 (4.f * wo.z * wi.z));
+}
+
+// Density of the continuous parts of the sampling mixture.
+CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
+  float pdf = mr_base_pdf(m, wo, wi);
+  float pc = mr_coat_prob(m, wo);
+  if (!(pc > 0.f)) return pdf;
+  pdf *= 1.f - pc;
+  if (wi.z <= 0.f || mr_coat_smooth(m)) return pdf;
+  Vec3f wm = normalize(wo + wi);
+  return pdf + pc * mr_coat_microfacet(m).pdf_wm(wo, wm) / (4.f * absdot(wo, wm));
+}
+
+CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode,
+                                   BSDFSample& s) {
+  const float pc = mr_coat_prob(m, wo);
+  if (uc < pc) {  // the coat
+    s.eta = 1.f;
+    if (mr_coat_smooth(m)) {
+      s.wi = Vec3f(-wo.x, -wo.y, wo.z);
+      s.delta = true;
+      s.pdf = pc;
+      s.weight = RGB(1.f);  // the mirror's mass c Fc(cos_o) over its probability
+      return true;
+    }
+    s.wi = reflect(wo, mr_coat_microfacet(m).sample_wm(wo, u));
+    if (s.wi.z <= 0.f) return false;
+  } else {
+    if (!mr_base_sample(m, wo, pc > 0.f ? minf((uc - pc) / (1.f - pc), 0.99999994f) : uc, u, mode, s)) return false;
+    if (s.delta) {
+      if (m.clearcoat > 0.f) {
+        s.pdf *= 1.f - pc;
+        s.weight = s.weight * (mr_coat_through(m, wo) * mr_coat_through(m, s.wi) / (1.f - pc));
+      }
+      return true;
+    }
   }
   s.delta = false;
   s.pdf = metallic_roughness_pdf(m, wo, s.wi);

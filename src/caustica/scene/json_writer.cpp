@@ -350,6 +350,13 @@ struct Writer {
         o.set("transmission", JV::flt(m.transmission_weight)).set("eta", JV::flt(m.eta));
         if (m.flags & kPlasticBase) o.set("diffuse_base", JV::str("plastic"));
         if (!is_black(m.absorption)) o.set("absorption", col(m.absorption));
+        if (m.clearcoat > 0.f || m.tex_clearcoat >= 0) {
+          float rough = std::sqrt(m.clearcoat_alpha);
+          roughness_for_alpha(m.clearcoat_alpha, rough);  // the roughness whose square is alpha, where one is
+          JV w = JV::flt(m.clearcoat), r = JV::flt(rough);
+          o.set("clearcoat", m.tex_clearcoat >= 0 ? texture(m.tex_clearcoat, false, &w) : w);
+          o.set("clearcoat_roughness", m.tex_clearcoat_roughness >= 0 ? texture(m.tex_clearcoat_roughness, false, &r) : r);
+        }
         break;
       }
       case MaterialType::kPrincipled: {
@@ -705,12 +712,9 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
     if (t >= 0 && size_t(t) < used.size()) used[t] = true;
   };
   for (const Material& m : desc.materials) {
-    mark(m.tex_color);
-    mark(m.tex_roughness);
-    mark(m.tex_normal);
-    mark(m.tex_bump);
-    mark(m.tex_aniso);
-    mark(m.tex_mix);
+    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
+                  m.tex_clearcoat_roughness, m.tex_mix})  // material_textures but the opacity, marked below
+      mark(t);
     if (m.tex_opacity >= 0 && size_t(m.tex_opacity) < used.size()) {
       if (m.flags & kOpacityLuminance) used[m.tex_opacity] = true;
       else used_alpha[m.tex_opacity] = true;

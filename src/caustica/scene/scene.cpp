@@ -714,7 +714,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     if (m.type == MaterialType::kRoughPlastic) prepare_rough_plastic(m);  // its coat tables
 
   for (Material& m : s.materials) {
-    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity, m.tex_mix})
+    for (int t : material_textures(m))
       if (t >= int(desc.textures.size())) throw InputError("scene '" + desc.name + "': texture index out of range");
     if (!(m.opacity >= 0.f && m.opacity <= 1.f) || !(m.opacity_cutoff <= 1.f))
       throw InputError("scene '" + desc.name + "': a material's opacity must be in [0, 1] and its cutoff at most 1");

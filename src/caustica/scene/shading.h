@@ -204,6 +204,12 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
       m.alpha_x = m.alpha_y = maxf(r.r, 1e-4f);
     }
   }
+  if (m.tex_clearcoat >= 0) m.clearcoat *= clampf(texture_lookup(s.textures[m.tex_clearcoat], sh.uv).r, 0.f, 1.f);
+  if (m.tex_clearcoat_roughness >= 0) {
+    float rough = std::sqrt(maxf(m.clearcoat_alpha, 0.f)) *
+                  clampf(texture_lookup(s.textures[m.tex_clearcoat_roughness], sh.uv).g, 0.f, 1.f);
+    m.clearcoat_alpha = rough * rough;
+  }
   if (m.tex_aniso >= 0 && m.alpha_x != m.alpha_y) {
     // KHR_materials_anisotropy's texture: the strength s (alpha_x = mix(alpha_y, 1, s^2)) times B, the
     // direction turned by the angle of (2R - 1, 2G - 1) from the tangent towards the bitangent.

@@ -39,7 +39,7 @@ constexpr int kByte = 5120, kUByte = 5121, kShort = 5122, kUShort = 5123, kUInt 
 const std::set<std::string>& supported_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
-      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_lights_punctual",
+      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness"};
   return s;
@@ -47,7 +47,7 @@ const std::set<std::string>& supported_extensions() {
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
-      "KHR_materials_specular", "KHR_materials_clearcoat", "KHR_materials_sheen",  "KHR_materials_iridescence",
+      "KHR_materials_specular", "KHR_materials_sheen",  "KHR_materials_iridescence",
       "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu", "KHR_draco_mesh_compression",
       "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
@@ -352,6 +352,12 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
         check_texinfo(object_at(c, *t, P(ep, "KHR_materials_transmission")), "transmissionTexture", P(ep, "KHR_materials_transmission"));
       if (const json* t = member(*ext, "KHR_materials_volume"))
         check_texinfo(object_at(c, *t, P(ep, "KHR_materials_volume")), "thicknessTexture", P(ep, "KHR_materials_volume"));
+      if (const json* t = member(*ext, "KHR_materials_clearcoat")) {
+        const std::string cp = P(ep, "KHR_materials_clearcoat");
+        object_at(c, *t, cp);
+        for (const char* k : {"clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"})
+          check_texinfo(*t, k, cp);
+      }
     }
   }
   // Meshes.
@@ -832,6 +838,8 @@ int Converter::material(size_t i) {
   float transmission = 0.f, ior = 1.5f, aniso_strength = 0.f, aniso_rotation = 0.f;
   const json* aniso_texture = nullptr;
   std::string aniso_texture_path;
+  const json* clearcoat = nullptr;  // KHR_materials_clearcoat
+  std::string clearcoat_path;
   RGB absorption(0.f);
   const json *sg_diffuse_texture = nullptr, *sg_texture = nullptr;  // KHR_materials_pbrSpecularGlossiness
   std::string sg_path;
@@ -881,6 +889,10 @@ int Converter::material(size_t i) {
         aniso_texture = at;
         aniso_texture_path = P(ap, "anisotropyTexture");
       }
+    }
+    if (const json* t = member(*exts, "KHR_materials_clearcoat")) {
+      clearcoat = t;
+      clearcoat_path = P(ep, "KHR_materials_clearcoat");
     }
     if (const json* t = member(*exts, "KHR_materials_pbrSpecularGlossiness")) {
       // The archived specular-glossiness model, converted to metallic-roughness by the Khronos glTF converters'
@@ -937,6 +949,23 @@ int Converter::material(size_t i) {
     // The texture's RG turn the direction and its B scales the strength (material.h, tex_aniso); with
     // strength 0 there is nothing for it to scale.
     if (aniso_texture && mat.alpha_x != mat.alpha_y) mat.tex_aniso = texture(*aniso_texture, aniso_texture_path, false);
+  }
+  if (clearcoat) {
+    // A GGX coat of IOR 1.5 (material/metallic_roughness.h): clearcoatFactor times the clearcoatTexture's R,
+    // roughness clearcoatRoughnessFactor times the clearcoatRoughnessTexture's G (alpha = roughness^2).
+    const json& t = *clearcoat;
+    const std::string& cp = clearcoat_path;
+    mat.clearcoat = unit_interval(c_, t, "clearcoatFactor", cp, 0.f);
+    const float rough = unit_interval(c_, t, "clearcoatRoughnessFactor", cp, 0.f);
+    mat.clearcoat_alpha = rough * rough;
+    if (mat.clearcoat > 0.f) {
+      if (const json* tx = member(t, "clearcoatTexture")) mat.tex_clearcoat = texture(*tx, P(cp, "clearcoatTexture"), false);
+      if (const json* tx = member(t, "clearcoatRoughnessTexture"))
+        mat.tex_clearcoat_roughness = texture(*tx, P(cp, "clearcoatRoughnessTexture"), false);
+      if (member(t, "clearcoatNormalTexture"))
+        warn_once("KHR_materials_clearcoat's clearcoatNormalTexture is not supported; the coat uses the base's "
+                  "shading normal");
+    }
   }
   if (glossiness >= 0.f) {
     if (sg_diffuse_texture) mat.tex_color = texture(*sg_diffuse_texture, P(sg_path, "diffuseTexture"), true);

@@ -804,8 +804,7 @@ class Loader {
                    td.uv_offset.x == 0.f && td.uv_offset.y == 0.f && td.uv_rotation == 0.f;
       bool shared = false;
       for (const Material& m : d.materials)
-        for (int u : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity, m.tex_mix})
-          shared |= u == t;
+        for (int u : material_textures(m)) shared |= u == t;
       for (const ShapeDesc& s : d.shapes) shared |= s.emission_texture == t;
       for (const Light& l : d.lights) shared |= l.texture == t;
       for (const auto& kv : ids) shared |= kv.second.kind == "texture" && kv.second.index == t;
@@ -2177,9 +2176,9 @@ MeshDesc mitsuba_cube() {
 bool material_uses_parameterisation(const SceneDesc& d, int i, uint32_t depth = 0) {
   if (i < 0 || size_t(i) >= d.materials.size()) return false;
   const Material& m = d.materials[size_t(i)];
-  if (m.tex_color >= 0 || m.tex_roughness >= 0 || m.tex_normal >= 0 || m.tex_bump >= 0 || m.tex_aniso >= 0 ||
-      m.tex_opacity >= 0 || m.tex_mix >= 0 || (m.mix_b < 0 && m.alpha_x != m.alpha_y))
-    return true;
+  for (int t : material_textures(m))
+    if (t >= 0) return true;
+  if (m.mix_b < 0 && m.alpha_x != m.alpha_y) return true;
   return m.mix_b >= 0 && depth < kMaxMixDepth &&
          (material_uses_parameterisation(d, m.mix_a, depth + 1) || material_uses_parameterisation(d, m.mix_b, depth + 1));
 }
