@@ -63,6 +63,13 @@ Material coated(Material m, float c, float r) {
   return m;
 }
 
+// A metallic-roughness material with KHR_materials_specular's weight w and colour s.
+Material specular(Material m, float w, RGB s) {
+  m.specular_weight = w;
+  m.specular = s;
+  return m;
+}
+
 Vec3f dir(float cos_theta, float phi) {
   float s = safe_sqrt(1.f - cos_theta * cos_theta);
   return Vec3f(s * std::cos(phi), s * std::sin(phi), cos_theta);
@@ -146,6 +153,10 @@ std::vector<Case> make_cases() {
   add("mr_coat_r020_over_metal_r050", coated(make_metallic_roughness(base, 1.f, 0.5f), 0.8f, 0.2f), above);
   add("mr_coat_r030_over_smooth_glass", coated(make_metallic_roughness(base, 0.f, 0.f, 1.f), 1.f, 0.3f), above);
   add("mr_coat_r045_over_all_r060", coated(make_metallic_roughness(base, 0.3f, 0.6f, 0.5f, 1.33f), 0.7f, 0.45f), both);
+  // KHR_materials_specular: a tinted, weighted specular layer (colour above 1 too), rough and smooth, none.
+  add("mr_spec_tinted_r030", specular(make_metallic_roughness(base, 0.f, 0.3f), 0.6f, RGB(1.f, 0.5f, 0.2f)), above);
+  add("mr_spec_bright_smooth", specular(make_metallic_roughness(base, 0.2f, 0.f), 0.8f, RGB(30.f, 1.f, 0.5f)), above);
+  add("mr_spec_none_r040", specular(make_metallic_roughness(base, 0.f, 0.4f), 0.f, RGB(1.f)), above);
   add("pr_diffuse_r040", make_principled(RGB(0.8f, 0.3f, 0.2f), 0.f, 0.4f), above);
   Material pr = make_principled(RGB(0.3f, 0.6f, 0.9f), 0.7f, 0.3f, 0.5f);
   pr.spec_tint = 0.4f;
@@ -389,6 +400,7 @@ std::vector<Recip> recip_materials() {
       {"mr_metal_r050", make_metallic_roughness(RGB(0.9f, 0.6f, 0.3f), 1.f, 0.5f)},
       {"mr_mix_r040", make_metallic_roughness(RGB(0.9f, 0.6f, 0.3f), 0.5f, 0.4f)},
       {"mr_coat_r030_over_mix_r040", coated(make_metallic_roughness(RGB(0.9f, 0.6f, 0.3f), 0.5f, 0.4f), 0.9f, 0.3f)},
+      {"mr_spec_tinted_r030", specular(make_metallic_roughness(RGB(0.9f, 0.6f, 0.3f), 0.f, 0.3f), 0.6f, RGB(1.f, 0.5f, 0.2f))},
   };
 }
 // Random direction pairs: uniform on the sphere, so below-surface pairs and
@@ -1032,5 +1044,39 @@ TEST(Clearcoat, SmoothCoatMirrorsItsFresnelShare) {
     const RGB f0 = bsdf_eval(zero, wo, wi), f1 = bsdf_eval(plain, wo, wi);
     ASSERT_TRUE(f0.x == f1.x && f0.y == f1.y && f0.z == f1.z);
     ASSERT_EQ(bsdf_pdf(zero, wo, wi), bsdf_pdf(plain, wo, wi));
+  }
+}
+
+// KHR_materials_specular (material/metallic_roughness.h, mr_dielectric_fresnel) -------------
+
+TEST(KhrSpecular, WeightZeroLeavesLambertAndTheColourScalesTheNormalReflectance) {
+  // Weight 0: no specular layer, the base alone, f = base / pi everywhere above (to float rounding, 1e-6
+  // relative), so the albedo is the base colour. A smooth dielectric's mirror mass is w (F0s + (1 - F0s)
+  // (F - F0) / (1 - F0)), F0s = min(s F0, 1): at normal incidence w min(s F0, 1), at grazing incidence
+  // towards w; checked against double-precision Fresnel through the mean delta weight (4 standard errors).
+  const RGB base(0.8f, 0.5f, 0.2f);
+  const Material none = specular(make_metallic_roughness(base, 0.f, 0.4f), 0.f, RGB(1.f));
+  PCG32 rng(11, 0x5eed);
+  for (int k = 0; k < 10000; ++k) {
+    const Vec3f wo = square_to_cosine_hemisphere(Vec2f(rng.next_float(), rng.next_float()));
+    const Vec3f wi = square_to_cosine_hemisphere(Vec2f(rng.next_float(), rng.next_float()));
+    const RGB f = bsdf_eval(none, wo, wi);
+    for (int ch = 0; ch < 3; ++ch) ASSERT_NEAR(f[ch], base[ch] * kInvPi, 1e-6 * base[ch]) << wo.z << " " << wi.z;
+  }
+  const RGB tint(3.f, 1.f, 0.25f);
+  const Material m = specular(make_metallic_roughness(base, 0.f, 0.f), 0.7f, tint);
+  const double F0 = fresnel_ref(1.0, 1.5);
+  for (float c : {1.f, 0.5f, 0.05f}) {
+    BsdfSampler draw{m, dir(c, 0.2f), TransportMode::kRadiance, PCG32(12, 0x5eed)};
+    Mean3 mirror;
+    for (int i = 0; i < 200000; ++i) {
+      Draw d = draw();
+      mirror.add(d.ok && d.s.delta ? d.s.weight : RGB(0.f));
+    }
+    const double t = (fresnel_ref(c, 1.5) - F0) / (1.0 - F0);
+    for (int ch = 0; ch < 3; ++ch) {
+      const double f0s = std::min(double(tint[ch]) * F0, 1.0), want = 0.7 * (f0s + (1.0 - f0s) * t);
+      EXPECT_NEAR(mirror.mean(ch), want, 4.0 * mirror.se(ch) + 1e-6) << "cos " << c << " channel " << ch;  // 4 SE
+    }
   }
 }

@@ -54,9 +54,9 @@ std::string base64(const std::vector<unsigned char>& in) {
   return out;
 }
 
-std::vector<unsigned char> png(int w, int h, const std::vector<unsigned char>& rgb) {
+std::vector<unsigned char> png(int w, int h, const std::vector<unsigned char>& rgb, int channels = 3) {
   int len = 0;
-  unsigned char* p = stbi_write_png_to_mem(rgb.data(), w * 3, w, h, 3, &len);
+  unsigned char* p = stbi_write_png_to_mem(rgb.data(), w * channels, w, h, channels, &len);
   std::vector<unsigned char> out(p, p + len);
   free(p);
   return out;
@@ -380,6 +380,47 @@ TEST(GltfLoader, Clearcoat) {
       << error_of(p);
 }
 
+TEST(GltfLoader, Specular) {
+  // KHR_materials_specular: specularFactor (default 1) and specularColorFactor (default white, may exceed 1);
+  // specularTexture's alpha becomes the red of a linear copy (the slot reads red), made once for two
+  // materials; specularColorTexture is sRGB.
+  Builder b;
+  b.j["extensionsUsed"] = {"KHR_materials_specular"};
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {255, 0, 0, 51}, 4))}});
+  b.push("textures", {{"source", 0}});
+  const json ext = {{"specularFactor", 0.5}, {"specularColorFactor", {2.0, 1.0, 0.5}}, {"specularTexture", {{"index", 0}}},
+                    {"specularColorTexture", {{"index", 0}}}};
+  b.push("materials", {{"extensions", {{"KHR_materials_specular", ext}}}});
+  b.push("materials", {{"name", "again"}, {"extensions", {{"KHR_materials_specular", ext}}}});
+  b.push("materials", {{"name", "plain"}});
+  int q0 = b.quad(0), q1 = b.quad(1), q2 = b.quad(2);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}}), b.push("nodes", {{"mesh", q2}})});
+  SceneDesc d = load_gltf_scene(b.write("specular"));
+  ASSERT_EQ(d.materials.size(), 3u);
+  const Material& m = d.materials[0];
+  EXPECT_FLOAT_EQ(m.specular_weight, 0.5f);
+  expect_near(m.specular, RGB(2.f, 1.f, 0.5f));
+  ASSERT_GE(m.tex_specular, 0);
+  ASSERT_GE(m.tex_specular_color, 0);
+  EXPECT_EQ(d.materials[1].tex_specular, m.tex_specular);  // one copy
+  const TextureDesc& w = d.textures[size_t(m.tex_specular)];
+  EXPECT_FALSE(w.srgb);
+  EXPECT_NEAR(w.rgba[0], 0.2f, 1e-6f);  // the alpha 51/255
+  EXPECT_FLOAT_EQ(w.rgba[3], 1.f);
+  const TextureDesc& col = d.textures[size_t(m.tex_specular_color)];
+  EXPECT_TRUE(col.srgb);
+  EXPECT_FLOAT_EQ(col.rgba[0], 1.f);
+  EXPECT_EQ(d.materials[2].specular_weight, 1.f);
+  expect_near(d.materials[2].specular, RGB(1.f));
+  EXPECT_FALSE(has_warning(d, "KHR_materials_specular"));
+  Builder e;
+  e.push("materials", {{"extensions", {{"KHR_materials_specular", {{"specularColorFactor", {1.0, -1.0, 1.0}}}}}}});
+  e.scene({e.push("nodes", {{"mesh", e.quad(0)}})});
+  std::string p = e.write("badspec");
+  EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_specular/specularColorFactor: expected "
+                             "non-negative colour values");
+}
+
 TEST(GltfLoader, TexturesSamplersAndTransforms) {
   Builder b;
   std::vector<unsigned char> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};  // 2x2: red green / blue white
@@ -574,8 +615,8 @@ TEST(GltfLoader, MalformedInputMessages) {
   p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_draco_mesh_compression"]})");
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_draco_mesh_compression' is required but not supported "
                              "(supported: EXT_mesh_gpu_instancing, KHR_lights_punctual, KHR_materials_anisotropy, "
-                             "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_pbrSpecularGlossiness, "
-                             "KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
+                             "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, "
+                             "KHR_materials_pbrSpecularGlossiness, KHR_materials_specular, KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
                              "KHR_texture_transform)");
   // A missing buffer file names both files.
   p = write_text("nobuf.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "missing.bin", "byteLength": 4}]})");

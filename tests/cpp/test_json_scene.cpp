@@ -73,6 +73,9 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_TRUE(same(a.clearcoat_alpha, b.clearcoat_alpha)) << w << ".clearcoat_alpha";
   EXPECT_EQ(a.tex_clearcoat, b.tex_clearcoat) << w;
   EXPECT_EQ(a.tex_clearcoat_roughness, b.tex_clearcoat_roughness) << w;
+  EXPECT_TRUE(same(a.specular_weight, b.specular_weight)) << w << ".specular_weight";
+  EXPECT_EQ(a.tex_specular, b.tex_specular) << w;
+  EXPECT_EQ(a.tex_specular_color, b.tex_specular_color) << w;
   EXPECT_TRUE(same(a.bump_scale, b.bump_scale)) << w << ".bump_scale";
   expect_same(a.absorption, b.absorption, w + ".absorption");
 }
@@ -359,6 +362,13 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   paint_tex.tex_clearcoat = 1;
   paint_tex.tex_clearcoat_roughness = -1;
   d.add_material("clear coat texture", paint_tex);
+  Material spec = make_metallic_roughness(RGB(0.2f, 0.4f, 0.1f), 0.f, 0.35f);
+  spec.specular_weight = 0.4f;
+  spec.specular = RGB(1.5f, 1.f, 0.25f);
+  d.add_material("specular tint", spec);
+  spec.tex_specular = 1;
+  spec.tex_specular_color = 0;
+  d.add_material("specular textures", spec);
   Material vc = make_diffuse(RGB(0.7f));
   vc.flags |= kVertexColor;
   d.add_material("vertex coloured", vc);
@@ -618,6 +628,8 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /shapes/0/uvs: expected one [u,v] per position"},
       {scene_with(R"("materials": {"m": {"type": "diffuse", "normal_map": "a.png", "bump_map": "b.png"}})"),
        "s.json: /materials/m/bump_map: give normal_map or bump_map, not both"},
+      {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "specular": -0.5}})"),
+       "s.json: /materials/m/specular: expected a number in [0, 1]"},
       {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "clearcoat": 1.2}})"),
        "s.json: /materials/m/clearcoat: expected a number in [0, 1]"},
       {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "clearcoat_roughness": {"texture": "a.png", "scale": -1}}})"),

@@ -88,7 +88,7 @@ def main():
             "disney": {"type": "principled", "base_color": [0.8, 0.3, 0.2], "metallic": 0.2, "roughness": 0.4,
                        "anisotropic": 0.3, "spec_trans": 0.1, "sheen": 0.5, "clearcoat": 0.6},
             "paint": {"type": "metallic_roughness", "base_color": [0.6, 0.1, 0.1], "roughness": 0.5,
-                      "clearcoat": 0.9, "clearcoat_roughness": 0.1},
+                      "clearcoat": 0.9, "clearcoat_roughness": 0.1, "specular": 0.5, "specular_color": [1, 0.8, 0.6]},
         },
         "shapes": [
             {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
@@ -151,7 +151,8 @@ def main():
         off_uv, off_idx, off_tri = len(pos), len(pos) + len(uv), len(pos) + len(uv) + len(idx) + 2
         return {
             "asset": {"version": "2.0"},
-            "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat"],
+            "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat",
+                               "KHR_materials_specular"],
             "scene": 0,
             "scenes": [{"nodes": [0, 3, 4]}],
             "nodes": [
@@ -169,7 +170,9 @@ def main():
                 {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.2, "roughnessFactor": 0.5},
                  "doubleSided": True,
                  "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
-                                                            "clearcoatTexture": {"index": 0}}}},
+                                                            "clearcoatTexture": {"index": 0}},
+                                "KHR_materials_specular": {"specularFactor": 0.6, "specularColorFactor": [1.2, 1, 0.5],
+                                                           "specularTexture": {"index": 0}}}},
                 {"emissiveFactor": [1, 0.8, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}},
             ],
             "textures": [{"source": 0, "sampler": 0}],

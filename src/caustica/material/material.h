@@ -71,6 +71,9 @@ struct Material {
   float fdr_int = 0.f;      // plastic: internal diffuse Fresnel reflectance (precomputed); rough plastic: its coat's (prepare_rough_plastic)
   float metallic = 0.f;     // metallic-roughness: metal weight
   float transmission_weight = 0.f;  // metallic-roughness: KHR_materials_transmission; principled: spec_trans
+  // Metallic-roughness: KHR_materials_specular's specularFactor (the dielectric's specular weight); `specular`
+  // holds its specularColorFactor (material/metallic_roughness.h, mr_dielectric_fresnel).
+  float specular_weight = 1.f;
   // Principled (material/principled.h): the Disney BSDF's other weights, each in [0, 1]. `clearcoat` is also
   // metallic-roughness's coat weight (KHR_materials_clearcoat's clearcoatFactor), whose GGX alpha is
   // clearcoat_alpha (clearcoatRoughness^2; material/metallic_roughness.h).
@@ -88,9 +91,12 @@ struct Material {
   //   tex_aniso: KHR_materials_anisotropy's anisotropyTexture: RG (2 rg - 1) a direction in the tangent
   //     frame that turns the anisotropy direction further, B scales the anisotropy strength.
   //   tex_clearcoat: metallic-roughness's coat weight times R (KHR_materials_clearcoat's clearcoatTexture);
-  //   tex_clearcoat_roughness: the coat's roughness times G (alpha = (G sqrt(alpha))^2; clearcoatRoughnessTexture).
+  //   tex_clearcoat_roughness: the coat's roughness times G (alpha = (G sqrt(alpha))^2; clearcoatRoughnessTexture);
+  //   tex_specular: metallic-roughness's specular_weight times R (the glTF loader moves KHR_materials_specular's
+  //     specularTexture alpha there, so that the JSON export's RGB images keep it);
+  //   tex_specular_color: its specular colour times RGB (specularColorTexture).
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
-  int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1;
+  int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
   // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
   // applied to path segments that end on the back side of this material
@@ -118,10 +124,10 @@ struct Material {
 };
 
 // Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
-// writers' lists of used images).
-inline std::array<int32_t, 9> material_textures(const Material& m) {
+// writers' lists of used images); without `opacity` the opacity slot reads as empty.
+inline std::array<int32_t, 11> material_textures(const Material& m, bool opacity = true) {
   return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
-          m.tex_clearcoat_roughness, m.tex_opacity, m.tex_mix};
+          m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, opacity ? m.tex_opacity : -1, m.tex_mix};
 }
 
 // How many blends inside blends resolve_material resolves (the loaders refuse cycles).

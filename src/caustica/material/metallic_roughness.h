@@ -19,6 +19,8 @@
 //                base/pi (1-F(cos_o))(1-F(cos_i)) / (eta^2 (1 - base Fdr_int)),
 //                the light refracted into a coat and reflected inside it
 //                (Mitsuba's roughplastic; ~0.6 x as bright at base 0.5, eta 1.5).
+//                KHR_materials_specular scales and tints F (mr_dielectric_fresnel below)
+//                and the base takes 1 - max(F) on each side.
 // GGX alpha = roughness^2 (the glTF convention); with kBeckmann (Mitsuba's roughplastic) the Beckmann
 // distribution instead (material/microfacet.h). Roughness alpha below
 // kSmoothAlpha makes the specular lobes Dirac deltas (a GGX lobe that narrow
@@ -70,6 +72,26 @@ CHD Material mr_glass(const Material& m) {
   g.transmission = m.diffuse;
   return g;
 }
+// KHR_materials_specular (m.specular_weight = specularFactor w, m.specular = specularColorFactor s): the
+// dielectric's specular reflectance at cosine c. With F the exact Fresnel of eta and F0 = F(1), the colour
+// scales the reflectance at normal incidence (capped at 1) and the weight scales the whole,
+// w (F0s + (1 - F0s) (F - F0) / (1 - F0)), F0s = min(s F0, 1): F's angular shape, and F itself at w = 1,
+// s = 1 (the extension's fresnel_mix does the same to Schlick's approximation). The glass keeps its own
+// Fresnel (the extension's effect on transmission is not modelled).
+CHD bool mr_plain_specular(const Material& m) {
+  return m.specular_weight == 1.f && m.specular.x == 1.f && m.specular.y == 1.f && m.specular.z == 1.f;
+}
+CHD RGB mr_dielectric_fresnel(const Material& m, float c) {
+  const float F = fresnel_dielectric(c, m.eta);
+  if (mr_plain_specular(m)) return RGB(F);
+  const float F0 = fresnel_dielectric(1.f, m.eta);
+  const float t = F0 < 1.f ? clampf((F - F0) / (1.f - F0), 0.f, 1.f) : 1.f;
+  const RGB f0s(minf(F0 * m.specular.x, 1.f), minf(F0 * m.specular.y, 1.f), minf(F0 * m.specular.z, 1.f));
+  return (f0s + (RGB(1.f) - f0s) * t) * m.specular_weight;
+}
+// The share of the light the specular layer takes from the diffuse base at cosine c: the largest channel of
+// its reflectance (the extension's max_value(fr)).
+CHD float mr_dielectric_reflectance(const Material& m, float c) { return max_component(mr_dielectric_fresnel(m, c)); }
 CHD float mr_specular_prob(const Material& m, float Fo) {
   float ws = Fo, wd = (1.f - Fo) * luminance(m.diffuse);
   return ws + wd > 0.f ? ws / (ws + wd) : 1.f;
@@ -88,10 +110,10 @@ CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) 
     float dg = g.D(wm) * g.G(wo, wi) / (4.f * wo.z * wi.z);
     float c = absdot(wo, wm);
     if (w.metal > 0.f) f += schlick_fresnel(m.diffuse, c) * (dg * w.metal);
-    if (w.dielectric > 0.f) f += RGB(fresnel_dielectric(c, m.eta) * dg * w.dielectric);
+    if (w.dielectric > 0.f) f += mr_dielectric_fresnel(m, c) * (dg * w.dielectric);
   }
   if (w.dielectric > 0.f) {
-    float Fo = fresnel_dielectric(wo.z, m.eta), Fi = fresnel_dielectric(wi.z, m.eta);
+    float Fo = mr_dielectric_reflectance(m, wo.z), Fi = mr_dielectric_reflectance(m, wi.z);
     RGB base = (m.flags & kPlasticBase) ? plastic_diffuse_albedo(m) / (m.eta * m.eta) : m.diffuse;
     f += base * ((1.f - Fo) * (1.f - Fi) * kInvPi * w.dielectric);
   }
@@ -106,7 +128,7 @@ CHD float mr_base_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   float sel_glass = wo.z <= 0.f ? 1.f : w.glass;
   if (w.glass > 0.f && !mr_smooth(m)) pdf += sel_glass * rough_dielectric_pdf(mr_glass(m), wo, wi);
   if (wo.z <= 0.f || wi.z <= 0.f) return pdf;
-  float ps = mr_specular_prob(m, fresnel_dielectric(wo.z, m.eta));
+  float ps = mr_specular_prob(m, mr_dielectric_reflectance(m, wo.z));
   if (!mr_smooth(m)) {
     Vec3f wm = normalize(wo + wi);
     Microfacet g = material_microfacet(m);
@@ -138,7 +160,7 @@ CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, Transpor
     if (!rough_dielectric_sample(g, wo, minf(uc2, 0.99999994f), u, mode, s)) return false;
   } else {
     uc = (uc - w.glass) / (1.f - w.glass);
-    float Fo = fresnel_dielectric(wo.z, m.eta);
+    float Fo = mr_dielectric_reflectance(m, wo.z);
     float ps = mr_specular_prob(m, Fo);
     float p_metal = w.metal / (w.metal + w.dielectric);
     bool metal = uc < p_metal;
@@ -151,7 +173,7 @@ CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, Transpor
         s.weight = schlick_fresnel(m.diffuse, wo.z);
       } else {
         s.pdf = w.dielectric * ps;
-        s.weight = RGB(Fo / ps);
+        s.weight = mr_plain_specular(m) ? RGB(Fo / ps) : mr_dielectric_fresnel(m, wo.z) / ps;
       }
       return true;
     }

@@ -350,6 +350,12 @@ struct Writer {
         o.set("transmission", JV::flt(m.transmission_weight)).set("eta", JV::flt(m.eta));
         if (m.flags & kPlasticBase) o.set("diffuse_base", JV::str("plastic"));
         if (!is_black(m.absorption)) o.set("absorption", col(m.absorption));
+        if (m.specular_weight != 1.f || m.tex_specular >= 0) {
+          JV w = JV::flt(m.specular_weight);
+          o.set("specular", m.tex_specular >= 0 ? texture(m.tex_specular, false, &w) : w);
+        }
+        if (m.specular.x != 1.f || m.specular.y != 1.f || m.specular.z != 1.f || m.tex_specular_color >= 0)
+          o.set("specular_color", color_slot(m.specular, m.tex_specular_color));
         if (m.clearcoat > 0.f || m.tex_clearcoat >= 0) {
           float rough = std::sqrt(m.clearcoat_alpha);
           roughness_for_alpha(m.clearcoat_alpha, rough);  // the roughness whose square is alpha, where one is
@@ -712,9 +718,7 @@ void write_scene_json(const SceneDesc& desc, const std::string& path) {
     if (t >= 0 && size_t(t) < used.size()) used[t] = true;
   };
   for (const Material& m : desc.materials) {
-    for (int t : {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
-                  m.tex_clearcoat_roughness, m.tex_mix})  // material_textures but the opacity, marked below
-      mark(t);
+    for (int t : material_textures(m, false)) mark(t);  // the opacity's below
     if (m.tex_opacity >= 0 && size_t(m.tex_opacity) < used.size()) {
       if (m.flags & kOpacityLuminance) used[m.tex_opacity] = true;
       else used_alpha[m.tex_opacity] = true;

@@ -39,7 +39,7 @@ constexpr int kByte = 5120, kUByte = 5121, kShort = 5122, kUShort = 5123, kUInt 
 const std::set<std::string>& supported_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
-      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_lights_punctual",
+      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness"};
   return s;
@@ -47,7 +47,7 @@ const std::set<std::string>& supported_extensions() {
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
-      "KHR_materials_specular", "KHR_materials_sheen",  "KHR_materials_iridescence",
+      "KHR_materials_sheen",  "KHR_materials_iridescence",
       "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu", "KHR_draco_mesh_compression",
       "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
@@ -358,6 +358,11 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
         for (const char* k : {"clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"})
           check_texinfo(*t, k, cp);
       }
+      if (const json* t = member(*ext, "KHR_materials_specular")) {
+        const std::string sp = P(ep, "KHR_materials_specular");
+        object_at(c, *t, sp);
+        for (const char* k : {"specularTexture", "specularColorTexture"}) check_texinfo(*t, k, sp);
+      }
     }
   }
   // Meshes.
@@ -604,6 +609,19 @@ class Converter {
   const unsigned char* view_bytes(size_t view, int64_t& len);
 
   int texture(const json& info, const std::string& path, bool srgb);
+  // A copy of texture t (sampler and transform included) with every texel's RGBA rewritten by f, named
+  // name + suffix; made once per (texture, suffix). The values a material slot reads from another channel.
+  std::map<std::pair<int, std::string>, int> derived_;
+  template <class F>
+  int derived_texture(int t, const std::string& suffix, F&& f) {
+    auto [it, fresh] = derived_.try_emplace({t, suffix}, -1);
+    if (!fresh) return it->second;
+    TextureDesc r = d_.textures[size_t(t)];
+    r.name += suffix;
+    for (size_t i = 0; i + 3 < r.rgba.size(); i += 4) f(&r.rgba[i]);
+    d_.textures.push_back(std::move(r));
+    return it->second = int(d_.textures.size()) - 1;
+  }
   int material(size_t i);
   int mesh(size_t mi, size_t pi);
   void visit(size_t node, const Mat4& parent_world);
@@ -838,8 +856,8 @@ int Converter::material(size_t i) {
   float transmission = 0.f, ior = 1.5f, aniso_strength = 0.f, aniso_rotation = 0.f;
   const json* aniso_texture = nullptr;
   std::string aniso_texture_path;
-  const json* clearcoat = nullptr;  // KHR_materials_clearcoat
-  std::string clearcoat_path;
+  const json *clearcoat = nullptr, *specular = nullptr;  // KHR_materials_clearcoat, KHR_materials_specular
+  std::string clearcoat_path, specular_path;
   RGB absorption(0.f);
   const json *sg_diffuse_texture = nullptr, *sg_texture = nullptr;  // KHR_materials_pbrSpecularGlossiness
   std::string sg_path;
@@ -893,6 +911,10 @@ int Converter::material(size_t i) {
     if (const json* t = member(*exts, "KHR_materials_clearcoat")) {
       clearcoat = t;
       clearcoat_path = P(ep, "KHR_materials_clearcoat");
+    }
+    if (const json* t = member(*exts, "KHR_materials_specular")) {
+      specular = t;
+      specular_path = P(ep, "KHR_materials_specular");
     }
     if (const json* t = member(*exts, "KHR_materials_pbrSpecularGlossiness")) {
       // The archived specular-glossiness model, converted to metallic-roughness by the Khronos glTF converters'
@@ -967,6 +989,23 @@ int Converter::material(size_t i) {
                   "shading normal");
     }
   }
+  if (specular) {
+    // The dielectric's specular weight specularFactor times the specularTexture's alpha (moved to a grey copy:
+    // the weight slot reads red, which a JSON export's RGB images keep), its colour
+    // specularColorFactor (may exceed 1; the reflectance at normal incidence is capped at 1) times the
+    // specularColorTexture (sRGB); material/metallic_roughness.h, mr_dielectric_fresnel.
+    const json& t = *specular;
+    const std::string& sp = specular_path;
+    mat.specular_weight = unit_interval(c_, t, "specularFactor", sp, 1.f);
+    if (const json* f = member(t, "specularColorFactor")) mat.specular = nonneg_color(c_, *f, P(sp, "specularColorFactor"), 3);
+    if (const json* tx = member(t, "specularTexture")) {
+      const int ti = texture(*tx, P(sp, "specularTexture"), false);
+      if (ti >= 0)
+        mat.tex_specular = derived_texture(ti, "#specular-from-alpha", [](float* p) { p[0] = p[1] = p[2] = p[3], p[3] = 1.f; });
+    }
+    if (const json* tx = member(t, "specularColorTexture"))
+      mat.tex_specular_color = texture(*tx, P(sp, "specularColorTexture"), true);
+  }
   if (glossiness >= 0.f) {
     if (sg_diffuse_texture) mat.tex_color = texture(*sg_diffuse_texture, P(sg_path, "diffuseTexture"), true);
     if (sg_texture) {
@@ -974,12 +1013,10 @@ int Converter::material(size_t i) {
       // the factor being 1; blue: 1, keeping the metallic factor).
       const int t = texture(*sg_texture, P(sg_path, "specularGlossinessTexture"), false);
       if (t >= 0) {
-        TextureDesc r = d_.textures[size_t(t)];
-        r.name += "#roughness-from-glossiness";
-        for (size_t i = 0; i + 3 < r.rgba.size(); i += 4)
-          r.rgba[i] = 0.f, r.rgba[i + 1] = 1.f - glossiness * r.rgba[i + 3], r.rgba[i + 2] = 1.f, r.rgba[i + 3] = 1.f;
-        d_.textures.push_back(std::move(r));
-        mat.tex_roughness = int(d_.textures.size()) - 1;
+        // One copy per glossiness factor (the texels hold 1 - glossiness x alpha).
+        mat.tex_roughness = derived_texture(t, "#roughness-from-glossiness-" + std::to_string(glossiness), [&](float* p) {
+          p[0] = 0.f, p[1] = 1.f - glossiness * p[3], p[2] = 1.f, p[3] = 1.f;
+        });
         mat.alpha_x = mat.alpha_y = 1.f;  // the factor: the texture holds the whole roughness
       }
     }

@@ -427,7 +427,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
   } else if (type == "metallic_roughness") {
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "distribution", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
-                            "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness"});
+                            "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "specular", "specular_color"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = perceptual_roughness();
@@ -443,9 +443,10 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
       if (b == "plastic") m.flags |= kPlasticBase;
       else if (b != "gltf") c.fail(path + "/diffuse_base", "unknown diffuse base '" + b + "' (allowed: gltf, plastic)");
     }
-    // KHR_materials_clearcoat: weight and perceptual roughness, each a number in [0, 1] or a texture whose
-    // "scale" (default 1) is that number, multiplied by the texture's R (weight) or G (roughness) channel.
-    auto coat_value = [&](const char* k, float def, int32_t& tex) {
+    // A number in [0, 1] or a texture whose "scale" (default 1) is that number, multiplied by one of the
+    // texture's channels: KHR_materials_clearcoat's weight (R) and perceptual roughness (G), and
+    // KHR_materials_specular's weight (R).
+    auto unit_value = [&](const char* k, float def, int32_t& tex) {
       if (!j.contains(k)) return def;
       const json& v = j[k];
       std::string p = path + "/" + k;
@@ -458,9 +459,12 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
       if (texture) tex = parse_texture(c, v, path + "/" + k, false);
       return x;
     };
-    m.clearcoat = coat_value("clearcoat", 0.f, m.tex_clearcoat);
-    const float coat_rough = coat_value("clearcoat_roughness", 0.f, m.tex_clearcoat_roughness);
+    m.clearcoat = unit_value("clearcoat", 0.f, m.tex_clearcoat);
+    const float coat_rough = unit_value("clearcoat_roughness", 0.f, m.tex_clearcoat_roughness);
     m.clearcoat_alpha = coat_rough * coat_rough;
+    m.specular_weight = unit_value("specular", 1.f, m.tex_specular);
+    if (j.contains("specular_color"))
+      m.specular = color_or_texture(c, j["specular_color"], path + "/specular_color", m.tex_specular_color);
   } else if (type == "principled") {
     // Mitsuba 3's principled BSDF (material/principled.h).
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "anisotropic", "alpha", "anisotropy_rotation",

@@ -1,0 +1,108 @@
+"""KHR_materials_specular on the metallic-roughness material (material/metallic_roughness.h,
+mr_dielectric_fresnel): JSON `specular` (weight) and `specular_color`, glTF specularFactor,
+specularColorFactor and their textures. Weight 0 leaves the diffuse base alone (a Lambertian surface); a
+tinted layer is seen alike by every integrator; a glTF file's layer exports to JSON and renders the same.
+The BSDF itself (chi-square, weights, furnace, reciprocity, the mirror mass at normal and grazing
+incidence) is tested in tests/cpp/test_bsdf.cpp."""
+import json
+import os
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import caustica
+from test_clearcoat import RES, SEEDS, region_stats, validate, z_scores
+
+
+def plate_scene(material):
+    """test_clearcoat's plate under a lamp, with the given plate material."""
+    return {
+        "film": {"width": RES, "height": RES},
+        "camera": {"position": [0, 1.2, 3.2], "target": [0, 0, 0], "fov": 45},
+        "materials": {"plate": material},
+        "shapes": [
+            {"type": "rectangle", "material": "plate",
+             "transform": [{"scale": 1.5}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}]},
+            {"type": "rectangle", "emission": 6,
+             "transform": [{"scale": 0.4}, {"look_at": {"origin": [0, 1.4, -1.6], "target": [0, 0, 0]}}]},
+        ],
+    }
+
+
+BASE = [0.3, 0.5, 0.2]
+
+
+def mr(**extra):
+    return dict({"type": "metallic_roughness", "base_color": BASE, "metallic": 0.0, "roughness": 0.15}, **extra)
+
+
+def test_weight_zero_is_the_lambertian_base():
+    """Without its specular layer the dielectric is its base, base/pi: the same image as a `diffuse` plate
+    of that reflectance (per region within 4.5 standard errors); the default layer differs by far more."""
+    spec0 = region_stats(caustica.load_dict(plate_scene(mr(specular=0.0))), SEEDS, spp=16)
+    lambert = region_stats(caustica.load_dict(plate_scene({"type": "diffuse", "reflectance": BASE})), SEEDS, spp=16)
+    plain = region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, spp=16)
+    assert z_scores(spec0, lambert).max() < 4.5
+    assert z_scores(plain, lambert).max() > 10.0
+
+
+@pytest.mark.parametrize("integrator", ["light", "bdpt"])
+def test_every_integrator_sees_the_tinted_layer(integrator):
+    """A tinted, bright layer (colour (3, 1, 0.3), weight 0.8): the light tracer and BDPT agree with the path
+    tracer per region, and the tint changes the image."""
+    scene = caustica.load_dict(plate_scene(mr(specular=0.8, specular_color=[3.0, 1.0, 0.3])))
+    spp = 128 if integrator == "light" else 32  # the light tracer reaches the lamp's highlight less often
+    ref = region_stats(scene, SEEDS, spp=32)
+    got = region_stats(scene, SEEDS, integrator=integrator, spp=spp)
+    assert z_scores(ref, got).max() < 4.5, z_scores(ref, got)
+    plain = region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, integrator=integrator, spp=spp)
+    assert z_scores(got, plain).max() > 10.0
+
+
+def test_gltf_specular_exports_and_renders_the_same(tmp_path):
+    """A glTF material with KHR_materials_specular and both textures (no "not supported" warning) exports to
+    JSON (valid against the schema) and the export renders the glTF's image exactly; the specularTexture's
+    alpha channel survives the export's RGB images."""
+    sys.path.insert(0, os.path.dirname(__file__))
+    from test_gltf import Gltf, FILL_FOV
+    from PIL import Image
+    import io
+    rgba = np.zeros((4, 4, 4), np.uint8)
+    rgba[..., 0], rgba[..., 1], rgba[..., 2] = 255, 128, 40
+    rgba[:, :2, 3], rgba[:, 2:, 3] = 40, 255  # the weight: low on the left, full on the right
+    buf = io.BytesIO()
+    Image.fromarray(rgba, "RGBA").save(buf, format="PNG")
+    g = Gltf()
+    g.image_data_uri(buf.getvalue())
+    g.add("textures", {"source": 0})
+    ext = {"specularFactor": 0.9, "specularColorFactor": [1.5, 1.0, 1.0],
+           "specularTexture": {"index": 0}, "specularColorTexture": {"index": 0}}
+    mat = g.add("materials", {"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.3, 0.6, 1.0],
+                                                       "metallicFactor": 0.0, "roughnessFactor": 0.3},
+                              "extensions": {"KHR_materials_specular": ext}})
+    g.doc["extensionsUsed"] = ["KHR_materials_specular"]
+    g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
+    path = g.write(tmp_path / "spec.gltf")
+    out = tmp_path / "spec.json"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        caustica.export_scene(path, str(out))
+    assert not [w for w in caught if "specular" in str(w.message)]
+    doc = json.loads(out.read_text())
+    validate(doc)
+    (m,) = doc["materials"].values()
+    assert m["specular"]["scale"] == pytest.approx(0.9) and "texture" in m["specular"]
+    assert m["specular_color"]["scale"] == pytest.approx([1.5, 1.0, 1.0])
+    a = caustica.render(caustica.load_scene(path, width=16, height=16), spp=4, seed=3)
+    b = caustica.render(caustica.load_scene(str(out), width=16, height=16), spp=4, seed=3)
+    assert np.isfinite(a).all() and a.max() > 0
+    np.testing.assert_array_equal(a, b)
+
+
+def test_bad_specular_is_a_clear_error():
+    with pytest.raises(caustica.SceneError, match=r"/materials/plate/specular: expected a number in \[0, 1\]"):
+        caustica.load_dict(plate_scene(mr(specular=1.5)))
+    with pytest.raises(caustica.SceneError, match=r"/materials/plate/specular_color"):
+        caustica.load_dict(plate_scene(mr(specular_color="")))
