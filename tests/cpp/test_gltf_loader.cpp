@@ -421,6 +421,28 @@ TEST(GltfLoader, Specular) {
                              "non-negative colour values");
 }
 
+TEST(GltfLoader, TransmissionTexture) {
+  // KHR_materials_transmission's transmissionTexture (linear, its red channel scales transmissionFactor);
+  // with factor 0 there is nothing to scale.
+  Builder b;
+  b.j["extensionsUsed"] = {"KHR_materials_transmission"};
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {102, 0, 0}))}});
+  b.push("textures", {{"source", 0}});
+  b.push("materials", {{"extensions", {{"KHR_materials_transmission", {{"transmissionFactor", 0.9}, {"transmissionTexture", {{"index", 0}}}}}}}});
+  b.push("materials", {{"extensions", {{"KHR_materials_transmission", {{"transmissionTexture", {{"index", 0}}}}}}}});
+  int q0 = b.quad(0), q1 = b.quad(1);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}})});
+  SceneDesc d = load_gltf_scene(b.write("transmission_texture"));
+  ASSERT_EQ(d.materials.size(), 2u);
+  EXPECT_FLOAT_EQ(d.materials[0].transmission_weight, 0.9f);
+  ASSERT_GE(d.materials[0].tex_transmission, 0);
+  const TextureDesc& t = d.textures[size_t(d.materials[0].tex_transmission)];
+  EXPECT_FALSE(t.srgb);
+  EXPECT_NEAR(t.rgba[0], 0.4f, 1e-6f);
+  EXPECT_EQ(d.materials[1].tex_transmission, -1);
+  EXPECT_FALSE(has_warning(d, "transmissionTexture"));
+}
+
 TEST(GltfLoader, TexturesSamplersAndTransforms) {
   Builder b;
   std::vector<unsigned char> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};  // 2x2: red green / blue white

@@ -76,6 +76,7 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_TRUE(same(a.specular_weight, b.specular_weight)) << w << ".specular_weight";
   EXPECT_EQ(a.tex_specular, b.tex_specular) << w;
   EXPECT_EQ(a.tex_specular_color, b.tex_specular_color) << w;
+  EXPECT_EQ(a.tex_transmission, b.tex_transmission) << w;
   EXPECT_TRUE(same(a.bump_scale, b.bump_scale)) << w << ".bump_scale";
   expect_same(a.absorption, b.absorption, w + ".absorption");
 }
@@ -369,6 +370,9 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   spec.tex_specular = 1;
   spec.tex_specular_color = 0;
   d.add_material("specular textures", spec);
+  Material see_through = make_metallic_roughness(RGB(0.9f), 0.f, 0.1f, 0.75f, 1.4f);
+  see_through.tex_transmission = 1;
+  d.add_material("transmission texture", see_through);
   Material vc = make_diffuse(RGB(0.7f));
   vc.flags |= kVertexColor;
   d.add_material("vertex coloured", vc);

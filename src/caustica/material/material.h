@@ -94,9 +94,12 @@ struct Material {
   //   tex_clearcoat_roughness: the coat's roughness times G (alpha = (G sqrt(alpha))^2; clearcoatRoughnessTexture);
   //   tex_specular: metallic-roughness's specular_weight times R (the glTF loader moves KHR_materials_specular's
   //     specularTexture alpha there, so that the JSON export's RGB images keep it);
-  //   tex_specular_color: its specular colour times RGB (specularColorTexture).
+  //   tex_specular_color: its specular colour times RGB (specularColorTexture);
+  //   tex_transmission: metallic-roughness's transmission_weight times R (KHR_materials_transmission's
+  //     transmissionTexture).
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
-  int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1;
+  int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1,
+          tex_transmission = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
   // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
   // applied to path segments that end on the back side of this material
@@ -125,9 +128,10 @@ struct Material {
 
 // Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
 // writers' lists of used images); without `opacity` the opacity slot reads as empty.
-inline std::array<int32_t, 11> material_textures(const Material& m, bool opacity = true) {
+inline std::array<int32_t, 12> material_textures(const Material& m, bool opacity = true) {
   return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
-          m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, opacity ? m.tex_opacity : -1, m.tex_mix};
+          m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, m.tex_transmission,
+          opacity ? m.tex_opacity : -1, m.tex_mix};
 }
 
 // How many blends inside blends resolve_material resolves (the loaders refuse cycles).

@@ -347,7 +347,9 @@ struct Writer {
         o.set("type", JV::str("metallic_roughness")).set("base_color", color_slot(m.diffuse, m.tex_color));
         o.set("metallic", JV::flt(m.metallic));
         perceptual_roughness(m, o);
-        o.set("transmission", JV::flt(m.transmission_weight)).set("eta", JV::flt(m.eta));
+        JV tw = JV::flt(m.transmission_weight);
+        o.set("transmission", m.tex_transmission >= 0 ? texture(m.tex_transmission, false, &tw) : tw);
+        o.set("eta", JV::flt(m.eta));
         if (m.flags & kPlasticBase) o.set("diffuse_base", JV::str("plastic"));
         if (!is_black(m.absorption)) o.set("absorption", col(m.absorption));
         if (m.specular_weight != 1.f || m.tex_specular >= 0) {

@@ -857,7 +857,8 @@ int Converter::material(size_t i) {
   const json* aniso_texture = nullptr;
   std::string aniso_texture_path;
   const json *clearcoat = nullptr, *specular = nullptr;  // KHR_materials_clearcoat, KHR_materials_specular
-  std::string clearcoat_path, specular_path;
+  const json* transmission_texture = nullptr;           // KHR_materials_transmission's, its red channel
+  std::string clearcoat_path, specular_path, transmission_path;
   RGB absorption(0.f);
   const json *sg_diffuse_texture = nullptr, *sg_texture = nullptr;  // KHR_materials_pbrSpecularGlossiness
   std::string sg_path;
@@ -868,7 +869,10 @@ int Converter::material(size_t i) {
     std::string ep = P(p, "extensions");
     if (const json* t = member(*exts, "KHR_materials_transmission")) {
       transmission = unit_interval(c_, *t, "transmissionFactor", P(ep, "KHR_materials_transmission"), 0.f);
-      if (member(*t, "transmissionTexture")) warn_once("transmissionTexture is not supported; transmissionFactor is used");
+      if (const json* tx = member(*t, "transmissionTexture")) {
+        transmission_texture = tx;
+        transmission_path = P(P(ep, "KHR_materials_transmission"), "transmissionTexture");
+      }
     }
     if (const json* t = member(*exts, "KHR_materials_ior")) {
       object_at(c_, *t, P(ep, "KHR_materials_ior"));
@@ -989,6 +993,8 @@ int Converter::material(size_t i) {
                   "shading normal");
     }
   }
+  if (transmission_texture && mat.transmission_weight > 0.f)
+    mat.tex_transmission = texture(*transmission_texture, transmission_path, false);
   if (specular) {
     // The dielectric's specular weight specularFactor times the specularTexture's alpha (moved to a grey copy:
     // the weight slot reads red, which a JSON export's RGB images keep), its colour

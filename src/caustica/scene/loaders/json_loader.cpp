@@ -428,24 +428,9 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "distribution", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
                             "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "specular", "specular_color"});
-    RGB base = get_ct("base_color", RGB(0.8f));
-    float metallic = unit("metallic", get_f("metallic", 0.f));
-    float rough = perceptual_roughness();
-    float transmission = unit("transmission", get_f("transmission", 0.f));
-    m = make_metallic_roughness(base, metallic, rough, transmission, positive("eta", get_f("eta", 1.5f)));
-    if (j.contains("alpha")) {
-      const Vec2f al = alpha_value(j["alpha"], path + "/alpha");
-      set_alpha(m, al.x, al.y);
-    }
-    m.absorption = get_c("absorption", RGB(0.f));
-    if (j.contains("diffuse_base")) {  // material/metallic_roughness.h
-      std::string b = str(c, j["diffuse_base"], path + "/diffuse_base");
-      if (b == "plastic") m.flags |= kPlasticBase;
-      else if (b != "gltf") c.fail(path + "/diffuse_base", "unknown diffuse base '" + b + "' (allowed: gltf, plastic)");
-    }
     // A number in [0, 1] or a texture whose "scale" (default 1) is that number, multiplied by one of the
-    // texture's channels: KHR_materials_clearcoat's weight (R) and perceptual roughness (G), and
-    // KHR_materials_specular's weight (R).
+    // texture's channels: KHR_materials_transmission's weight (R), KHR_materials_clearcoat's weight (R) and
+    // perceptual roughness (G), and KHR_materials_specular's weight (R).
     auto unit_value = [&](const char* k, float def, int32_t& tex) {
       if (!j.contains(k)) return def;
       const json& v = j[k];
@@ -459,6 +444,23 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
       if (texture) tex = parse_texture(c, v, path + "/" + k, false);
       return x;
     };
+    RGB base = get_ct("base_color", RGB(0.8f));
+    float metallic = unit("metallic", get_f("metallic", 0.f));
+    float rough = perceptual_roughness();
+    int32_t tex_transmission = -1;
+    float transmission = unit_value("transmission", 0.f, tex_transmission);
+    m = make_metallic_roughness(base, metallic, rough, transmission, positive("eta", get_f("eta", 1.5f)));
+    m.tex_transmission = tex_transmission;
+    if (j.contains("alpha")) {
+      const Vec2f al = alpha_value(j["alpha"], path + "/alpha");
+      set_alpha(m, al.x, al.y);
+    }
+    m.absorption = get_c("absorption", RGB(0.f));
+    if (j.contains("diffuse_base")) {  // material/metallic_roughness.h
+      std::string b = str(c, j["diffuse_base"], path + "/diffuse_base");
+      if (b == "plastic") m.flags |= kPlasticBase;
+      else if (b != "gltf") c.fail(path + "/diffuse_base", "unknown diffuse base '" + b + "' (allowed: gltf, plastic)");
+    }
     m.clearcoat = unit_value("clearcoat", 0.f, m.tex_clearcoat);
     const float coat_rough = unit_value("clearcoat_roughness", 0.f, m.tex_clearcoat_roughness);
     m.clearcoat_alpha = coat_rough * coat_rough;
