@@ -297,7 +297,7 @@ TEST(GltfLoader, PunctualLights) {
 TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
   Builder b;
   b.j["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                           "KHR_materials_emissive_strength", "KHR_materials_sheen", "EXT_made_up"};
+                           "KHR_materials_emissive_strength", "KHR_materials_iridescence", "EXT_made_up"};
   b.push("materials", {{"name", "glass"},
                        {"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 0.8, 0.7, 1}}, {"metallicFactor", 0.0},
                                                  {"roughnessFactor", 0.1}}},
@@ -328,7 +328,7 @@ TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
   expect_near(d.shapes[0].emission, RGB(0.f));
   expect_near(d.shapes[1].emission, RGB(5.f));  // emissiveFactor * emissiveStrength
   EXPECT_TRUE(d.shapes[1].emission_two_sided);
-  EXPECT_TRUE(has_warning(d, "extension KHR_materials_sheen is not supported; its properties are ignored"));
+  EXPECT_TRUE(has_warning(d, "extension KHR_materials_iridescence is not supported; its properties are ignored"));
   EXPECT_TRUE(has_warning(d, "unknown extension EXT_made_up ignored"));
   EXPECT_FALSE(has_warning(d, "no lights"));  // the emissive quad is an area light
 }
@@ -419,6 +419,38 @@ TEST(GltfLoader, Specular) {
   std::string p = e.write("badspec");
   EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_specular/specularColorFactor: expected "
                              "non-negative colour values");
+}
+
+TEST(GltfLoader, Sheen) {
+  // KHR_materials_sheen: the colour (sRGB texture) and roughness (its texture's alpha moved to a grey copy's
+  // red), the albedo table left to Scene::build; no sheen with a black colour; colours above 1 are errors.
+  Builder b;
+  b.j["extensionsUsed"] = {"KHR_materials_sheen"};
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {255, 128, 0, 102}, 4))}});
+  b.push("textures", {{"source", 0}});
+  b.push("materials", {{"extensions", {{"KHR_materials_sheen", {{"sheenColorFactor", {0.9, 0.5, 0.2}}, {"sheenRoughnessFactor", 0.6},
+                                                                 {"sheenColorTexture", {{"index", 0}}},
+                                                                 {"sheenRoughnessTexture", {{"index", 0}}}}}}}});
+  b.push("materials", {{"extensions", {{"KHR_materials_sheen", {{"sheenRoughnessTexture", {{"index", 0}}}}}}}});
+  int q0 = b.quad(0), q1 = b.quad(1);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}})});
+  SceneDesc d = load_gltf_scene(b.write("sheen"));
+  ASSERT_EQ(d.materials.size(), 2u);
+  const Material& m = d.materials[0];
+  expect_near(m.sheen_color, RGB(0.9f, 0.5f, 0.2f));
+  EXPECT_FLOAT_EQ(m.sheen_roughness, 0.6f);
+  ASSERT_GE(m.tex_sheen_color, 0);
+  ASSERT_GE(m.tex_sheen_roughness, 0);
+  EXPECT_TRUE(d.textures[size_t(m.tex_sheen_color)].srgb);
+  EXPECT_FALSE(d.textures[size_t(m.tex_sheen_roughness)].srgb);
+  EXPECT_NEAR(d.textures[size_t(m.tex_sheen_roughness)].rgba[0], 0.4f, 1e-6f);  // alpha 102/255
+  expect_near(d.materials[1].sheen_color, RGB(0.f));
+  EXPECT_EQ(d.materials[1].tex_sheen_roughness, -1);
+  Builder e;
+  e.push("materials", {{"extensions", {{"KHR_materials_sheen", {{"sheenColorFactor", {1.5, 1.0, 1.0}}}}}}});
+  e.scene({e.push("nodes", {{"mesh", e.quad(0)}})});
+  std::string p = e.write("badsheen");
+  EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_sheen/sheenColorFactor: expected colour values in [0, 1]");
 }
 
 TEST(GltfLoader, TransmissionTexture) {
@@ -638,7 +670,7 @@ TEST(GltfLoader, MalformedInputMessages) {
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_draco_mesh_compression' is required but not supported "
                              "(supported: EXT_mesh_gpu_instancing, KHR_lights_punctual, KHR_materials_anisotropy, "
                              "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, "
-                             "KHR_materials_pbrSpecularGlossiness, KHR_materials_specular, KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
+                             "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
                              "KHR_texture_transform)");
   // A missing buffer file names both files.
   p = write_text("nobuf.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "missing.bin", "byteLength": 4}]})");

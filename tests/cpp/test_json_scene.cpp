@@ -77,6 +77,10 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_EQ(a.tex_specular, b.tex_specular) << w;
   EXPECT_EQ(a.tex_specular_color, b.tex_specular_color) << w;
   EXPECT_EQ(a.tex_transmission, b.tex_transmission) << w;
+  expect_same(a.sheen_color, b.sheen_color, w + ".sheen_color");
+  EXPECT_TRUE(same(a.sheen_roughness, b.sheen_roughness)) << w << ".sheen_roughness";
+  EXPECT_EQ(a.tex_sheen_color, b.tex_sheen_color) << w;
+  EXPECT_EQ(a.tex_sheen_roughness, b.tex_sheen_roughness) << w;
   EXPECT_TRUE(same(a.bump_scale, b.bump_scale)) << w << ".bump_scale";
   expect_same(a.absorption, b.absorption, w + ".absorption");
 }
@@ -373,6 +377,13 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   Material see_through = make_metallic_roughness(RGB(0.9f), 0.f, 0.1f, 0.75f, 1.4f);
   see_through.tex_transmission = 1;
   d.add_material("transmission texture", see_through);
+  Material velvet = make_metallic_roughness(RGB(0.3f, 0.05f, 0.1f), 0.f, 0.8f);
+  velvet.sheen_color = RGB(0.9f, 0.4f, 0.5f);
+  velvet.sheen_roughness = 0.35f;
+  d.add_material("sheen", velvet);
+  velvet.tex_sheen_color = 0;
+  velvet.tex_sheen_roughness = 1;
+  d.add_material("sheen textures", velvet);
   Material vc = make_diffuse(RGB(0.7f));
   vc.flags |= kVertexColor;
   d.add_material("vertex coloured", vc);
@@ -632,6 +643,8 @@ TEST(JsonLoader, ErrorsNameTheFileAndJsonPath) {
        "s.json: /shapes/0/uvs: expected one [u,v] per position"},
       {scene_with(R"("materials": {"m": {"type": "diffuse", "normal_map": "a.png", "bump_map": "b.png"}})"),
        "s.json: /materials/m/bump_map: give normal_map or bump_map, not both"},
+      {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "sheen_color": [1, 2, 0]}})"),
+       "s.json: /materials/m/sheen_color: expected colour values in [0, 1]"},
       {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "specular": -0.5}})"),
        "s.json: /materials/m/specular: expected a number in [0, 1]"},
       {scene_with(R"("materials": {"m": {"type": "metallic_roughness", "clearcoat": 1.2}})"),

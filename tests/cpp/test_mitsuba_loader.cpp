@@ -356,7 +356,7 @@ TEST(MitsubaBsdf, Mapping) {
   EXPECT_FLOAT_EQ(m.eta, 1.5f);
   expect_vec_near(m.diffuse, RGB(0.5f), 0.f);  // nonlinear="true": as given
   EXPECT_GT(m.fdr_int, 0.f);
-  EXPECT_GT(m.coat_t[kRoughPlasticTable - 1], m.coat_t[0]);  // the coat lets more through head-on
+  EXPECT_GT(m.table[kMaterialTable - 1], m.table[0]);  // the coat lets more through head-on
   EXPECT_EQ(all_warnings(d).find("roughplastic"), std::string::npos) << all_warnings(d);
   m = M("ts2");
   EXPECT_EQ(m.type, MaterialType::kConductor);

@@ -88,7 +88,8 @@ def main():
             "disney": {"type": "principled", "base_color": [0.8, 0.3, 0.2], "metallic": 0.2, "roughness": 0.4,
                        "anisotropic": 0.3, "spec_trans": 0.1, "sheen": 0.5, "clearcoat": 0.6},
             "paint": {"type": "metallic_roughness", "base_color": [0.6, 0.1, 0.1], "roughness": 0.5,
-                      "clearcoat": 0.9, "clearcoat_roughness": 0.1, "specular": 0.5, "specular_color": [1, 0.8, 0.6]},
+                      "clearcoat": 0.9, "clearcoat_roughness": 0.1, "specular": 0.5, "specular_color": [1, 0.8, 0.6],
+                      "sheen_color": [0.7, 0.7, 0.9], "sheen_roughness": 0.3, "transmission": 0.2},
         },
         "shapes": [
             {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
@@ -152,7 +153,7 @@ def main():
         return {
             "asset": {"version": "2.0"},
             "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat",
-                               "KHR_materials_specular"],
+                               "KHR_materials_specular", "KHR_materials_sheen"],
             "scene": 0,
             "scenes": [{"nodes": [0, 3, 4]}],
             "nodes": [
@@ -172,7 +173,9 @@ def main():
                  "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
                                                             "clearcoatTexture": {"index": 0}},
                                 "KHR_materials_specular": {"specularFactor": 0.6, "specularColorFactor": [1.2, 1, 0.5],
-                                                           "specularTexture": {"index": 0}}}},
+                                                           "specularTexture": {"index": 0}},
+                                "KHR_materials_sheen": {"sheenColorFactor": [0.8, 0.5, 0.6], "sheenRoughnessFactor": 0.4,
+                                                        "sheenRoughnessTexture": {"index": 0}}}},
                 {"emissiveFactor": [1, 0.8, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}},
             ],
             "textures": [{"source": 0, "sampler": 0}],

@@ -50,8 +50,8 @@ enum MaterialFlags : uint32_t {
   kSides = 256u,
 };
 
-// Entries of a rough plastic's coat transmittance table (Material::coat_t; material/rough_plastic.h).
-constexpr int kRoughPlasticTable = 32;
+// Entries of a material's table of a function of a cosine (Material::table, material_table).
+constexpr int kMaterialTable = 32;
 
 // Radiance flows from lights to the camera; importance flows the other way.
 // Refraction scales radiance by 1/eta^2 but not importance (Veach 1997, Sec. 5.2).
@@ -79,6 +79,10 @@ struct Material {
   // clearcoat_alpha (clearcoatRoughness^2; material/metallic_roughness.h).
   float spec_tint = 0.f, sheen = 0.f, sheen_tint = 0.f, flatness = 0.f, clearcoat = 0.f, clearcoat_gloss = 0.f;
   float clearcoat_alpha = 0.f;
+  // Metallic-roughness: KHR_materials_sheen's sheenColorFactor (black: no sheen) and sheenRoughnessFactor
+  // (perceptual; the Charlie distribution's alpha is its square).
+  RGB sheen_color{0.f};
+  float sheen_roughness = 0.f;
   // Textures (indices into SceneView::textures, -1 = none), applied at the hit:
   //   tex_color multiplies the main colour (diffuse/base colour; a tinted
   //     mirror's or conductor's `specular`; a dielectric's `transmission`);
@@ -96,10 +100,13 @@ struct Material {
   //     specularTexture alpha there, so that the JSON export's RGB images keep it);
   //   tex_specular_color: its specular colour times RGB (specularColorTexture);
   //   tex_transmission: metallic-roughness's transmission_weight times R (KHR_materials_transmission's
-  //     transmissionTexture).
+  //     transmissionTexture);
+  //   tex_sheen_color: its sheen colour times RGB (KHR_materials_sheen's sheenColorTexture);
+  //   tex_sheen_roughness: its sheen roughness times R (sheenRoughnessTexture's alpha, moved to red by the glTF
+  //     loader). The sheen's albedo table stays the factor's (prepare_sheen).
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
   int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1,
-          tex_transmission = -1;
+          tex_transmission = -1, tex_sheen_color = -1, tex_sheen_roughness = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
   // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
   // applied to path segments that end on the back side of this material
@@ -121,17 +128,27 @@ struct Material {
   // whole).
   int32_t mix_a = -1, mix_b = -1, tex_mix = -1;
   float mix_weight = 0.5f;
-  // Rough plastic: t(mu), the light its coat lets through at incidence cos mu, at mu = i / (kRoughPlasticTable
-  // - 1), in 65535ths (fdr_int holds the coat's internal reflectance); filled by prepare_rough_plastic.
-  uint16_t coat_t[kRoughPlasticTable] = {};
+  // A function of a cosine mu in [0, 1], at mu = i / (kMaterialTable - 1), in 65535ths (material_table):
+  // rough plastic: t(mu), the light its coat lets through (fdr_int holds the coat's internal reflectance;
+  // prepare_rough_plastic); metallic-roughness with sheen: the sheen's directional albedo E(mu) for a white
+  // sheen colour (prepare_sheen). Filled by Scene::build.
+  uint16_t table[kMaterialTable] = {};
 };
 
 // Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
 // writers' lists of used images); without `opacity` the opacity slot reads as empty.
-inline std::array<int32_t, 12> material_textures(const Material& m, bool opacity = true) {
+inline std::array<int32_t, 14> material_textures(const Material& m, bool opacity = true) {
   return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
           m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, m.tex_transmission,
-          opacity ? m.tex_opacity : -1, m.tex_mix};
+          m.tex_sheen_color, m.tex_sheen_roughness, opacity ? m.tex_opacity : -1, m.tex_mix};
+}
+
+// Material::table at cosine mu, linearly interpolated.
+CHD float material_table(const Material& m, float mu) {
+  const float x = clampf(mu, 0.f, 1.f) * float(kMaterialTable - 1);
+  const int i = x >= float(kMaterialTable - 2) ? kMaterialTable - 2 : int(x);
+  const float f = x - float(i);
+  return (float(m.table[i]) * (1.f - f) + float(m.table[i + 1]) * f) * (1.f / 65535.f);
 }
 
 // How many blends inside blends resolve_material resolves (the loaders refuse cycles).

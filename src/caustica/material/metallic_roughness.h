@@ -40,6 +40,15 @@
 // c Fc(cos_o) of the light, the base gets the rest). The coat shares the shading normal (a
 // clearcoatNormalTexture is not used). Sampling picks the coat with probability c Fc(cos_o), its reflectance,
 // and the base mixture otherwise; a coat with alpha below kSmoothAlpha is a mirror (a delta lobe).
+//
+// KHR_materials_sheen (m.sheen_color, m.sheen_roughness; alpha = roughness^2, at least 1e-3), under the coat and
+// over the rest: the extension's sheen lobe, sheen_color D V with the Charlie distribution and the visibility of
+// Estevez & Kulla 2017, divided by max(1, E(cos_o)) max(1, E(cos_i)) (E the white lobe's directional albedo,
+// tabulated per material for the factor's roughness: Material::table, prepare_sheen), which changes it only
+// at grazing angles of smooth sheens, where the model's albedo exceeds 1; and the layers under it scaled by
+// the extension's min(1 - max(col) E(cos_o), 1 - max(col) E(cos_i)), with E capped at 1. Symmetric, so
+// reciprocal, and the albedo stays <= 1. Sampling picks the sheen with probability max(col) min(E(cos_o), 1)
+// and then a cosine-distributed direction.
 #pragma once
 #include "dielectric.h"
 #include "microfacet.h"
@@ -190,6 +199,54 @@ CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, Transpor
   return true;
 }
 
+// The sheen (KHR_materials_sheen; see the top of this file).
+constexpr float kMinSheenAlpha = 1e-3f;
+CHD bool mr_has_sheen(const Material& m) { return max_component(m.sheen_color) > 0.f; }
+CHD float mr_sheen_alpha(const Material& m) { return maxf(m.sheen_roughness * m.sheen_roughness, kMinSheenAlpha); }
+// Estevez & Kulla 2017's fit of the Charlie distribution's masking, Lambda(cos) = exp(l(cos)) below cos 0.5
+// and exp(2 l(0.5) - l(1 - cos)) above, l(x) = a / (1 + b x^c) + d x + e with the paper's coefficients for
+// alpha 0 and 1 blended by (1 - alpha)^2.
+CHD float charlie_l(float x, float alpha) {
+  const float t = (1.f - alpha) * (1.f - alpha);
+  const float a = 21.5473f + (25.3245f - 21.5473f) * t, b = 3.82987f + (3.32435f - 3.82987f) * t,
+              c = 0.19823f + (0.16801f - 0.19823f) * t, d = -1.97760f + (-1.27393f + 1.97760f) * t,
+              e = -4.32054f + (-4.85967f + 4.32054f) * t;
+  return a / (1.f + b * std::pow(x, c)) + d * x + e;
+}
+CHD float charlie_lambda(float cos_theta, float alpha) {
+  return cos_theta < 0.5f ? std::exp(charlie_l(cos_theta, alpha))
+                          : std::exp(2.f * charlie_l(0.5f, alpha) - charlie_l(1.f - cos_theta, alpha));
+}
+// The sheen lobe of a white sheen colour as the extension defines it: the Charlie distribution
+// D(h) = (2 + 1/a) sin(theta_h)^(1/a) / (2 pi) (Estevez & Kulla 2017, Eq. 2) and their visibility
+// 1 / ((1 + Lambda(cos_o) + Lambda(cos_i)) 4 cos_o cos_i); symmetric in wo and wi.
+CHD float mr_sheen_lobe(float alpha, Vec3f wo, Vec3f wi) {
+  if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
+  const Vec3f wm = normalize(wo + wi);
+  const float sin2 = maxf(0.f, 1.f - wm.z * wm.z);
+  const float d = (2.f + 1.f / alpha) * std::pow(sin2, 0.5f / alpha) * (0.5f * kInvPi);
+  return d / ((1.f + charlie_lambda(wo.z, alpha) + charlie_lambda(wi.z, alpha)) * 4.f * wo.z * wi.z);
+}
+// That lobe's directional albedo E(mu), tabulated (Material::table holds E / kSheenTableScale: at grazing
+// incidence and small alpha E exceeds 1, up to ~1.6 at alpha 1e-3).
+constexpr float kSheenTableScale = 4.f;
+CHD float mr_sheen_E(const Material& m, float mu) { return kSheenTableScale * material_table(m, mu); }
+// The sheen caustica renders: the lobe over max(1, E(cos_o)) max(1, E(cos_i)), which leaves it alone where E <= 1
+// and keeps its albedo at most 1 where the model would create light (symmetric still).
+CHD float mr_sheen_eval(const Material& m, Vec3f wo, Vec3f wi) {
+  if (wo.z <= 0.f || wi.z <= 0.f) return 0.f;
+  return mr_sheen_lobe(mr_sheen_alpha(m), wo, wi) / (maxf(1.f, mr_sheen_E(m, wo.z)) * maxf(1.f, mr_sheen_E(m, wi.z)));
+}
+// A bound on that sheen's directional albedo towards w for its colour's largest channel, max(col) min(E, 1):
+// the share of the light it takes from the layers under it (0 below the surface).
+CHD float mr_sheen_albedo(const Material& m, Vec3f w) {
+  return w.z > 0.f ? max_component(m.sheen_color) * minf(mr_sheen_E(m, w.z), 1.f) : 0.f;
+}
+// The extension's albedo scaling of the layers under the sheen, min(1 - E(cos_o), 1 - E(cos_i)).
+CHD float mr_sheen_scaling(const Material& m, Vec3f wo, Vec3f wi) {
+  return minf(1.f - mr_sheen_albedo(m, wo), 1.f - mr_sheen_albedo(m, wi));
+}
+
 // The clear coat (KHR_materials_clearcoat; see the top of this file).
 constexpr float kCoatEta = 1.5f;
 CHD bool mr_coat_smooth(const Material& m) { return m.clearcoat_alpha < kSmoothAlpha; }
@@ -206,6 +263,8 @@ CHD Microfacet mr_coat_microfacet(const Material& m) { return Microfacet{m.clear
 // Continuous parts of f (delta lobes evaluate to zero), without the cosine.
 CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
   RGB f = mr_base_eval(m, wo, wi, mode);
+  if (mr_has_sheen(m))
+    f = f * mr_sheen_scaling(m, wo, wi) + m.sheen_color * mr_sheen_eval(m, wo, wi);
   if (!(m.clearcoat > 0.f)) return f;
   f = f * (mr_coat_through(m, wo) * mr_coat_through(m, wi));
   if (wo.z <= 0.f || wi.z <= 0.f || mr_coat_smooth(m)) return f;
@@ -218,6 +277,8 @@ CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, Transport
 // Density of the continuous parts of the sampling mixture.
 CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   float pdf = mr_base_pdf(m, wo, wi);
+  const float psh = mr_sheen_albedo(m, wo);  // the sheen is sampled with probability its albedo
+  if (psh > 0.f) pdf = pdf * (1.f - psh) + (wi.z > 0.f ? psh * cosine_hemisphere_pdf(wi) : 0.f);
   float pc = mr_coat_prob(m, wo);
   if (!(pc > 0.f)) return pdf;
   pdf *= 1.f - pc;
@@ -241,13 +302,24 @@ CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f 
     s.wi = reflect(wo, mr_coat_microfacet(m).sample_wm(wo, u));
     if (s.wi.z <= 0.f) return false;
   } else {
-    if (!mr_base_sample(m, wo, pc > 0.f ? minf((uc - pc) / (1.f - pc), 0.99999994f) : uc, u, mode, s)) return false;
-    if (s.delta) {
-      if (m.clearcoat > 0.f) {
-        s.pdf *= 1.f - pc;
-        s.weight = s.weight * (mr_coat_through(m, wo) * mr_coat_through(m, s.wi) / (1.f - pc));
+    if (pc > 0.f) uc = minf((uc - pc) / (1.f - pc), 0.99999994f);
+    const float psh = mr_sheen_albedo(m, wo);
+    if (uc < psh) {  // the sheen, by its cosine
+      s.wi = square_to_cosine_hemisphere(u);
+      s.eta = 1.f;
+      if (s.wi.z <= 0.f) return false;
+    } else {
+      if (psh > 0.f) uc = minf((uc - psh) / (1.f - psh), 0.99999994f);
+      if (!mr_base_sample(m, wo, uc, u, mode, s)) return false;
+      if (s.delta) {
+        // The layers above pass the base's delta lobe the share they leave it.
+        float share = 1.f, prob = 1.f;
+        if (m.clearcoat > 0.f) share *= mr_coat_through(m, wo) * mr_coat_through(m, s.wi), prob *= 1.f - pc;
+        if (psh > 0.f) share *= mr_sheen_scaling(m, wo, s.wi), prob *= 1.f - psh;
+        s.pdf *= prob;
+        s.weight = s.weight * (share / prob);
+        return true;
       }
-      return true;
     }
   }
   s.delta = false;

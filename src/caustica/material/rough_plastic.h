@@ -18,13 +18,8 @@
 
 namespace caustica {
 
-// t(mu) from the material's table (kRoughPlasticTable entries at mu = i / (n - 1)).
-CHD float rough_plastic_t(const Material& m, float mu) {
-  const float x = clampf(mu, 0.f, 1.f) * float(kRoughPlasticTable - 1);
-  const int i = x >= float(kRoughPlasticTable - 2) ? kRoughPlasticTable - 2 : int(x);
-  const float f = x - float(i);
-  return (float(m.coat_t[i]) * (1.f - f) + float(m.coat_t[i + 1]) * f) * (1.f / 65535.f);
-}
+// t(mu) from the material's table.
+CHD float rough_plastic_t(const Material& m, float mu) { return material_table(m, mu); }
 CHD float rough_plastic_specular_prob(const Material& m, float t_o) {
   const float ws = (1.f - t_o) * luminance(m.specular), wd = t_o * luminance(m.diffuse);
   return ws + wd > 0.f ? ws / (ws + wd) : 1.f;

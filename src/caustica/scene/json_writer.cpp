@@ -358,6 +358,11 @@ struct Writer {
         }
         if (m.specular.x != 1.f || m.specular.y != 1.f || m.specular.z != 1.f || m.tex_specular_color >= 0)
           o.set("specular_color", color_slot(m.specular, m.tex_specular_color));
+        if (max_component(m.sheen_color) > 0.f || m.tex_sheen_color >= 0) {
+          JV r = JV::flt(m.sheen_roughness);
+          o.set("sheen_color", color_slot(m.sheen_color, m.tex_sheen_color));
+          o.set("sheen_roughness", m.tex_sheen_roughness >= 0 ? texture(m.tex_sheen_roughness, false, &r) : r);
+        }
         if (m.clearcoat > 0.f || m.tex_clearcoat >= 0) {
           float rough = std::sqrt(m.clearcoat_alpha);
           roughness_for_alpha(m.clearcoat_alpha, rough);  // the roughness whose square is alpha, where one is

@@ -1,6 +1,7 @@
 #include "scene.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <functional>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include "../backend/cpu/cpu_accel.h"
 #include "../base/error.h"
 #include "../material/fresnel.h"
+#include "../material/metallic_roughness.h"
 #include "../material/microfacet.h"
 
 namespace caustica {
@@ -138,7 +140,7 @@ double coat_expectation(const Microfacet& g, float eta, float mu, bool transmitt
 }  // namespace
 
 struct CoatTables {
-  uint16_t t[kRoughPlasticTable];
+  uint16_t t[kMaterialTable];
   float internal;
 };
 
@@ -152,16 +154,16 @@ void prepare_rough_plastic(Material& m) {
     std::lock_guard<std::mutex> lock(mutex);
     auto it = cache.find(key);
     if (it != cache.end()) {
-      std::copy(std::begin(it->second.t), std::end(it->second.t), std::begin(m.coat_t));
+      std::copy(std::begin(it->second.t), std::end(it->second.t), std::begin(m.table));
       m.fdr_int = it->second.internal;
       return;
     }
   }
   const Microfacet g = material_microfacet(m);
-  for (int i = 0; i < kRoughPlasticTable; ++i) {
-    const float mu = std::max(1e-4f, float(i) / float(kRoughPlasticTable - 1));
+  for (int i = 0; i < kMaterialTable; ++i) {
+    const float mu = std::max(1e-4f, float(i) / float(kMaterialTable - 1));
     const double t = std::clamp(coat_expectation(g, m.eta, mu, true), 0.0, 1.0);
-    m.coat_t[i] = uint16_t(std::lround(t * 65535.0));
+    m.table[i] = uint16_t(std::lround(t * 65535.0));
   }
   // The internal reflectance 2 int_0^1 R_inside(mu) mu dmu, by Mitsuba's rule: the mean over the 64 cosines
   // i / 63 (the first 1e-6).
@@ -173,10 +175,60 @@ void prepare_rough_plastic(Material& m) {
   }
   m.fdr_int = float(2.0 * r / n);
   CoatTables c;
-  std::copy(std::begin(m.coat_t), std::end(m.coat_t), std::begin(c.t));
+  std::copy(std::begin(m.table), std::end(m.table), std::begin(c.t));
   c.internal = m.fdr_int;
   std::lock_guard<std::mutex> lock(mutex);
   cache.emplace(key, c);
+}
+
+void prepare_sheen(Material& m) {
+  // E(mu) = int f_sheen(wo, wi) cos_i dwi over the upper hemisphere (the white lobe of mr_sheen_lobe), wo at
+  // cosine mu, by the midpoint rule on 256 polar angles x 64 azimuths over half the circle (the lobe is
+  // symmetric about wo's plane; the smallest alpha's lobe is ~0.03 rad wide in theta_h, 5 steps), with the
+  // masking terms of each row computed once and D's power in single precision (~10 ms per alpha). Stored as E / kSheenTableScale. Once per alpha in a process.
+  static std::mutex mutex;
+  static std::map<float, std::array<uint16_t, kMaterialTable>> cache;
+  const float alpha = mr_sheen_alpha(m);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(alpha);
+    if (it != cache.end()) {
+      std::copy(it->second.begin(), it->second.end(), std::begin(m.table));
+      return;
+    }
+  }
+  constexpr int nt = 256, np = 64;
+  const double dt = 0.5 * double(kPi) / nt, dp = double(kPi) / np;
+  double cos_t[nt], sin_t[nt], lambda_t[nt], cos_p[np], sin_p[np];
+  for (int a = 0; a < nt; ++a) {
+    cos_t[a] = std::cos((a + 0.5) * dt), sin_t[a] = std::sin((a + 0.5) * dt);
+    lambda_t[a] = charlie_lambda(float(cos_t[a]), alpha);
+  }
+  for (int b = 0; b < np; ++b) cos_p[b] = std::cos((b + 0.5) * dp), sin_p[b] = std::sin((b + 0.5) * dp);
+  const double norm = (2.0 + 1.0 / alpha) * 0.5 / double(kPi);
+  const float expo = 0.5f / alpha;
+  std::array<uint16_t, kMaterialTable> t{};
+  for (int i = 0; i < kMaterialTable; ++i) {
+    const double mu = std::max(1e-4, double(i) / (kMaterialTable - 1)), so = std::sqrt(1.0 - mu * mu);
+    const double lambda_o = charlie_lambda(float(mu), alpha);
+    double e = 0.0;
+    for (int a = 0; a < nt; ++a) {
+      double row = 0.0;
+      for (int b = 0; b < np; ++b) {
+        // h = (wo + wi) / |wo + wi|, wo = (so, 0, mu), wi = (sin_t cos_p, sin_t sin_p, cos_t): sin^2 theta_h
+        const double hx = so + sin_t[a] * cos_p[b], hy = sin_t[a] * sin_p[b], hz = mu + cos_t[a];
+        const double sin2 = (hx * hx + hy * hy) / (hx * hx + hy * hy + hz * hz);
+        row += double(std::pow(float(sin2), expo));
+      }
+      // D V cos_i dw = D / ((1 + L_o + L_i) 4 mu cos_i) cos_i sin_t dtheta dphi
+      e += row * sin_t[a] / (1.0 + lambda_o + lambda_t[a]);
+    }
+    e *= norm / (4.0 * mu) * dt * dp * 2.0;  // both halves of the circle
+    t[size_t(i)] = uint16_t(std::lround(std::clamp(e / kSheenTableScale, 0.0, 1.0) * 65535.0));
+  }
+  std::copy(t.begin(), t.end(), std::begin(m.table));
+  std::lock_guard<std::mutex> lock(mutex);
+  cache.emplace(alpha, t);
 }
 
 Material make_rough_plastic(RGB diffuse, float eta, float alpha, bool beckmann, RGB specular) {
@@ -712,6 +764,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     if (m.type == MaterialType::kPlastic || m.type == MaterialType::kMetallicRoughness) m.fdr_int = diffuse_fresnel_reflectance(1.f / m.eta);
   for (Material& m : s.materials)
     if (m.type == MaterialType::kRoughPlastic) prepare_rough_plastic(m);  // its coat tables
+    else if (m.type == MaterialType::kMetallicRoughness && mr_has_sheen(m)) prepare_sheen(m);  // its albedo table
 
   for (Material& m : s.materials) {
     for (int t : material_textures(m))

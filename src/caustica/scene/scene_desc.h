@@ -213,9 +213,12 @@ Material make_principled(RGB base_color, float metallic, float roughness, float 
 // A rough dielectric coat (GGX alpha, or Beckmann) over Lambert, Mitsuba's roughplastic
 // (material/rough_plastic.h); computes its coat tables (prepare_rough_plastic).
 Material make_rough_plastic(RGB diffuse, float eta, float alpha, bool beckmann = false, RGB specular = RGB(1.f));
-// A rough plastic's derived state: Material::coat_t and fdr_int from alpha, eta and the distribution (Scene::build
+// A rough plastic's derived state: Material::table and fdr_int from alpha, eta and the distribution (Scene::build
 // calls it for every rough plastic).
 void prepare_rough_plastic(Material& m);
+// A metallic-roughness material's sheen albedo table (Material::table; material/metallic_roughness.h) from its
+// sheen roughness (Scene::build calls it for every such material with a sheen colour).
+void prepare_sheen(Material& m);
 // Hemispherical average of dielectric Fresnel reflectance, 2 int_0^1 F(mu) mu dmu.
 float diffuse_fresnel_reflectance(float eta);
 

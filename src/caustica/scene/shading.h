@@ -204,6 +204,9 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
       m.alpha_x = m.alpha_y = maxf(r.r, 1e-4f);
     }
   }
+  if (m.tex_sheen_color >= 0) m.sheen_color *= texture_lookup(s.textures[m.tex_sheen_color], sh.uv).rgb();
+  if (m.tex_sheen_roughness >= 0)
+    m.sheen_roughness *= clampf(texture_lookup(s.textures[m.tex_sheen_roughness], sh.uv).r, 0.f, 1.f);
   if (m.tex_transmission >= 0)
     m.transmission_weight *= clampf(texture_lookup(s.textures[m.tex_transmission], sh.uv).r, 0.f, 1.f);
   if (m.tex_specular >= 0) m.specular_weight *= clampf(texture_lookup(s.textures[m.tex_specular], sh.uv).r, 0.f, 1.f);

@@ -39,7 +39,7 @@ constexpr int kByte = 5120, kUByte = 5121, kShort = 5122, kUShort = 5123, kUInt 
 const std::set<std::string>& supported_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
-      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_lights_punctual",
+      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness"};
   return s;
@@ -47,7 +47,7 @@ const std::set<std::string>& supported_extensions() {
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
-      "KHR_materials_sheen",  "KHR_materials_iridescence",
+      "KHR_materials_iridescence",
       "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu", "KHR_draco_mesh_compression",
       "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
@@ -363,6 +363,11 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
         object_at(c, *t, sp);
         for (const char* k : {"specularTexture", "specularColorTexture"}) check_texinfo(*t, k, sp);
       }
+      if (const json* t = member(*ext, "KHR_materials_sheen")) {
+        const std::string sp = P(ep, "KHR_materials_sheen");
+        object_at(c, *t, sp);
+        for (const char* k : {"sheenColorTexture", "sheenRoughnessTexture"}) check_texinfo(*t, k, sp);
+      }
     }
   }
   // Meshes.
@@ -622,6 +627,8 @@ class Converter {
     d_.textures.push_back(std::move(r));
     return it->second = int(d_.textures.size()) - 1;
   }
+  // Texels for a slot that reads red from a glTF texture's alpha: grey of that alpha, opaque.
+  static void alpha_to_red(float* p) { p[0] = p[1] = p[2] = p[3], p[3] = 1.f; }
   int material(size_t i);
   int mesh(size_t mi, size_t pi);
   void visit(size_t node, const Mat4& parent_world);
@@ -856,9 +863,9 @@ int Converter::material(size_t i) {
   float transmission = 0.f, ior = 1.5f, aniso_strength = 0.f, aniso_rotation = 0.f;
   const json* aniso_texture = nullptr;
   std::string aniso_texture_path;
-  const json *clearcoat = nullptr, *specular = nullptr;  // KHR_materials_clearcoat, KHR_materials_specular
+  const json *clearcoat = nullptr, *specular = nullptr, *sheen = nullptr;  // KHR_materials_clearcoat, _specular, _sheen
   const json* transmission_texture = nullptr;           // KHR_materials_transmission's, its red channel
-  std::string clearcoat_path, specular_path, transmission_path;
+  std::string clearcoat_path, specular_path, sheen_path, transmission_path;
   RGB absorption(0.f);
   const json *sg_diffuse_texture = nullptr, *sg_texture = nullptr;  // KHR_materials_pbrSpecularGlossiness
   std::string sg_path;
@@ -919,6 +926,10 @@ int Converter::material(size_t i) {
     if (const json* t = member(*exts, "KHR_materials_specular")) {
       specular = t;
       specular_path = P(ep, "KHR_materials_specular");
+    }
+    if (const json* t = member(*exts, "KHR_materials_sheen")) {
+      sheen = t;
+      sheen_path = P(ep, "KHR_materials_sheen");
     }
     if (const json* t = member(*exts, "KHR_materials_pbrSpecularGlossiness")) {
       // The archived specular-glossiness model, converted to metallic-roughness by the Khronos glTF converters'
@@ -1007,10 +1018,26 @@ int Converter::material(size_t i) {
     if (const json* tx = member(t, "specularTexture")) {
       const int ti = texture(*tx, P(sp, "specularTexture"), false);
       if (ti >= 0)
-        mat.tex_specular = derived_texture(ti, "#specular-from-alpha", [](float* p) { p[0] = p[1] = p[2] = p[3], p[3] = 1.f; });
+        mat.tex_specular = derived_texture(ti, "#red-from-alpha", alpha_to_red);
     }
     if (const json* tx = member(t, "specularColorTexture"))
       mat.tex_specular_color = texture(*tx, P(sp, "specularColorTexture"), true);
+  }
+  if (sheen) {
+    // The sheen colour sheenColorFactor times sheenColorTexture (sRGB), its roughness sheenRoughnessFactor
+    // times sheenRoughnessTexture's alpha (moved to a grey copy's red); material/metallic_roughness.h.
+    const json& t = *sheen;
+    const std::string& sp = sheen_path;
+    if (const json* f = member(t, "sheenColorFactor")) mat.sheen_color = nonneg_color(c_, *f, P(sp, "sheenColorFactor"), 3);
+    if (max_component(mat.sheen_color) > 1.f) c_.fail(P(sp, "sheenColorFactor"), "expected colour values in [0, 1]");
+    mat.sheen_roughness = unit_interval(c_, t, "sheenRoughnessFactor", sp, 0.f);
+    if (max_component(mat.sheen_color) > 0.f) {
+      if (const json* tx = member(t, "sheenColorTexture")) mat.tex_sheen_color = texture(*tx, P(sp, "sheenColorTexture"), true);
+      if (const json* tx = member(t, "sheenRoughnessTexture")) {
+        const int ti = texture(*tx, P(sp, "sheenRoughnessTexture"), false);
+        if (ti >= 0) mat.tex_sheen_roughness = derived_texture(ti, "#red-from-alpha", alpha_to_red);
+      }
+    }
   }
   if (glossiness >= 0.f) {
     if (sg_diffuse_texture) mat.tex_color = texture(*sg_diffuse_texture, P(sg_path, "diffuseTexture"), true);

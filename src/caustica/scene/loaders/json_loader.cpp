@@ -427,10 +427,11 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
   } else if (type == "metallic_roughness") {
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "distribution", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
-                            "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "specular", "specular_color"});
+                            "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "specular", "specular_color",
+                            "sheen_color", "sheen_roughness"});
     // A number in [0, 1] or a texture whose "scale" (default 1) is that number, multiplied by one of the
     // texture's channels: KHR_materials_transmission's weight (R), KHR_materials_clearcoat's weight (R) and
-    // perceptual roughness (G), and KHR_materials_specular's weight (R).
+    // perceptual roughness (G), KHR_materials_specular's weight (R) and KHR_materials_sheen's roughness (R).
     auto unit_value = [&](const char* k, float def, int32_t& tex) {
       if (!j.contains(k)) return def;
       const json& v = j[k];
@@ -467,6 +468,11 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     m.specular_weight = unit_value("specular", 1.f, m.tex_specular);
     if (j.contains("specular_color"))
       m.specular = color_or_texture(c, j["specular_color"], path + "/specular_color", m.tex_specular_color);
+    if (j.contains("sheen_color"))
+      m.sheen_color = color_or_texture(c, j["sheen_color"], path + "/sheen_color", m.tex_sheen_color);
+    if (max_component(m.sheen_color) > 1.f || min_component(m.sheen_color) < 0.f)
+      c.fail(path + "/sheen_color", "expected colour values in [0, 1]");
+    m.sheen_roughness = unit_value("sheen_roughness", 0.f, m.tex_sheen_roughness);
   } else if (type == "principled") {
     // Mitsuba 3's principled BSDF (material/principled.h).
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "anisotropic", "alpha", "anisotropy_rotation",

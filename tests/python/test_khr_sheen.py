@@ -1,0 +1,89 @@
+"""KHR_materials_sheen on the metallic-roughness material (material/metallic_roughness.h): JSON `sheen_color`
+and `sheen_roughness`, glTF sheenColorFactor, sheenRoughnessFactor and their textures. A black sheen is no
+sheen; a sheen (a velvet's bright rim at grazing angles) is seen alike by every integrator; a glTF file's
+sheen exports to JSON and renders the same. The BSDF itself (chi-square, weights, furnace including a smooth
+sheen at grazing incidence, reciprocity, the albedo table, the layer formula) is tested in
+tests/cpp/test_bsdf.cpp."""
+import json
+import os
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import caustica
+from test_clearcoat import SEEDS, region_stats, validate, z_scores
+from test_khr_specular import mr, plate_scene
+
+
+def velvet(**extra):
+    return mr(roughness=0.7, sheen_color=[0.9, 0.6, 0.7], sheen_roughness=0.4, **extra)
+
+
+def test_black_sheen_is_no_sheen_and_a_sheen_shows():
+    """sheen_color 0 renders the plain material (per region within 4.5 standard errors); a sheen adds light
+    (more than 10 standard errors somewhere)."""
+    plain = region_stats(caustica.load_dict(plate_scene(mr(roughness=0.7))), SEEDS, spp=16)
+    black = region_stats(caustica.load_dict(plate_scene(mr(roughness=0.7, sheen_color=0, sheen_roughness=0.4))),
+                         SEEDS, spp=16)
+    sheen = region_stats(caustica.load_dict(plate_scene(velvet())), SEEDS, spp=16)
+    assert z_scores(black, plain).max() < 4.5
+    assert z_scores(sheen, plain).max() > 10.0
+
+
+@pytest.mark.parametrize("integrator", ["light", "bdpt", "vcm"])
+def test_every_integrator_sees_the_sheen(integrator):
+    """The light tracer, BDPT and VCM agree with the path tracer per region on a sheened plate under a clear
+    coat (the sheen's lobe and its scaling of the layers under it are symmetric, so importance and radiance
+    see the same surface)."""
+    scene = caustica.load_dict(plate_scene(velvet(clearcoat=0.5, clearcoat_roughness=0.2)))
+    spp = 64 if integrator == "light" else 32
+    ref = region_stats(scene, SEEDS, spp=32)
+    got = region_stats(scene, SEEDS, integrator=integrator, spp=spp)
+    assert z_scores(ref, got).max() < 4.5, z_scores(ref, got)
+
+
+def test_gltf_sheen_exports_and_renders_the_same(tmp_path):
+    """A glTF material with KHR_materials_sheen and both textures (no "not supported" warning) exports to JSON
+    (valid against the schema), and the export renders the glTF's image exactly."""
+    sys.path.insert(0, os.path.dirname(__file__))
+    from test_gltf import Gltf, FILL_FOV
+    from PIL import Image
+    import io
+    rgba = np.zeros((4, 4, 4), np.uint8)
+    rgba[..., 0], rgba[..., 1], rgba[..., 2], rgba[..., 3] = 255, 200, 120, 90
+    buf = io.BytesIO()
+    Image.fromarray(rgba, "RGBA").save(buf, format="PNG")
+    g = Gltf()
+    g.image_data_uri(buf.getvalue())
+    g.add("textures", {"source": 0})
+    ext = {"sheenColorFactor": [0.8, 0.7, 0.9], "sheenRoughnessFactor": 0.5,
+           "sheenColorTexture": {"index": 0}, "sheenRoughnessTexture": {"index": 0}}
+    mat = g.add("materials", {"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.05, 0.1, 1.0],
+                                                       "metallicFactor": 0.0, "roughnessFactor": 0.8},
+                              "extensions": {"KHR_materials_sheen": ext}})
+    g.doc["extensionsUsed"] = ["KHR_materials_sheen"]
+    g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
+    path = g.write(tmp_path / "sheen.gltf")
+    out = tmp_path / "sheen.json"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        caustica.export_scene(path, str(out))
+    assert not [w for w in caught if "KHR_materials_sheen" in str(w.message)], [str(w.message) for w in caught]
+    doc = json.loads(out.read_text())
+    validate(doc)
+    (m,) = doc["materials"].values()
+    assert m["sheen_color"]["scale"] == pytest.approx([0.8, 0.7, 0.9])
+    assert m["sheen_roughness"]["scale"] == pytest.approx(0.5)
+    a = caustica.render(caustica.load_scene(path, width=16, height=16), spp=4, seed=3)
+    b = caustica.render(caustica.load_scene(str(out), width=16, height=16), spp=4, seed=3)
+    assert np.isfinite(a).all() and a.max() > 0
+    np.testing.assert_array_equal(a, b)
+
+
+def test_bad_sheen_is_a_clear_error():
+    with pytest.raises(caustica.SceneError, match=r"/materials/plate/sheen_color: expected colour values in \[0, 1\]"):
+        caustica.load_dict(plate_scene(mr(sheen_color=[2, 0, 0])))
+    with pytest.raises(caustica.SceneError, match=r"/materials/plate/sheen_roughness: expected a number in \[0, 1\]"):
+        caustica.load_dict(plate_scene(mr(sheen_color=0.5, sheen_roughness=3)))
