@@ -23,6 +23,41 @@ def validate(doc):
         jsonschema.Draft202012Validator(json.load(f)).validate(doc)
 
 
+def gltf_with(tmp_path, extension, ext, base_color, roughness, image=None):
+    """A glTF file of one quad (test_gltf's builder) whose material has `extension` = `ext`, optionally with
+    a PNG image as texture 0."""
+    sys.path.insert(0, os.path.dirname(__file__))
+    from test_gltf import Gltf, FILL_FOV
+    g = Gltf()
+    if image is not None:
+        g.image_data_uri(image)
+        g.add("textures", {"source": 0})
+    mat = g.add("materials", {"pbrMetallicRoughness": {"baseColorFactor": list(base_color) + [1.0],
+                                                       "metallicFactor": 0.0, "roughnessFactor": roughness},
+                              "extensions": {extension: ext}})
+    g.doc["extensionsUsed"] = [extension]
+    g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
+    return g.write(tmp_path / "layers.gltf")
+
+
+def export_round_trip(tmp_path, path, extension):
+    """Exports a glTF file to JSON: no warning names `extension` (it is supported), the export is valid
+    against the schema and renders the glTF's image exactly. Returns the exported material."""
+    out = tmp_path / "export.json"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        caustica.export_scene(path, str(out))
+    assert not [w for w in caught if extension in str(w.message)], [str(w.message) for w in caught]
+    doc = json.loads(out.read_text())
+    validate(doc)
+    a = caustica.render(caustica.load_scene(path, width=16, height=16), spp=4, seed=3)
+    b = caustica.render(caustica.load_scene(str(out), width=16, height=16), spp=4, seed=3)
+    assert np.isfinite(a).all() and a.max() > 0
+    np.testing.assert_array_equal(a, b)
+    (m,) = doc["materials"].values()
+    return m
+
+
 def plate_scene(coat=None, coat_roughness=0.0, texture=None):
     """A red rough plastic-like plate under a rectangular lamp, seen obliquely (the lamp's reflection lies in
     the image), with an optional clear coat (weight `coat`, or a texture scaled by it)."""
@@ -126,30 +161,11 @@ def test_coat_texture_scales_the_weight_at_the_hit(tmp_path):
 def test_gltf_clearcoat_exports_and_renders_the_same(tmp_path):
     """A glTF material with KHR_materials_clearcoat (no "not supported" warning) exports to JSON with
     `clearcoat` and `clearcoat_roughness`, and the exported scene renders the glTF's image exactly."""
-    sys.path.insert(0, os.path.dirname(__file__))
-    from test_gltf import Gltf, FILL_FOV
-    g = Gltf()
-    mat = g.add("materials", {"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.1, 0.1, 1.0],
-                                                       "metallicFactor": 0.0, "roughnessFactor": 0.5},
-                              "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.9,
-                                                                         "clearcoatRoughnessFactor": 0.25}}})
-    g.doc["extensionsUsed"] = ["KHR_materials_clearcoat"]
-    g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
-    path = g.write(tmp_path / "coat.gltf")
-    out = tmp_path / "coat.json"
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        caustica.export_scene(path, str(out))
-    assert not [w for w in caught if "clearcoat" in str(w.message)]
-    doc = json.loads(out.read_text())
-    validate(doc)
-    (m,) = doc["materials"].values()
+    path = gltf_with(tmp_path, "KHR_materials_clearcoat",
+                     {"clearcoatFactor": 0.9, "clearcoatRoughnessFactor": 0.25}, (0.7, 0.1, 0.1), 0.5)
+    m = export_round_trip(tmp_path, path, "KHR_materials_clearcoat")
     assert m["clearcoat"] == pytest.approx(0.9)
     assert m["clearcoat_roughness"] == pytest.approx(0.25)
-    a = caustica.render(caustica.load_scene(path, width=16, height=16), spp=4, seed=3)
-    b = caustica.render(caustica.load_scene(str(out), width=16, height=16), spp=4, seed=3)
-    assert np.isfinite(a).all() and a.max() > 0
-    np.testing.assert_array_equal(a, b)
 
 
 def test_bad_clearcoat_is_a_clear_error(tmp_path):

@@ -628,7 +628,7 @@ class Converter {
     return it->second = int(d_.textures.size()) - 1;
   }
   // Texels for a slot that reads red from a glTF texture's alpha: grey of that alpha, opaque.
-  static void alpha_to_red(float* p) { p[0] = p[1] = p[2] = p[3], p[3] = 1.f; }
+  static void alpha_to_red(float* px) { px[0] = px[1] = px[2] = px[3], px[3] = 1.f; }
   int material(size_t i);
   int mesh(size_t mi, size_t pi);
   void visit(size_t node, const Mat4& parent_world);
@@ -863,9 +863,6 @@ int Converter::material(size_t i) {
   float transmission = 0.f, ior = 1.5f, aniso_strength = 0.f, aniso_rotation = 0.f;
   const json* aniso_texture = nullptr;
   std::string aniso_texture_path;
-  const json *clearcoat = nullptr, *specular = nullptr, *sheen = nullptr;  // KHR_materials_clearcoat, _specular, _sheen
-  const json* transmission_texture = nullptr;           // KHR_materials_transmission's, its red channel
-  std::string clearcoat_path, specular_path, sheen_path, transmission_path;
   RGB absorption(0.f);
   const json *sg_diffuse_texture = nullptr, *sg_texture = nullptr;  // KHR_materials_pbrSpecularGlossiness
   std::string sg_path;
@@ -876,10 +873,6 @@ int Converter::material(size_t i) {
     std::string ep = P(p, "extensions");
     if (const json* t = member(*exts, "KHR_materials_transmission")) {
       transmission = unit_interval(c_, *t, "transmissionFactor", P(ep, "KHR_materials_transmission"), 0.f);
-      if (const json* tx = member(*t, "transmissionTexture")) {
-        transmission_texture = tx;
-        transmission_path = P(P(ep, "KHR_materials_transmission"), "transmissionTexture");
-      }
     }
     if (const json* t = member(*exts, "KHR_materials_ior")) {
       object_at(c_, *t, P(ep, "KHR_materials_ior"));
@@ -918,18 +911,6 @@ int Converter::material(size_t i) {
         aniso_texture = at;
         aniso_texture_path = P(ap, "anisotropyTexture");
       }
-    }
-    if (const json* t = member(*exts, "KHR_materials_clearcoat")) {
-      clearcoat = t;
-      clearcoat_path = P(ep, "KHR_materials_clearcoat");
-    }
-    if (const json* t = member(*exts, "KHR_materials_specular")) {
-      specular = t;
-      specular_path = P(ep, "KHR_materials_specular");
-    }
-    if (const json* t = member(*exts, "KHR_materials_sheen")) {
-      sheen = t;
-      sheen_path = P(ep, "KHR_materials_sheen");
     }
     if (const json* t = member(*exts, "KHR_materials_pbrSpecularGlossiness")) {
       // The archived specular-glossiness model, converted to metallic-roughness by the Khronos glTF converters'
@@ -987,11 +968,18 @@ int Converter::material(size_t i) {
     // strength 0 there is nothing for it to scale.
     if (aniso_texture && mat.alpha_x != mat.alpha_y) mat.tex_aniso = texture(*aniso_texture, aniso_texture_path, false);
   }
-  if (clearcoat) {
+  // The layers' extensions (material/metallic_roughness.h), read once the material exists: the extension's
+  // object (or null) and its JSON path.
+  const json* const exts = member(m, "extensions");
+  auto extension = [&](const char* name, std::string& path) -> const json* {
+    path = P(P(p, "extensions"), name);
+    return exts ? member(*exts, name) : nullptr;
+  };
+  std::string cp, sp;
+  if (const json* clearcoat = extension("KHR_materials_clearcoat", cp)) {
     // A GGX coat of IOR 1.5 (material/metallic_roughness.h): clearcoatFactor times the clearcoatTexture's R,
     // roughness clearcoatRoughnessFactor times the clearcoatRoughnessTexture's G (alpha = roughness^2).
     const json& t = *clearcoat;
-    const std::string& cp = clearcoat_path;
     mat.clearcoat = unit_interval(c_, t, "clearcoatFactor", cp, 0.f);
     const float rough = unit_interval(c_, t, "clearcoatRoughnessFactor", cp, 0.f);
     mat.clearcoat_alpha = rough * rough;
@@ -1004,30 +992,29 @@ int Converter::material(size_t i) {
                   "shading normal");
     }
   }
-  if (transmission_texture && mat.transmission_weight > 0.f)
-    mat.tex_transmission = texture(*transmission_texture, transmission_path, false);
-  if (specular) {
+  if (const json* tr = extension("KHR_materials_transmission", sp)) {  // transmissionTexture: its red channel
+    if (const json* tx = member(*tr, "transmissionTexture"); tx && mat.transmission_weight > 0.f)
+      mat.tex_transmission = texture(*tx, P(sp, "transmissionTexture"), false);
+  }
+  if (const json* specular = extension("KHR_materials_specular", sp)) {
     // The dielectric's specular weight specularFactor times the specularTexture's alpha (moved to a grey copy:
     // the weight slot reads red, which a JSON export's RGB images keep), its colour
     // specularColorFactor (may exceed 1; the reflectance at normal incidence is capped at 1) times the
     // specularColorTexture (sRGB); material/metallic_roughness.h, mr_dielectric_fresnel.
     const json& t = *specular;
-    const std::string& sp = specular_path;
     mat.specular_weight = unit_interval(c_, t, "specularFactor", sp, 1.f);
     if (const json* f = member(t, "specularColorFactor")) mat.specular = nonneg_color(c_, *f, P(sp, "specularColorFactor"), 3);
     if (const json* tx = member(t, "specularTexture")) {
       const int ti = texture(*tx, P(sp, "specularTexture"), false);
-      if (ti >= 0)
-        mat.tex_specular = derived_texture(ti, "#red-from-alpha", alpha_to_red);
+      if (ti >= 0) mat.tex_specular = derived_texture(ti, "#red-from-alpha", alpha_to_red);
     }
     if (const json* tx = member(t, "specularColorTexture"))
       mat.tex_specular_color = texture(*tx, P(sp, "specularColorTexture"), true);
   }
-  if (sheen) {
+  if (const json* sheen = extension("KHR_materials_sheen", sp)) {
     // The sheen colour sheenColorFactor times sheenColorTexture (sRGB), its roughness sheenRoughnessFactor
     // times sheenRoughnessTexture's alpha (moved to a grey copy's red); material/metallic_roughness.h.
     const json& t = *sheen;
-    const std::string& sp = sheen_path;
     if (const json* f = member(t, "sheenColorFactor")) mat.sheen_color = nonneg_color(c_, *f, P(sp, "sheenColorFactor"), 3);
     if (max_component(mat.sheen_color) > 1.f) c_.fail(P(sp, "sheenColorFactor"), "expected colour values in [0, 1]");
     mat.sheen_roughness = unit_interval(c_, t, "sheenRoughnessFactor", sp, 0.f);
@@ -1047,8 +1034,8 @@ int Converter::material(size_t i) {
       const int t = texture(*sg_texture, P(sg_path, "specularGlossinessTexture"), false);
       if (t >= 0) {
         // One copy per glossiness factor (the texels hold 1 - glossiness x alpha).
-        mat.tex_roughness = derived_texture(t, "#roughness-from-glossiness-" + std::to_string(glossiness), [&](float* p) {
-          p[0] = 0.f, p[1] = 1.f - glossiness * p[3], p[2] = 1.f, p[3] = 1.f;
+        mat.tex_roughness = derived_texture(t, "#roughness-from-glossiness-" + std::to_string(glossiness), [&](float* px) {
+          px[0] = 0.f, px[1] = 1.f - glossiness * px[3], px[2] = 1.f, px[3] = 1.f;
         });
         mat.alpha_x = mat.alpha_y = 1.f;  // the factor: the texture holds the whole roughness
       }
