@@ -1059,6 +1059,9 @@ TEST(Clearcoat, SmoothCoatMirrorsItsFresnelShare) {
   }
   EXPECT_TRUE(material_is_delta(coated(make_metallic_roughness(RGB(1.f), 1.f, 0.f), 1.f, 0.f)));
   EXPECT_FALSE(material_is_delta(coated(make_metallic_roughness(RGB(1.f), 1.f, 0.f), 1.f, 0.3f)));
+  Material sheen_mirror = make_metallic_roughness(RGB(1.f), 1.f, 0.f);
+  sheen_mirror.sheen_color = RGB(0.5f);  // a sheen is a continuous lobe over the mirror
+  EXPECT_FALSE(material_is_delta(sheen_mirror));
   const Material zero = coated(plain, 0.f, 0.3f);
   PCG32 rng(9, 0x5eed);
   for (int k = 0; k < 1000; ++k) {

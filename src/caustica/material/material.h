@@ -165,7 +165,8 @@ CHD bool material_is_delta(const Material& m) {
   return m.type == MaterialType::kConductor || m.type == MaterialType::kDielectric ||
          m.type == MaterialType::kThinDielectric ||
          (m.type == MaterialType::kMetallicRoughness && m.alpha_x < 1e-3f && m.alpha_y < 1e-3f &&
-          (m.metallic >= 1.f || m.transmission_weight >= 1.f) && (!(m.clearcoat > 0.f) || m.clearcoat_alpha < 1e-3f));
+          (m.metallic >= 1.f || m.transmission_weight >= 1.f) && (!(m.clearcoat > 0.f) || m.clearcoat_alpha < 1e-3f) &&
+          !(max_component(m.sheen_color) > 0.f));
 }
 
 struct BSDFSample {
