@@ -18,7 +18,7 @@ ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
 
 def validate(doc):
-    jsonschema = pytest.importorskip("jsonschema")
+    import jsonschema  # installed by make deps, as the other schema tests assume
     with open(os.path.join(ROOT, "docs", "scene.schema.json")) as f:
         jsonschema.Draft202012Validator(json.load(f)).validate(doc)
 
@@ -65,12 +65,17 @@ def plate_scene(coat=None, coat_roughness=0.0, texture=None):
     if coat is not None:
         mat["clearcoat"] = coat if texture is None else {"texture": texture, "scale": coat, "filter": "nearest"}
         mat["clearcoat_roughness"] = coat_roughness
+    return lamp_plate(mat, "paint")
+
+
+def lamp_plate(material, name):
+    """The plate (material `material`, named `name`) under the lamp, seen obliquely."""
     return {
         "film": {"width": RES, "height": RES},
         "camera": {"position": [0, 1.2, 3.2], "target": [0, 0, 0], "fov": 45},
-        "materials": {"paint": mat},
+        "materials": {name: material},
         "shapes": [
-            {"type": "rectangle", "material": "paint",
+            {"type": "rectangle", "material": name,
              "transform": [{"scale": 1.5}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}]},
             {"type": "rectangle", "emission": 6,
              "transform": [{"scale": 0.4}, {"look_at": {"origin": [0, 1.4, -1.6], "target": [0, 0, 0]}}]},

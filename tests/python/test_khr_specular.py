@@ -10,22 +10,12 @@ import numpy as np
 import pytest
 
 import caustica
-from test_clearcoat import RES, SEEDS, export_round_trip, gltf_with, region_stats, validate, z_scores
+from test_clearcoat import SEEDS, lamp_plate, export_round_trip, gltf_with, region_stats, validate, z_scores
 
 
 def plate_scene(material):
     """test_clearcoat's plate under a lamp, with the given plate material."""
-    return {
-        "film": {"width": RES, "height": RES},
-        "camera": {"position": [0, 1.2, 3.2], "target": [0, 0, 0], "fov": 45},
-        "materials": {"plate": material},
-        "shapes": [
-            {"type": "rectangle", "material": "plate",
-             "transform": [{"scale": 1.5}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}]},
-            {"type": "rectangle", "emission": 6,
-             "transform": [{"scale": 0.4}, {"look_at": {"origin": [0, 1.4, -1.6], "target": [0, 0, 0]}}]},
-        ],
-    }
+    return lamp_plate(material, "plate")
 
 
 BASE = [0.3, 0.5, 0.2]
