@@ -8,24 +8,37 @@
 
 namespace caustica {
 
-CHD bool dielectric_sample(const Material& m, Vec3f wo, float u, TransportMode mode, BSDFSample& s) {
-  float F = fresnel_dielectric(wo.z, m.eta);
+// What a dielectric interface (smooth here, rough in rough_dielectric.h) reads of its material: the IOR and the
+// tints of its reflection and transmission. The metallic-roughness glass lobe passes its own (base colour as the
+// transmission tint) instead of a modified copy of the whole Material (material/metallic_roughness.h).
+struct DielectricParams {
+  float eta;     // interior IOR over exterior IOR
+  RGB reflect;   // reflection tint (Material::specular)
+  RGB transmit;  // transmission tint (Material::transmission)
+};
+CHD DielectricParams dielectric_params(const Material& m) { return {m.eta, m.specular, m.transmission}; }
+
+CHD bool dielectric_sample(const DielectricParams& d, Vec3f wo, float u, TransportMode mode, BSDFSample& s) {
+  float F = fresnel_dielectric(wo.z, d.eta);
   s.delta = true;
   if (u < F) {
     s.wi = Vec3f(-wo.x, -wo.y, wo.z);
     s.pdf = F;
-    s.weight = m.specular;
+    s.weight = d.reflect;
     s.eta = 1.f;
     return true;
   }
-  float eta = wo.z > 0.f ? m.eta : 1.f / m.eta;  // eta_t / eta_i
+  float eta = wo.z > 0.f ? d.eta : 1.f / d.eta;  // eta_t / eta_i
   Vec3f n(0.f, 0.f, wo.z > 0.f ? 1.f : -1.f);
   if (!refract(wo, n, eta, s.wi)) return false;
   s.pdf = 1.f - F;
-  s.weight = m.transmission;
+  s.weight = d.transmit;
   if (mode == TransportMode::kRadiance) s.weight /= eta * eta;
   s.eta = eta;
   return true;
+}
+CHD bool dielectric_sample(const Material& m, Vec3f wo, float u, TransportMode mode, BSDFSample& s) {
+  return dielectric_sample(dielectric_params(m), wo, u, mode, s);
 }
 
 }  // namespace caustica

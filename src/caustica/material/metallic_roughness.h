@@ -74,13 +74,9 @@ CHD MRWeights mr_weights(const Material& m) {
   return {metal, (1.f - metal) * tw, (1.f - metal) * (1.f - tw)};
 }
 CHD bool mr_smooth(const Material& m) { return m.alpha_x < kSmoothAlpha && m.alpha_y < kSmoothAlpha; }
-CHD Material mr_glass(const Material& m) {
-  Material g = m;
-  g.type = mr_smooth(m) ? MaterialType::kDielectric : MaterialType::kRoughDielectric;
-  g.specular = RGB(1.f);
-  g.transmission = m.diffuse;
-  return g;
-}
+// The glass lobe: m's IOR, an untinted reflection and the base colour as the transmission tint, with m's
+// microfacets when rough.
+CHD DielectricParams mr_glass(const Material& m) { return {m.eta, RGB(1.f), m.diffuse}; }
 // KHR_materials_specular (m.specular_weight = specularFactor w, m.specular = specularColorFactor s): the
 // dielectric's specular reflectance at cosine c. With F the exact Fresnel of eta and F0 = F(1), the colour
 // scales the reflectance at normal incidence (capped at 1) and the weight scales the whole,
@@ -100,7 +96,9 @@ CHD RGB mr_dielectric_fresnel(const Material& m, float c) {
 }
 // The share of the light the specular layer takes from the diffuse base at cosine c: the largest channel of
 // its reflectance (the extension's max_value(fr)).
-CHD float mr_dielectric_reflectance(const Material& m, float c) { return max_component(mr_dielectric_fresnel(m, c)); }
+CHD float mr_dielectric_reflectance(const Material& m, float c) {
+  return mr_plain_specular(m) ? fresnel_dielectric(c, m.eta) : max_component(mr_dielectric_fresnel(m, c));
+}
 CHD float mr_specular_prob(const Material& m, float Fo) {
   float ws = Fo, wd = (1.f - Fo) * luminance(m.diffuse);
   return ws + wd > 0.f ? ws / (ws + wd) : 1.f;
@@ -111,7 +109,7 @@ CHD float mr_specular_prob(const Material& m, float Fo) {
 CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
   MRWeights w = mr_weights(m);
   RGB f(0.f);
-  if (w.glass > 0.f && !mr_smooth(m)) f += rough_dielectric_eval(mr_glass(m), wo, wi, mode) * w.glass;
+  if (w.glass > 0.f && !mr_smooth(m)) f += rough_dielectric_eval(mr_glass(m), material_microfacet(m), wo, wi, mode) * w.glass;
   if (wo.z <= 0.f || wi.z <= 0.f) return f;
   if (!mr_smooth(m)) {
     Vec3f wm = normalize(wo + wi);
@@ -135,7 +133,7 @@ CHD float mr_base_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   float pdf = 0.f;
   // Seen from behind only the glass is sampled (selection probability 1).
   float sel_glass = wo.z <= 0.f ? 1.f : w.glass;
-  if (w.glass > 0.f && !mr_smooth(m)) pdf += sel_glass * rough_dielectric_pdf(mr_glass(m), wo, wi);
+  if (w.glass > 0.f && !mr_smooth(m)) pdf += sel_glass * rough_dielectric_pdf(mr_glass(m), material_microfacet(m), wo, wi);
   if (wo.z <= 0.f || wi.z <= 0.f) return pdf;
   float ps = mr_specular_prob(m, mr_dielectric_reflectance(m, wo.z));
   if (!mr_smooth(m)) {
@@ -159,14 +157,14 @@ CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, Transpor
     if (w.glass == 0.f) return false;  // seen from behind: only the glass transmits
     float sel = wo.z <= 0.f ? 1.f : w.glass;
     float uc2 = wo.z <= 0.f ? uc : uc / w.glass;
-    Material g = mr_glass(m);
+    const DielectricParams g = mr_glass(m);
     if (smooth) {
       if (!dielectric_sample(g, wo, minf(uc2, 0.99999994f), mode, s)) return false;
       s.pdf *= sel;
       s.weight = s.weight * (w.glass / sel);
       return true;
     }
-    if (!rough_dielectric_sample(g, wo, minf(uc2, 0.99999994f), u, mode, s)) return false;
+    if (!rough_dielectric_sample(g, material_microfacet(m), wo, minf(uc2, 0.99999994f), u, mode, s)) return false;
   } else {
     uc = (uc - w.glass) / (1.f - w.glass);
     float Fo = mr_dielectric_reflectance(m, wo.z);
@@ -260,8 +258,14 @@ CHD float mr_coat_prob(const Material& m, Vec3f wo) {
 }
 CHD Microfacet mr_coat_microfacet(const Material& m) { return Microfacet{m.clearcoat_alpha, m.clearcoat_alpha, false}; }
 
-// Continuous parts of f (delta lobes evaluate to zero), without the cosine.
-CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
+// A coat or a sheen over the base. Without one, eval, pdf and sample are the base's alone, and the layers'
+// code below is kept out of line so that plain metallic-roughness materials run the base's code as before the
+// layers (measured: inlined, the layers made plain materials 15-20% slower; bench/RESULTS.md).
+CHD bool mr_layered(const Material& m) { return m.clearcoat > 0.f || mr_has_sheen(m); }
+
+// Continuous parts of f (delta lobes evaluate to zero), without the cosine, with the layers.
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB mr_layered_eval(const Material& m, Vec3f wo, Vec3f wi,
+                                                                   TransportMode mode) {
   RGB f = mr_base_eval(m, wo, wi, mode);
   if (mr_has_sheen(m))
     f = f * mr_sheen_scaling(m, wo, wi) + m.sheen_color * mr_sheen_eval(m, wo, wi);
@@ -274,8 +278,8 @@ CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, Transport
                  (4.f * wo.z * wi.z));
 }
 
-// Density of the continuous parts of the sampling mixture.
-CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
+// Density of the continuous parts of the sampling mixture, with the layers.
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline float mr_layered_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   float pdf = mr_base_pdf(m, wo, wi);
   const float psh = mr_sheen_albedo(m, wo);  // the sheen is sampled with probability its albedo
   if (psh > 0.f) pdf = pdf * (1.f - psh) + (wi.z > 0.f ? psh * cosine_hemisphere_pdf(wi) : 0.f);
@@ -287,8 +291,17 @@ CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   return pdf + pc * mr_coat_microfacet(m).pdf_wm(wo, wm) / (4.f * absdot(wo, wm));
 }
 
-CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode,
-                                   BSDFSample& s) {
+CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
+  return mr_layered(m) ? mr_layered_eval(m, wo, wi, mode) : mr_base_eval(m, wo, wi, mode);
+}
+CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
+  return mr_layered(m) ? mr_layered_pdf(m, wo, wi) : mr_base_pdf(m, wo, wi);
+}
+
+// Sampling with the layers: the coat with probability c Fc(cos_o), else the sheen with probability its albedo,
+// else the base.
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool mr_layered_sample(const Material& m, Vec3f wo, float uc, Vec2f u,
+                                                                      TransportMode mode, BSDFSample& s) {
   const float pc = mr_coat_prob(m, wo);
   if (uc < pc) {  // the coat
     s.eta = 1.f;
@@ -323,9 +336,20 @@ CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f 
     }
   }
   s.delta = false;
-  s.pdf = metallic_roughness_pdf(m, wo, s.wi);
+  s.pdf = mr_layered_pdf(m, wo, s.wi);
   if (!(s.pdf > 0.f)) return false;
-  s.weight = metallic_roughness_eval(m, wo, s.wi, mode) * (abs_cos_theta(s.wi) / s.pdf);
+  s.weight = mr_layered_eval(m, wo, s.wi, mode) * (abs_cos_theta(s.wi) / s.pdf);
+  return isfinite3(s.weight);
+}
+
+CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode,
+                                   BSDFSample& s) {
+  if (mr_layered(m)) return mr_layered_sample(m, wo, uc, u, mode, s);
+  if (!mr_base_sample(m, wo, uc, u, mode, s)) return false;
+  if (s.delta) return true;
+  s.pdf = mr_base_pdf(m, wo, s.wi);
+  if (!(s.pdf > 0.f)) return false;
+  s.weight = mr_base_eval(m, wo, s.wi, mode) * (abs_cos_theta(s.wi) / s.pdf);
   return isfinite3(s.weight);
 }
 
