@@ -17,6 +17,14 @@ Usage:
     .venv/bin/python bench/bench_ab.py --a /tmp/ab/old --b current --runs 3 \\
         --case "cornell path 64" --case "tests/data/json/many-lights.json restir 8 width=128 height=96"
 
+With --instructions the builds are compared by the instructions they execute instead (deterministic where wall
+times on a shared machine vary by 10%): each case runs once per build under valgrind's callgrind, on one thread,
+without the warm-up render, and once more without the render at all; the difference is the render's count.
+Needs valgrind; about 50 times slower than the render itself, so use a few spp.
+
+    .venv/bin/python bench/bench_ab.py --a /tmp/ab/old --b current --instructions \
+        --case "bench/scenes/mr_spheres.json path 16" --case "bench/scenes/mr_spheres.json bdpt 4"
+
 A case is "SCENE INTEGRATOR SPP [KEY=VALUE ...]": a built-in scene or a scene file, and render_job keyword
 arguments (width and height are given to load_scene; numbers are read as numbers). Printed and appended to
 bench/RESULTS.md unless --no-append.
@@ -58,7 +66,11 @@ import numpy as np
 import caustica
 case = json.loads(sys.argv[2])
 scene = caustica.load_scene(case["scene"], **case["size"])
-caustica.render_job(scene, integrator=case["integrator"], spp=1, seed=case["seed"], **case["kwargs"])
+if not case.get("render", True):
+    print(json.dumps({}))
+    sys.exit(0)
+if case.get("warmup", True):
+    caustica.render_job(scene, integrator=case["integrator"], spp=1, seed=case["seed"], **case["kwargs"])
 r = caustica.render_job(scene, integrator=case["integrator"], spp=case["spp"], seed=case["seed"], **case["kwargs"])
 np.save(sys.argv[3], r.image)
 print(json.dumps({"seconds": r.stats["seconds"], "passes": r.stats["passes"], "file": caustica.__file__,
@@ -124,6 +136,20 @@ def run_once(build: str, case: dict, image: str) -> dict:
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
+def count_instructions(build: str, case: dict, image: str) -> int:
+    """Instructions (callgrind's Ir) of the case's render in build: one run with the render, one without."""
+    counts = []
+    for render in (True, False):
+        c = {**case, "warmup": False, "render": render, "kwargs": {**case["kwargs"], "threads": 1}}
+        p = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, "-c",
+                            CHILD, build, json.dumps(c), image], capture_output=True, text=True, cwd=ROOT)
+        found = [ln for ln in p.stderr.splitlines() if "Collected :" in ln]
+        if p.returncode != 0 or not found:
+            raise SystemExit(f"callgrind run failed with build {build}: {p.stderr.strip().splitlines()[-1:]}")
+        counts.append(int(found[-1].split(":")[-1].strip()))
+    return counts[0] - counts[1]
+
+
 def compare(a: np.ndarray, b: np.ndarray) -> str:
     if np.array_equal(a, b):
         return "identical"
@@ -142,6 +168,8 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=5, help="timed processes per build and case (default 5)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--no-append", action="store_true")
+    ap.add_argument("--instructions", action="store_true",
+                    help="compare instruction counts under callgrind (one thread, one run each) instead of times")
     a = ap.parse_args()
     if a.save:
         save(a.save)
@@ -156,6 +184,21 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for text in a.case or DEFAULT_CASES:
             case = parse_case(text, a.seed)
+            if a.instructions:
+                images = {}
+                ir = {}
+                for k in ("A", "B"):
+                    path = os.path.join(tmp, f"{k}.npy")
+                    ir[k] = count_instructions(builds[k], case, path)
+                    images[k] = np.load(path)
+                diff = compare(images["A"], images["B"])
+                name = os.path.relpath(case["scene"], ROOT) if os.path.exists(case["scene"]) else case["scene"]
+                opts = " ".join(f"{k}={v}" for k, v in {**case["size"], **case["kwargs"]}.items())
+                print(f"{name} {case['integrator']} {case['spp']} spp {opts}: A {ir['A'] / 1e9:.4f} G, "
+                      f"B {ir['B'] / 1e9:.4f} G instructions, B/A {ir['B'] / ir['A']:.4f}; images {diff}", flush=True)
+                rows.append([f"{name} {opts}".strip(), case["integrator"], str(case["spp"]), f"{ir['A'] / 1e9:.4f}",
+                             f"{ir['B'] / 1e9:.4f}", f"{ir['B'] / ir['A']:.4f}", diff])
+                continue
             times = {"A": [], "B": []}
             images = {}
             for i in range(a.runs):
@@ -177,7 +220,13 @@ def main() -> int:
                          f"{med['B']:.3f}", f"{ratio:.3f}", diff, spread])
     if builds["B"] != a.b:
         shutil.rmtree(builds["B"], ignore_errors=True)
-    if not a.no_append:
+    if not a.no_append and a.instructions:
+        append_block("bench_ab.py", started, labels["B"], f"instructions of build {labels['B']} (B) against "
+                     f"{labels['A']} (A)",
+                     f"Settings: --instructions: callgrind's instruction count of each render (one run with it less "
+                     f"one without it), one thread, no warm-up; seed {a.seed}; B/A below 1: B executes fewer.",
+                     ["scene", "integrator", "spp", "A (G instr.)", "B (G instr.)", "B/A", "images"], rows)
+    elif not a.no_append:
         append_block("bench_ab.py", started, labels["B"], f"build {labels['B']} (B) against {labels['A']} (A)",
                      f"Settings: each case timed in {a.runs} fresh processes per build, A and B alternating, after "
                      f"one 1-spp warm-up render in each process; seed {a.seed}; all threads; times are "
