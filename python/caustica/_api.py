@@ -222,7 +222,12 @@ def _override(s, width, height, filter, crop=None):
     fw, fh = s.film_size
     new_w = _positive_int("width", width) if width is not None else fw
     new_h = _positive_int("height", height) if height is not None else fh
+    if filter is not None and not isinstance(filter, dict) and filter not in FILTERS:
+        raise InputError(f"unknown filter '{filter}' (allowed: {', '.join(FILTERS)})")
     old_crop = s.crop or (0, 0, 0, 0)
+    # Any override that fails (a window that does not fit the film, a filter object with bad parameters) leaves
+    # a loaded scene as it was: resolution and crop are put back; the filter is set last, only after the others
+    # succeeded, and a failing filter sets nothing.
     try:
         if crop is not None:
             s.set_crop(0, 0, 0, 0)  # the new window is checked against the new film
@@ -230,17 +235,15 @@ def _override(s, width, height, filter, crop=None):
             s.set_resolution(new_w, new_h)
         if crop is not None:
             s.set_crop(x, y, w, h)
-    except InputError:  # a window that does not fit: the scene stays as it was
+        if isinstance(filter, dict):  # {"type": ..., parameters}: the scene format's filter object
+            s.set_filter_json(json.dumps(filter))
+        elif filter is not None:
+            s.set_filter(filter)
+    except InputError:
         s.set_crop(0, 0, 0, 0)
         s.set_resolution(fw, fh)
         s.set_crop(*old_crop)
         raise
-    if isinstance(filter, dict):  # {"type": ..., parameters}: the scene format's filter object
-        s.set_filter_json(json.dumps(filter))
-    elif filter is not None:
-        if filter not in FILTERS:
-            raise InputError(f"unknown filter '{filter}' (allowed: {', '.join(FILTERS)})")
-        s.set_filter(filter)
     return s
 
 

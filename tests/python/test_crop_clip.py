@@ -83,6 +83,12 @@ def test_crop_in_the_scene_file_and_its_errors(tmp_path):
     with pytest.raises(caustica.InputError, match="does not fit the 40x40 film"):
         caustica.load_scene(s, width=40, height=40)
     assert (s.film_size, s.crop) == ((64, 64), CROP)
+    # So does a filter that fails after a new resolution and window were set, and the filter stays the scene's.
+    before = (s.filter, s.filter_parameters)
+    for bad, msg in (({"type": "lanczos", "lobes": 0.5}, "lobes"), ("bicubic", "unknown filter")):
+        with pytest.raises(caustica.InputError, match=msg):
+            caustica.load_scene(s, width=48, height=48, crop=(0, 0, 16, 16), filter=bad)
+        assert (s.film_size, s.crop, (s.filter, s.filter_parameters)) == ((64, 64), CROP, before)
     with pytest.raises(caustica.InputError, match="crop: expected"):
         caustica.load_scene(cornell(), crop=(1, 2))
 
