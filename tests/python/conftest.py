@@ -53,6 +53,28 @@ def region_means(img, k=8):
     return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / h
 
 
+def seeded_region_stats(scene, seeds, n=4, channel=None, **opts):
+    """Per region of an n x n grid: the mean over independent renders (one per seed, the independent sampler, so
+    that the renders are independent samples) and its standard error. Each render is reduced to its region
+    means of one channel, or of the mean of the colour channels when channel is None."""
+    import caustica
+
+    def regions(img):
+        img = np.asarray(img, np.float64)
+        g = img[:, :, :3].mean(axis=2) if channel is None else img[:, :, channel]
+        h, w = g.shape[0] // n, g.shape[1] // n
+        return g[:h * n, :w * n].reshape(n, h, n, w).mean(axis=(1, 3))
+
+    r = np.stack([regions(caustica.render(scene, seed=s, sampler="independent", **opts)) for s in seeds])
+    return r.mean(axis=0), r.std(axis=0, ddof=1) / np.sqrt(len(seeds))
+
+
+def region_z(a, b):
+    """|difference| of two seeded_region_stats per region in units of its standard error."""
+    (ma, sa), (mb, sb) = a, b
+    return np.abs(ma - mb) / np.sqrt(sa ** 2 + sb ** 2 + 1e-12)
+
+
 def worst_region_z(scene, integrator, max_depth, spp=256, slack=0.02, reference="path", device="cpu"):
     """Renders `scene` with `reference` on the CPU (seed 1) and `integrator` on `device` (seed 2) and returns the
     largest difference of the green region means (region_means) in units of their combined standard error plus

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import caustica
+from conftest import region_z, seeded_region_stats
 
 RES = 32
 
@@ -50,35 +51,17 @@ def disk_scene(rotation_deg, turned_deg):
     return d
 
 
-def regions(img, n=4):
-    """Mean green value of n x n regions."""
-    g = img[:, :, 1].astype(np.float64)
-    h = RES // n
-    return g.reshape(n, h, n, h).mean(axis=(1, 3))
-
-
-def region_stats(scene, seeds, **opts):
-    """Per-region mean and standard error over independent renders (one per seed)."""
-    r = np.stack([regions(caustica.render(scene, seed=s, sampler="independent", **opts)) for s in seeds])
-    return r.mean(axis=0), r.std(axis=0, ddof=1) / np.sqrt(len(seeds))
-
-
-def z_scores(a, b):
-    (ma, sa), (mb, sb) = a, b
-    return np.abs(ma - mb) / np.sqrt(sa ** 2 + sb ** 2 + 1e-12)
-
-
 def test_turned_parameterisation_with_swapped_alphas_is_the_same_surface():
     seeds = range(1, 9)
-    a = region_stats(caustica.load_dict(plate_scene((0.04, 0.5), False)), seeds, spp=16)
-    b = region_stats(caustica.load_dict(plate_scene((0.5, 0.04), True)), seeds, spp=16)
-    c = region_stats(caustica.load_dict(plate_scene((0.5, 0.04), False)), seeds, spp=16)
+    a = seeded_region_stats(caustica.load_dict(plate_scene((0.04, 0.5), False)), seeds, channel=1, spp=16)
+    b = seeded_region_stats(caustica.load_dict(plate_scene((0.5, 0.04), True)), seeds, channel=1, spp=16)
+    c = seeded_region_stats(caustica.load_dict(plate_scene((0.5, 0.04), False)), seeds, channel=1, spp=16)
     # Same surface: 16 regions, each within 4.5 standard errors of the difference (two-sided p ~ 7e-6 per
     # region, so a false alarm is rare).
-    assert z_scores(a, b).max() < 4.5, z_scores(a, b)
+    assert region_z(a, b).max() < 4.5, region_z(a, b)
     # The direction matters: swapping the alphas without turning the parameterisation stretches the
     # highlight the other way (if the frame ignored dp/du, a and b would differ like this).
-    assert z_scores(a, c).max() > 10.0, z_scores(a, c)
+    assert region_z(a, c).max() > 10.0, region_z(a, c)
 
 
 @pytest.mark.parametrize("integrator,opts", [("light", {}), ("bdpt", {}), ("sppm", {"photons": 20000})])
@@ -90,10 +73,10 @@ def test_every_integrator_shades_with_the_same_frame(integrator, opts):
     # a stage that built its frame from the normal alone would stretch the highlight the other way.
     scene = caustica.load_dict(plate_scene((0.05, 0.45), True))
     seeds = range(1, 7)
-    ref = region_stats(scene, seeds, spp=32)
+    ref = seeded_region_stats(scene, seeds, channel=1, spp=32)
     spp = 64 if integrator == "sppm" else 32
-    got = region_stats(scene, seeds, integrator=integrator, spp=spp, **opts)
-    z = z_scores(ref, got)
+    got = seeded_region_stats(scene, seeds, integrator=integrator, channel=1, spp=spp, **opts)
+    z = region_z(ref, got)
     if integrator == "sppm":
         # Biased but consistent: compare relative differences of the regions that the highlight lights.
         lit = ref[0] > 0.2 * ref[0].max()
@@ -102,9 +85,9 @@ def test_every_integrator_shades_with_the_same_frame(integrator, opts):
     else:
         assert z.max() < 4.5, z
     # And the same integrator on the swapped alphas differs (the frame is not ignored there).
-    other = region_stats(caustica.load_dict(plate_scene((0.45, 0.05), True)), seeds, integrator=integrator,
-                         spp=spp, **opts)
-    assert z_scores(got, other).max() > 6.0
+    other = seeded_region_stats(caustica.load_dict(plate_scene((0.45, 0.05), True)), seeds, integrator=integrator,
+                                 channel=1, spp=spp, **opts)
+    assert region_z(got, other).max() > 6.0
 
 
 def test_mitsuba_alpha_u_alpha_v(tmp_path):
@@ -134,11 +117,11 @@ def test_anisotropy_rotation_turns_the_direction_towards_dp_dv():
     dp/du towards dp/dv, counter-clockwise seen from the normal: a disk whose direction is turned by +30
     degrees looks like the disk itself turned by +30 degrees about its normal, and not like -30."""
     seeds = range(1, 9)
-    rotated = region_stats(caustica.load_dict(disk_scene(30, 0)), seeds, spp=16)
-    turned = region_stats(caustica.load_dict(disk_scene(0, 30)), seeds, spp=16)
-    mirrored = region_stats(caustica.load_dict(disk_scene(0, -30)), seeds, spp=16)
-    assert z_scores(rotated, turned).max() < 4.5, z_scores(rotated, turned)
-    assert z_scores(rotated, mirrored).max() > 10.0, z_scores(rotated, mirrored)
+    rotated = seeded_region_stats(caustica.load_dict(disk_scene(30, 0)), seeds, channel=1, spp=16)
+    turned = seeded_region_stats(caustica.load_dict(disk_scene(0, 30)), seeds, channel=1, spp=16)
+    mirrored = seeded_region_stats(caustica.load_dict(disk_scene(0, -30)), seeds, channel=1, spp=16)
+    assert region_z(rotated, turned).max() < 4.5, region_z(rotated, turned)
+    assert region_z(rotated, mirrored).max() > 10.0, region_z(rotated, mirrored)
 
 
 def test_gltf_khr_materials_anisotropy(tmp_path):
@@ -249,11 +232,11 @@ def test_gltf_tangent_orients_anisotropy_like_a_rotation(tmp_path):
         return caustica.load_scene(path, width=RES, height=RES)
 
     seeds = range(1, 9)
-    by_tangent = region_stats(scene([0, 1, 0, 1], 0.0), seeds, spp=16)
-    by_rotation = region_stats(scene(None, math.pi / 2), seeds, spp=16)
-    unturned = region_stats(scene(None, 0.0), seeds, spp=16)
-    assert z_scores(by_tangent, by_rotation).max() < 4.5, z_scores(by_tangent, by_rotation)
-    assert z_scores(by_tangent, unturned).max() > 10.0, z_scores(by_tangent, unturned)
+    by_tangent = seeded_region_stats(scene([0, 1, 0, 1], 0.0), seeds, channel=1, spp=16)
+    by_rotation = seeded_region_stats(scene(None, math.pi / 2), seeds, channel=1, spp=16)
+    unturned = seeded_region_stats(scene(None, 0.0), seeds, channel=1, spp=16)
+    assert region_z(by_tangent, by_rotation).max() < 4.5, region_z(by_tangent, by_rotation)
+    assert region_z(by_tangent, unturned).max() > 10.0, region_z(by_tangent, unturned)
 
 
 def test_gltf_tangent_handedness_orients_the_normal_map(tmp_path):
@@ -308,12 +291,12 @@ def test_gltf_anisotropy_texture_turns_and_scales(tmp_path):
 
     half = 2 * 128 / 255 - 1
     seeds = range(1, 9)
-    turned = region_stats(scene(0.9, 0.1, [128, 255, 255]), seeds, spp=16)
-    turned_ref = region_stats(scene(0.9, 0.1 + math.atan2(1, half)), seeds, spp=16)
-    weaker = region_stats(scene(0.9, 0.0, [255, 128, 128]), seeds, spp=16)
-    weaker_ref = region_stats(scene(0.9 * 128 / 255, math.atan2(half, 1)), seeds, spp=16)
-    plain = region_stats(scene(0.9, 0.1), seeds, spp=16)
-    assert z_scores(turned, turned_ref).max() < 4.5, z_scores(turned, turned_ref)
-    assert z_scores(weaker, weaker_ref).max() < 4.5, z_scores(weaker, weaker_ref)
-    assert z_scores(turned, plain).max() > 10.0, z_scores(turned, plain)
-    assert z_scores(weaker, plain).max() > 10.0, z_scores(weaker, plain)
+    turned = seeded_region_stats(scene(0.9, 0.1, [128, 255, 255]), seeds, channel=1, spp=16)
+    turned_ref = seeded_region_stats(scene(0.9, 0.1 + math.atan2(1, half)), seeds, channel=1, spp=16)
+    weaker = seeded_region_stats(scene(0.9, 0.0, [255, 128, 128]), seeds, channel=1, spp=16)
+    weaker_ref = seeded_region_stats(scene(0.9 * 128 / 255, math.atan2(half, 1)), seeds, channel=1, spp=16)
+    plain = seeded_region_stats(scene(0.9, 0.1), seeds, channel=1, spp=16)
+    assert region_z(turned, turned_ref).max() < 4.5, region_z(turned, turned_ref)
+    assert region_z(weaker, weaker_ref).max() < 4.5, region_z(weaker, weaker_ref)
+    assert region_z(turned, plain).max() > 10.0, region_z(turned, plain)
+    assert region_z(weaker, plain).max() > 10.0, region_z(weaker, plain)

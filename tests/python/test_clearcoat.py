@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import caustica
+from conftest import region_z, seeded_region_stats
 
 RES = 32
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
@@ -83,24 +84,6 @@ def lamp_plate(material, name):
     }
 
 
-def regions(img, n=4):
-    """Mean of the three channels over n x n regions."""
-    g = img.astype(np.float64).mean(axis=2)
-    h = RES // n
-    return g.reshape(n, h, n, h).mean(axis=(1, 3))
-
-
-def region_stats(scene, seeds, **opts):
-    """Per-region mean and standard error over independent renders (one per seed)."""
-    r = np.stack([regions(caustica.render(scene, seed=s, sampler="independent", **opts)) for s in seeds])
-    return r.mean(axis=0), r.std(axis=0, ddof=1) / np.sqrt(len(seeds))
-
-
-def z_scores(a, b):
-    (ma, sa), (mb, sb) = a, b
-    return np.abs(ma - mb) / np.sqrt(sa ** 2 + sb ** 2 + 1e-12)
-
-
 SEEDS = range(1, 9)
 
 
@@ -111,12 +94,12 @@ def test_every_integrator_sees_the_rough_coat(integrator):
     p ~ 7e-6 per region), and the coat changes the image (the same comparison against the uncoated plate
     fails by far more)."""
     coated = caustica.load_dict(plate_scene(1.0, 0.3))
-    ref = region_stats(coated, SEEDS, spp=32)
-    got = region_stats(coated, SEEDS, integrator=integrator, spp=32)
-    z = z_scores(ref, got)
+    ref = seeded_region_stats(coated, SEEDS, spp=32)
+    got = seeded_region_stats(coated, SEEDS, integrator=integrator, spp=32)
+    z = region_z(ref, got)
     assert z.max() < 4.5, z
-    bare = region_stats(caustica.load_dict(plate_scene()), SEEDS, integrator=integrator, spp=32)
-    assert z_scores(got, bare).max() > 10.0
+    bare = seeded_region_stats(caustica.load_dict(plate_scene()), SEEDS, integrator=integrator, spp=32)
+    assert region_z(got, bare).max() > 10.0
 
 
 def test_bdpt_sees_the_smooth_coat():
@@ -124,12 +107,12 @@ def test_bdpt_sees_the_smooth_coat():
     the camera subpath; BDPT agrees with the path tracer per region, and the mirror makes the image
     brighter where the reflection lies."""
     coated = caustica.load_dict(plate_scene(1.0))
-    ref = region_stats(coated, SEEDS, spp=32)
-    got = region_stats(coated, SEEDS, integrator="bdpt", spp=32)
-    z = z_scores(ref, got)
+    ref = seeded_region_stats(coated, SEEDS, spp=32)
+    got = seeded_region_stats(coated, SEEDS, integrator="bdpt", spp=32)
+    z = region_z(ref, got)
     assert z.max() < 4.5, z
-    bare = region_stats(caustica.load_dict(plate_scene()), SEEDS, spp=32)
-    assert (z_scores(ref, bare) > 10.0).any()
+    bare = seeded_region_stats(caustica.load_dict(plate_scene()), SEEDS, spp=32)
+    assert (region_z(ref, bare) > 10.0).any()
 
 
 def test_coat_texture_scales_the_weight_at_the_hit(tmp_path):
@@ -142,13 +125,13 @@ def test_coat_texture_scales_the_weight_at_the_hit(tmp_path):
 
     def stats(d):
         scene_file.write_text(json.dumps(d))
-        return region_stats(caustica.load_scene(str(scene_file)), SEEDS, spp=16)
+        return seeded_region_stats(caustica.load_scene(str(scene_file)), SEEDS, spp=16)
 
     coat, bare = stats(plate_scene(0.8, 0.2)), stats(plate_scene())
     none, full = stats(plate_scene(0.8, 0.2, "none.png")), stats(plate_scene(0.8, 0.2, "full.png"))
-    assert z_scores(none, bare).max() < 4.5
-    assert z_scores(full, coat).max() < 4.5
-    assert z_scores(full, none).max() > 10.0
+    assert region_z(none, bare).max() < 4.5
+    assert region_z(full, coat).max() < 4.5
+    assert region_z(full, none).max() > 10.0
     # The export keeps the textures (valid against the schema) and renders the same image.
     scene_file.write_text(json.dumps(plate_scene(0.8, 0.2, "full.png")))
     out = tmp_path / "out" / "x.json"

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import caustica
-from test_clearcoat import SEEDS, export_round_trip, gltf_with, region_stats, z_scores
+from test_clearcoat import SEEDS, export_round_trip, gltf_with
+from conftest import region_z, seeded_region_stats
 from test_khr_specular import mr, plate_scene
 
 
@@ -20,12 +21,12 @@ def velvet(**extra):
 def test_black_sheen_is_no_sheen_and_a_sheen_shows():
     """sheen_color 0 renders the plain material (per region within 4.5 standard errors); a sheen adds light
     (more than 10 standard errors somewhere)."""
-    plain = region_stats(caustica.load_dict(plate_scene(mr(roughness=0.7))), SEEDS, spp=16)
-    black = region_stats(caustica.load_dict(plate_scene(mr(roughness=0.7, sheen_color=0, sheen_roughness=0.4))),
+    plain = seeded_region_stats(caustica.load_dict(plate_scene(mr(roughness=0.7))), SEEDS, spp=16)
+    black = seeded_region_stats(caustica.load_dict(plate_scene(mr(roughness=0.7, sheen_color=0, sheen_roughness=0.4))),
                          SEEDS, spp=16)
-    sheen = region_stats(caustica.load_dict(plate_scene(velvet())), SEEDS, spp=16)
-    assert z_scores(black, plain).max() < 4.5
-    assert z_scores(sheen, plain).max() > 10.0
+    sheen = seeded_region_stats(caustica.load_dict(plate_scene(velvet())), SEEDS, spp=16)
+    assert region_z(black, plain).max() < 4.5
+    assert region_z(sheen, plain).max() > 10.0
 
 
 @pytest.mark.parametrize("integrator", ["light", "bdpt", "vcm"])
@@ -35,9 +36,9 @@ def test_every_integrator_sees_the_sheen(integrator):
     see the same surface)."""
     scene = caustica.load_dict(plate_scene(velvet(clearcoat=0.5, clearcoat_roughness=0.2)))
     spp = 64 if integrator == "light" else 32
-    ref = region_stats(scene, SEEDS, spp=32)
-    got = region_stats(scene, SEEDS, integrator=integrator, spp=spp)
-    assert z_scores(ref, got).max() < 4.5, z_scores(ref, got)
+    ref = seeded_region_stats(scene, SEEDS, spp=32)
+    got = seeded_region_stats(scene, SEEDS, integrator=integrator, spp=spp)
+    assert region_z(ref, got).max() < 4.5, region_z(ref, got)
 
 
 def test_gltf_sheen_exports_and_renders_the_same(tmp_path):

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import caustica
-from test_clearcoat import SEEDS, lamp_plate, export_round_trip, gltf_with, region_stats, validate, z_scores
+from test_clearcoat import SEEDS, lamp_plate, export_round_trip, gltf_with, validate
+from conftest import region_z, seeded_region_stats
 
 
 def plate_scene(material):
@@ -28,11 +29,11 @@ def mr(**extra):
 def test_weight_zero_is_the_lambertian_base():
     """Without its specular layer the dielectric is its base, base/pi: the same image as a `diffuse` plate
     of that reflectance (per region within 4.5 standard errors); the default layer differs by far more."""
-    spec0 = region_stats(caustica.load_dict(plate_scene(mr(specular=0.0))), SEEDS, spp=16)
-    lambert = region_stats(caustica.load_dict(plate_scene({"type": "diffuse", "reflectance": BASE})), SEEDS, spp=16)
-    plain = region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, spp=16)
-    assert z_scores(spec0, lambert).max() < 4.5
-    assert z_scores(plain, lambert).max() > 10.0
+    spec0 = seeded_region_stats(caustica.load_dict(plate_scene(mr(specular=0.0))), SEEDS, spp=16)
+    lambert = seeded_region_stats(caustica.load_dict(plate_scene({"type": "diffuse", "reflectance": BASE})), SEEDS, spp=16)
+    plain = seeded_region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, spp=16)
+    assert region_z(spec0, lambert).max() < 4.5
+    assert region_z(plain, lambert).max() > 10.0
 
 
 @pytest.mark.parametrize("integrator", ["light", "bdpt"])
@@ -41,11 +42,11 @@ def test_every_integrator_sees_the_tinted_layer(integrator):
     tracer per region, and the tint changes the image."""
     scene = caustica.load_dict(plate_scene(mr(specular=0.8, specular_color=[3.0, 1.0, 0.3])))
     spp = 128 if integrator == "light" else 32  # the light tracer reaches the lamp's highlight less often
-    ref = region_stats(scene, SEEDS, spp=32)
-    got = region_stats(scene, SEEDS, integrator=integrator, spp=spp)
-    assert z_scores(ref, got).max() < 4.5, z_scores(ref, got)
-    plain = region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, integrator=integrator, spp=spp)
-    assert z_scores(got, plain).max() > 10.0
+    ref = seeded_region_stats(scene, SEEDS, spp=32)
+    got = seeded_region_stats(scene, SEEDS, integrator=integrator, spp=spp)
+    assert region_z(ref, got).max() < 4.5, region_z(ref, got)
+    plain = seeded_region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, integrator=integrator, spp=spp)
+    assert region_z(got, plain).max() > 10.0
 
 
 def test_gltf_specular_exports_and_renders_the_same(tmp_path):
@@ -93,14 +94,14 @@ def test_transmission_texture_scales_the_weight_at_the_hit(tmp_path):
 
     def stats(d):
         scene_file.write_text(json.dumps(d))
-        return region_stats(caustica.load_scene(str(scene_file)), SEEDS, spp=16)
+        return seeded_region_stats(caustica.load_scene(str(scene_file)), SEEDS, spp=16)
 
     opaque, glass = stats(pane(0.0)), stats(pane(0.7))
     none = stats(pane({"texture": "none.png", "scale": 0.7, "filter": "nearest"}))
     full = stats(pane({"texture": "full.png", "scale": 0.7, "filter": "nearest"}))
-    assert z_scores(none, opaque).max() < 4.5
-    assert z_scores(full, glass).max() < 4.5
-    assert z_scores(full, none).max() > 10.0
+    assert region_z(none, opaque).max() < 4.5
+    assert region_z(full, glass).max() < 4.5
+    assert region_z(full, none).max() > 10.0
     out = tmp_path / "out" / "x.json"
     out.parent.mkdir()
     caustica.export_scene(str(scene_file), str(out))

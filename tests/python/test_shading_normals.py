@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import caustica
+from conftest import region_z, seeded_region_stats
 
 RES = 32
 
@@ -59,26 +60,13 @@ def scene(tmp_path, normal_map):
     return caustica.load_scene(str(path))
 
 
-def regions(img, n=4):
-    g = np.asarray(img, np.float64)[:, :, :3].mean(axis=2)
-    h = RES // n
-    return g.reshape(n, h, n, h).mean(axis=(1, 3))
-
-
-def stats(s, integrator, seeds, **opts):
-    r = np.stack([regions(caustica.render(s, integrator=integrator, seed=k, sampler="independent", **opts))
-                  for k in seeds])
-    return r.mean(axis=0), r.std(axis=0, ddof=1) / np.sqrt(len(seeds))
-
-
 @pytest.mark.filterwarnings("ignore:.*degenerate.*")  # the UV sphere's pole triangles
 @pytest.mark.parametrize("normal_map", [False, True], ids=["smooth-normals", "normal-map"])
 def test_bidirectional_integrators_agree_with_path_tracing(tmp_path, normal_map):
     s = scene(tmp_path, normal_map)
     seeds = range(1, 9)
-    ref = stats(s, "path", seeds, spp=64)
+    ref = seeded_region_stats(s, seeds, integrator="path", spp=64)
     for integrator, spp in [("light", 64), ("bdpt", 16), ("vcm", 16)]:
-        m, se = stats(s, integrator, seeds, spp=spp)
-        z = np.abs(m - ref[0]) / np.sqrt(se ** 2 + ref[1] ** 2 + 1e-12)
+        z = region_z(seeded_region_stats(s, seeds, integrator=integrator, spp=spp), ref)
         # 16 regions x 3 integrators: 4.5 standard errors keeps a false alarm below 1e-3 per test.
         assert z.max() < 4.5, (integrator, z.max(), z)
