@@ -30,7 +30,8 @@ def test_weight_zero_is_the_lambertian_base():
     """Without its specular layer the dielectric is its base, base/pi: the same image as a `diffuse` plate
     of that reflectance (per region within 4.5 standard errors); the default layer differs by far more."""
     spec0 = seeded_region_stats(caustica.load_dict(plate_scene(mr(specular=0.0))), SEEDS, spp=16)
-    lambert = seeded_region_stats(caustica.load_dict(plate_scene({"type": "diffuse", "reflectance": BASE})), SEEDS, spp=16)
+    lambert = seeded_region_stats(caustica.load_dict(plate_scene({"type": "diffuse", "reflectance": BASE})), SEEDS,
+                                  spp=16)
     plain = seeded_region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, spp=16)
     assert region_z(spec0, lambert).max() < 4.5
     assert region_z(plain, lambert).max() > 10.0
