@@ -53,6 +53,22 @@ def region_means(img, k=8):
     return r.mean(axis=(1, 3)), r.std(axis=(1, 3), ddof=1) / h
 
 
+def lamp_plate(material, name="plate", res=32):
+    """A plate of `material` (named `name`) filling most of a res x res view under a rectangular lamp, seen
+    obliquely: the scene the material tests compare integrators and devices on with seeded_region_stats."""
+    return {
+        "film": {"width": res, "height": res},
+        "camera": {"position": [0, 1.2, 3.2], "target": [0, 0, 0], "fov": 45},
+        "materials": {name: material},
+        "shapes": [
+            {"type": "rectangle", "material": name,
+             "transform": [{"scale": 1.5}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}]},
+            {"type": "rectangle", "emission": 6,
+             "transform": [{"scale": 0.4}, {"look_at": {"origin": [0, 1.4, -1.6], "target": [0, 0, 0]}}]},
+        ],
+    }
+
+
 def seeded_region_stats(scene, seeds, n=4, channel=None, **opts):
     """Per region of an n x n grid: the mean over independent renders (one per seed, the independent sampler, so
     that the renders are independent samples) and its standard error. Each render is reduced to its region

@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 
 import caustica
-from conftest import region_z, seeded_region_stats
+from conftest import lamp_plate, region_z, seeded_region_stats
 
-RES = 32
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
 
@@ -67,21 +66,6 @@ def plate_scene(coat=None, coat_roughness=0.0, texture=None):
         mat["clearcoat"] = coat if texture is None else {"texture": texture, "scale": coat, "filter": "nearest"}
         mat["clearcoat_roughness"] = coat_roughness
     return lamp_plate(mat, "paint")
-
-
-def lamp_plate(material, name):
-    """The plate (material `material`, named `name`) under the lamp, seen obliquely."""
-    return {
-        "film": {"width": RES, "height": RES},
-        "camera": {"position": [0, 1.2, 3.2], "target": [0, 0, 0], "fov": 45},
-        "materials": {name: material},
-        "shapes": [
-            {"type": "rectangle", "material": name,
-             "transform": [{"scale": 1.5}, {"rotate": {"axis": [1, 0, 0], "angle": -90}}]},
-            {"type": "rectangle", "emission": 6,
-             "transform": [{"scale": 0.4}, {"look_at": {"origin": [0, 1.4, -1.6], "target": [0, 0, 0]}}]},
-        ],
-    }
 
 
 SEEDS = range(1, 9)

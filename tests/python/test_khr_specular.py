@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import caustica
-from test_clearcoat import SEEDS, lamp_plate, export_round_trip, gltf_with, validate
-from conftest import region_z, seeded_region_stats
+from test_clearcoat import SEEDS, export_round_trip, gltf_with, validate
+from conftest import lamp_plate, region_z, seeded_region_stats
 
 
 def plate_scene(material):
