@@ -76,17 +76,18 @@ def lamp_plate(material, name="plate", res=32, floor=False):
     return d
 
 
-def plate_cross_check(material, variant, integrator, seeds=16, spp=32, floor=False, **opts):
-    """Renders lamp_plate(material) with `integrator` and, with other seeds, with the path tracer, and
-    lamp_plate(variant) with the path tracer (seeded_region_stats, `seeds` renders each): returns the largest
-    region_z of the integrator against the path tracer on the material (below 4.5 when they agree) and against the
-    variant (above 10 when the check can tell the two materials apart)."""
+def plate_cross_check(material, variant, integrator, reference="path", device="cpu", seeds=16, spp=32, floor=False,
+                      **opts):
+    """Renders lamp_plate(material) with `integrator` on `device` and, with other seeds, with `reference` on the
+    CPU, and lamp_plate(variant) with `reference` on the CPU (seeded_region_stats, `seeds` renders each): returns
+    the largest region_z of the first against the second (below 4.5 when they agree) and against the variant
+    (above 10 when the check can tell the two materials apart)."""
     import caustica
     scene = caustica.load_dict(lamp_plate(material, floor=floor))
-    got = seeded_region_stats(scene, range(101, 101 + seeds), integrator=integrator, spp=spp, **opts)
-    ref = seeded_region_stats(scene, range(1, 1 + seeds), spp=spp, **opts)
-    other = seeded_region_stats(caustica.load_dict(lamp_plate(variant, floor=floor)), range(1, 1 + seeds), spp=spp,
-                                **opts)
+    got = seeded_region_stats(scene, range(101, 101 + seeds), integrator=integrator, spp=spp, device=device, **opts)
+    ref = seeded_region_stats(scene, range(1, 1 + seeds), integrator=reference, spp=spp, **opts)
+    other = seeded_region_stats(caustica.load_dict(lamp_plate(variant, floor=floor)), range(1, 1 + seeds),
+                                integrator=reference, spp=spp, **opts)
     return float(region_z(got, ref).max()), float(region_z(got, other).max())
 
 

@@ -10,8 +10,8 @@ import pytest
 
 import caustica
 from test_clearcoat import SEEDS, export_round_trip, gltf_with
-from conftest import region_z, seeded_region_stats
-from test_khr_specular import mr, plate_scene
+from conftest import lamp_plate, plate_cross_check, region_z, seeded_region_stats
+from test_khr_specular import mr
 
 CUDA, WHY = caustica.cuda_status()
 
@@ -23,10 +23,10 @@ def velvet(**extra):
 def test_black_sheen_is_no_sheen_and_a_sheen_shows():
     """sheen_color 0 renders the plain material (per region within 4.5 standard errors); a sheen adds light
     (more than 10 standard errors somewhere)."""
-    plain = seeded_region_stats(caustica.load_dict(plate_scene(mr(roughness=0.7))), SEEDS, spp=16)
+    plain = seeded_region_stats(caustica.load_dict(lamp_plate(mr(roughness=0.7))), SEEDS, spp=16)
     black = seeded_region_stats(
-        caustica.load_dict(plate_scene(mr(roughness=0.7, sheen_color=0, sheen_roughness=0.4))), SEEDS, spp=16)
-    sheen = seeded_region_stats(caustica.load_dict(plate_scene(velvet())), SEEDS, spp=16)
+        caustica.load_dict(lamp_plate(mr(roughness=0.7, sheen_color=0, sheen_roughness=0.4))), SEEDS, spp=16)
+    sheen = seeded_region_stats(caustica.load_dict(lamp_plate(velvet())), SEEDS, spp=16)
     assert region_z(black, plain).max() < 4.5
     assert region_z(sheen, plain).max() > 10.0
 
@@ -36,7 +36,7 @@ def test_every_integrator_sees_the_sheen(integrator):
     """The light tracer, BDPT and VCM agree with the path tracer per region on a sheened plate under a clear
     coat (the sheen's lobe and its scaling of the layers under it are symmetric, so importance and radiance
     see the same surface)."""
-    scene = caustica.load_dict(plate_scene(velvet(clearcoat=0.5, clearcoat_roughness=0.2)))
+    scene = caustica.load_dict(lamp_plate(velvet(clearcoat=0.5, clearcoat_roughness=0.2)))
     spp = 64 if integrator == "light" else 32
     ref = seeded_region_stats(scene, SEEDS, spp=32)
     got = seeded_region_stats(scene, SEEDS, integrator=integrator, spp=spp)
@@ -62,9 +62,9 @@ def test_gltf_sheen_exports_and_renders_the_same(tmp_path):
 
 def test_bad_sheen_is_a_clear_error():
     with pytest.raises(caustica.SceneError, match=r"/materials/plate/sheen_color: expected colour values in \[0, 1\]"):
-        caustica.load_dict(plate_scene(mr(sheen_color=[2, 0, 0])))
+        caustica.load_dict(lamp_plate(mr(sheen_color=[2, 0, 0])))
     with pytest.raises(caustica.SceneError, match=r"/materials/plate/sheen_roughness: expected a number in \[0, 1\]"):
-        caustica.load_dict(plate_scene(mr(sheen_color=0.5, sheen_roughness=3)))
+        caustica.load_dict(lamp_plate(mr(sheen_color=0.5, sheen_roughness=3)))
 
 
 # Each a layered material and the same without its layer: the GPU test below requires the CPU and GPU to agree
@@ -86,11 +86,6 @@ def test_cuda_renders_the_layers_as_the_cpu(integrator, layers):
     standard errors over 16 seeds each, and more than 10 away from the plate without the layer. Measured with
     these seeds on the CPU, with device="cpu" and with the wavefront drivers (wavefront=True): 1.2-2.8 against
     the CPU, 35-132 against the plate without the layer; other sets of 16 seeds: at most 2.9 in 27 trials."""
-    layered, without = GPU_LAYERS[layers]
-    scene = caustica.load_dict(plate_scene(layered))
-    cpu = seeded_region_stats(scene, range(1, 17), integrator=integrator, spp=32)
-    gpu = seeded_region_stats(scene, range(101, 117), integrator=integrator, spp=32, device="cuda")
-    assert region_z(cpu, gpu).max() < 4.5, region_z(cpu, gpu)
-    plain = seeded_region_stats(caustica.load_dict(plate_scene(without)), range(1, 17), integrator=integrator,
-                                spp=32)
-    assert region_z(gpu, plain).max() > 10.0, region_z(gpu, plain)
+    agree, differ = plate_cross_check(*GPU_LAYERS[layers], integrator, reference=integrator, device="cuda")
+    assert agree < 4.5, (integrator, layers, agree)
+    assert differ > 10.0, (integrator, layers, differ)

@@ -14,11 +14,6 @@ from test_clearcoat import SEEDS, export_round_trip, gltf_with, validate
 from conftest import lamp_plate, region_z, seeded_region_stats
 
 
-def plate_scene(material):
-    """test_clearcoat's plate under a lamp, with the given plate material."""
-    return lamp_plate(material, "plate")
-
-
 BASE = [0.3, 0.5, 0.2]
 
 
@@ -29,10 +24,10 @@ def mr(**extra):
 def test_weight_zero_is_the_lambertian_base():
     """Without its specular layer the dielectric is its base, base/pi: the same image as a `diffuse` plate
     of that reflectance (per region within 4.5 standard errors); the default layer differs by far more."""
-    spec0 = seeded_region_stats(caustica.load_dict(plate_scene(mr(specular=0.0))), SEEDS, spp=16)
-    lambert = seeded_region_stats(caustica.load_dict(plate_scene({"type": "diffuse", "reflectance": BASE})), SEEDS,
+    spec0 = seeded_region_stats(caustica.load_dict(lamp_plate(mr(specular=0.0))), SEEDS, spp=16)
+    lambert = seeded_region_stats(caustica.load_dict(lamp_plate({"type": "diffuse", "reflectance": BASE})), SEEDS,
                                   spp=16)
-    plain = seeded_region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, spp=16)
+    plain = seeded_region_stats(caustica.load_dict(lamp_plate(mr())), SEEDS, spp=16)
     assert region_z(spec0, lambert).max() < 4.5
     assert region_z(plain, lambert).max() > 10.0
 
@@ -41,12 +36,12 @@ def test_weight_zero_is_the_lambertian_base():
 def test_every_integrator_sees_the_tinted_layer(integrator):
     """A tinted, bright layer (colour (3, 1, 0.3), weight 0.8): the light tracer and BDPT agree with the path
     tracer per region, and the tint changes the image."""
-    scene = caustica.load_dict(plate_scene(mr(specular=0.8, specular_color=[3.0, 1.0, 0.3])))
+    scene = caustica.load_dict(lamp_plate(mr(specular=0.8, specular_color=[3.0, 1.0, 0.3])))
     spp = 128 if integrator == "light" else 32  # the light tracer reaches the lamp's highlight less often
     ref = seeded_region_stats(scene, SEEDS, spp=32)
     got = seeded_region_stats(scene, SEEDS, integrator=integrator, spp=spp)
     assert region_z(ref, got).max() < 4.5, region_z(ref, got)
-    plain = seeded_region_stats(caustica.load_dict(plate_scene(mr())), SEEDS, integrator=integrator, spp=spp)
+    plain = seeded_region_stats(caustica.load_dict(lamp_plate(mr())), SEEDS, integrator=integrator, spp=spp)
     assert region_z(got, plain).max() > 10.0
 
 
@@ -71,9 +66,9 @@ def test_gltf_specular_exports_and_renders_the_same(tmp_path):
 
 def test_bad_specular_is_a_clear_error():
     with pytest.raises(caustica.SceneError, match=r"/materials/plate/specular: expected a number in \[0, 1\]"):
-        caustica.load_dict(plate_scene(mr(specular=1.5)))
+        caustica.load_dict(lamp_plate(mr(specular=1.5)))
     with pytest.raises(caustica.SceneError, match=r"/materials/plate/specular_color"):
-        caustica.load_dict(plate_scene(mr(specular_color="")))
+        caustica.load_dict(lamp_plate(mr(specular_color="")))
 
 
 def test_transmission_texture_scales_the_weight_at_the_hit(tmp_path):
@@ -85,7 +80,7 @@ def test_transmission_texture_scales_the_weight_at_the_hit(tmp_path):
         Image.fromarray(np.full((4, 4, 3), rgb, np.uint8)).save(tmp_path / name)
 
     def pane(transmission):
-        d = plate_scene(mr(roughness=0.4, transmission=transmission))
+        d = lamp_plate(mr(roughness=0.4, transmission=transmission))
         d["camera"] = {"position": [0, 0, 3], "target": [0, 0, 0], "fov": 40}
         d["shapes"][0]["transform"] = [{"scale": 0.8}]
         d["shapes"][1]["transform"] = [{"scale": 1.5}, {"look_at": {"origin": [0, 0, -1.5], "target": [0, 0, 0]}}]
