@@ -109,7 +109,8 @@ CHD float mr_specular_prob(const Material& m, float Fo) {
 CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
   MRWeights w = mr_weights(m);
   RGB f(0.f);
-  if (w.glass > 0.f && !mr_smooth(m)) f += rough_dielectric_eval(mr_glass(m), material_microfacet(m), wo, wi, mode) * w.glass;
+  if (w.glass > 0.f && !mr_smooth(m))
+    f += rough_dielectric_eval(mr_glass(m), material_microfacet(m), wo, wi, mode) * w.glass;
   if (wo.z <= 0.f || wi.z <= 0.f) return f;
   if (!mr_smooth(m)) {
     Vec3f wm = normalize(wo + wi);
@@ -133,7 +134,8 @@ CHD float mr_base_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   float pdf = 0.f;
   // Seen from behind only the glass is sampled (selection probability 1).
   float sel_glass = wo.z <= 0.f ? 1.f : w.glass;
-  if (w.glass > 0.f && !mr_smooth(m)) pdf += sel_glass * rough_dielectric_pdf(mr_glass(m), material_microfacet(m), wo, wi);
+  if (w.glass > 0.f && !mr_smooth(m))
+    pdf += sel_glass * rough_dielectric_pdf(mr_glass(m), material_microfacet(m), wo, wi);
   if (wo.z <= 0.f || wi.z <= 0.f) return pdf;
   float ps = mr_specular_prob(m, mr_dielectric_reflectance(m, wo.z));
   if (!mr_smooth(m)) {
