@@ -21,7 +21,7 @@ falls on the floor, and a sphere of opacity 0.5; rendered with Mitsuba's volpath
 blends (blendbsdf with a texture weight on the floor, diffuse and rough copper on a sphere, twosided around one), and
 principled (a rough dielectric, a metal and a transmissive sphere: Mitsuba's Disney BSDF, caustica's principled),
 and disney (every principled lobe: sheen, clearcoat, spec_tint, flatness, anisotropy, metal and glass mixed, a
-roughness texture), and beckmann (rough conductors, an anisotropic one, and a rough glass with Mitsuba's default
+roughness texture), disney_textured (every principled weight a colour texture, read as its luminance), and beckmann (rough conductors, an anisotropic one, and a rough glass with Mitsuba's default
 distribution), and spotlit (spot lights with wide falloff bands), and sides (cards with a different BSDF on each side: twosided of two BSDFs), and plastics (smooth and rough plastics, Beckmann and GGX), and foggy (homogeneous media with Mitsuba's volpath: the camera in fog bounded by a null
 cube, a glass sphere of milk, a null box of smoke, a floor and an area light in the fog), and smoky (a heterogeneous medium: a gridvolume smoke plume in a turned null box), and tinted (colour grids: a
 three-channel sigma_t gridvolume and a colour albedo gridvolume with a to_world of its own, beside a homogeneous
@@ -410,6 +410,19 @@ def write_scenes(res):
             """<bsdf type="principled"><rgb name="base_color" value="0.95, 0.8, 0.6"/><float name="spec_trans" value="0.7"/>
       <float name="metallic" value="0.2"/><float name="roughness" value="0.25"/><float name="eta" value="1.4"/>
       <float name="clearcoat" value="0.5"/></bsdf>"""]))
+    # Every principled weight as a texture (the colour checker, which both renderers read as its luminance).
+    def weights(*keys, scale=4):
+        return "".join(f"""<texture type="bitmap" name="{k}"><string name="filename" value="checker.exr"/>
+        <transform name="to_uv"><scale value="{scale}"/></transform></texture>""" for k in keys)
+    with open(os.path.join(OUT, "disney_textured.xml"), "w") as f:
+        f.write(row_of_spheres(sensor, 6, f"""<bsdf type="principled"><rgb name="base_color" value="0.6, 0.55, 0.5"/>
+      <float name="clearcoat" value="1"/>{weights("roughness", "metallic", "clearcoat_gloss")}</bsdf>""", [
+            f"""<bsdf type="principled"><rgb name="base_color" value="0.8, 0.2, 0.5"/><float name="roughness" value="0.7"/>
+      {weights("sheen", "sheen_tint", "flatness", scale=2)}</bsdf>""",
+            f"""<bsdf type="principled"><rgb name="base_color" value="0.3, 0.5, 0.9"/><float name="roughness" value="0.35"/>
+      {weights("metallic", "spec_tint", "clearcoat", scale=2)}</bsdf>""",
+            f"""<bsdf type="principled"><rgb name="base_color" value="0.95, 0.8, 0.6"/><float name="roughness" value="0.25"/>
+      {weights("spec_trans", scale=2)}</bsdf>"""]))
     # Media (Mitsuba's volpath): the camera inside fog (a null cube bounds it; the sky lights it through the
     # boundary), a glass sphere of milk (interior) in the fog (exterior), a null box of forward-scattering
     # smoke (lifted off the floor: a face coplanar with the floor is resolved differently by the two
@@ -737,7 +750,7 @@ def write_scenes(res):
             "glass": os.path.join(OUT, "glass.xml"), "turned": os.path.join(OUT, "turned.xml"),
             "bumpy": os.path.join(OUT, "bumpy.xml"), "masked": os.path.join(OUT, "masked.xml"),
             "blended": os.path.join(OUT, "blended.xml"), "principled": os.path.join(OUT, "principled.xml"),
-            "disney": os.path.join(OUT, "disney.xml"),
+            "disney": os.path.join(OUT, "disney.xml"), "disney_textured": os.path.join(OUT, "disney_textured.xml"),
             "beckmann": os.path.join(OUT, "beckmann.xml"),
             "spotlit": os.path.join(OUT, "spotlit.xml"), "sides": os.path.join(OUT, "sides.xml"),
             "plastics": os.path.join(OUT, "plastics.xml"),

@@ -81,6 +81,19 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_TRUE(same(a.sheen_roughness, b.sheen_roughness)) << w << ".sheen_roughness";
   EXPECT_EQ(a.tex_sheen_color, b.tex_sheen_color) << w;
   EXPECT_EQ(a.tex_sheen_roughness, b.tex_sheen_roughness) << w;
+  EXPECT_TRUE(same(a.metallic, b.metallic)) << w << ".metallic";
+  EXPECT_TRUE(same(a.transmission_weight, b.transmission_weight)) << w << ".transmission_weight";
+  EXPECT_TRUE(same(a.spec_tint, b.spec_tint)) << w << ".spec_tint";
+  EXPECT_TRUE(same(a.sheen, b.sheen)) << w << ".sheen";
+  EXPECT_TRUE(same(a.sheen_tint, b.sheen_tint)) << w << ".sheen_tint";
+  EXPECT_TRUE(same(a.flatness, b.flatness)) << w << ".flatness";
+  EXPECT_TRUE(same(a.clearcoat_gloss, b.clearcoat_gloss)) << w << ".clearcoat_gloss";
+  EXPECT_EQ(a.tex_metallic, b.tex_metallic) << w;
+  EXPECT_EQ(a.tex_spec_tint, b.tex_spec_tint) << w;
+  EXPECT_EQ(a.tex_sheen, b.tex_sheen) << w;
+  EXPECT_EQ(a.tex_sheen_tint, b.tex_sheen_tint) << w;
+  EXPECT_EQ(a.tex_flatness, b.tex_flatness) << w;
+  EXPECT_EQ(a.tex_clearcoat_gloss, b.tex_clearcoat_gloss) << w;
   EXPECT_TRUE(same(a.bump_scale, b.bump_scale)) << w << ".bump_scale";
   expect_same(a.absorption, b.absorption, w + ".absorption");
 }
@@ -384,6 +397,13 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   velvet.tex_sheen_color = 0;
   velvet.tex_sheen_roughness = 1;
   d.add_material("sheen textures", velvet);
+  Material disney = make_principled(RGB(0.8f, 0.4f, 0.3f), 0.25f, 0.4f, 0.f, 0.5f, 1.45f);
+  disney.spec_tint = 0.1f, disney.sheen = 0.2f, disney.sheen_tint = 0.3f, disney.flatness = 0.4f;
+  disney.clearcoat = 0.6f, disney.clearcoat_gloss = 0.7f;
+  d.add_material("principled", disney);
+  disney.tex_metallic = 0, disney.tex_transmission = 1, disney.tex_spec_tint = 0, disney.tex_sheen = 1;
+  disney.tex_sheen_tint = 0, disney.tex_flatness = 1, disney.tex_clearcoat = 0, disney.tex_clearcoat_gloss = 1;
+  d.add_material("principled textures", disney);
   Material vc = make_diffuse(RGB(0.7f));
   vc.flags |= kVertexColor;
   d.add_material("vertex coloured", vc);

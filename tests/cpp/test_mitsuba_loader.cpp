@@ -389,6 +389,10 @@ TEST(MitsubaBsdf, Textures) {
   EXPECT_FALSE(d.textures[b.tex_roughness].srgb);
   EXPECT_EQ(d.textures[b.tex_roughness].wrap, TexWrap::kRepeat);
   EXPECT_EQ(d.textures[b.tex_roughness].width, 2);
+  // Mitsuba reads a float texture's luminance (a bitmap's eval_1): the colour image's grey copy.
+  EXPECT_NEAR(d.textures[b.tex_roughness].rgba[0], luminance(RGB(1.f, 2.f, 3.f)), 1e-6f);
+  EXPECT_EQ(d.textures[b.tex_roughness].rgba[1], d.textures[b.tex_roughness].rgba[0]);
+  EXPECT_NEAR(d.textures[b.tex_roughness].rgba[4], luminance(RGB(4.f, 5.f, 6.f)), 1e-6f);
 
   std::string g = scene_file("tex_missing.xml", "<shape type=\"cube\"><bsdf type=\"diffuse\">\n"
                                                 "<texture type=\"bitmap\" name=\"reflectance\">\n"
@@ -532,11 +536,45 @@ TEST(MitsubaBsdf, Textures) {
   EXPECT_EQ(p1.metallic, 1.f);
   EXPECT_GE(p1.tex_roughness, 0);
   EXPECT_EQ(p1.alpha_x, 1.f);  // the texture is the roughness
-  g = scene_file("principled_metal_tex.xml", "<shape type=\"cube\"><bsdf type=\"principled\">\n<texture "
-                 "type=\"bitmap\" name=\"metallic\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>"
+  // Every weight takes a texture, read as its luminance (a grey copy of a colour image; a grey one as it is),
+  // the weight 1 that it multiplies; anisotropic takes numbers only, and vertex colours only the base colour.
+  write_pfm("tex/t.pfm");
+  write_file("tex/grey.pfm", std::string("PF\n1 1\n-1.0\n") + std::string("\0\0\0?\0\0\0?\0\0\0?", 12));
+  std::string weights;
+  for (const char* k : {"metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness", "clearcoat",
+                        "clearcoat_gloss"})
+    weights += std::string("<texture type=\"bitmap\" name=\"") + k +
+               "\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>";
+  f = scene_file("principled_tex.xml", kCamera + "<shape type=\"rectangle\"><bsdf type=\"principled\">" + weights +
+                                       "<texture type=\"bitmap\" name=\"roughness\"><string name=\"filename\" "
+                                       "value=\"tex/grey.pfm\"/></texture></bsdf></shape>\n");
+  d = load_mitsuba_scene(f);
+  const Material& pt = d.materials[d.shapes[0].material];
+  const int32_t slots[] = {pt.tex_metallic, pt.tex_transmission, pt.tex_spec_tint, pt.tex_sheen, pt.tex_sheen_tint,
+                           pt.tex_flatness, pt.tex_clearcoat, pt.tex_clearcoat_gloss};
+  for (int32_t t : slots) {
+    ASSERT_GE(t, 0);
+    EXPECT_EQ(t, pt.tex_metallic);  // one grey copy of the one image
+    EXPECT_NEAR(d.textures[size_t(t)].rgba[0], luminance(RGB(1.f, 2.f, 3.f)), 1e-6f);
+    EXPECT_EQ(d.textures[size_t(t)].rgba[2], d.textures[size_t(t)].rgba[0]);
+  }
+  for (float w : {pt.metallic, pt.transmission_weight, pt.spec_tint, pt.sheen, pt.sheen_tint, pt.flatness,
+                  pt.clearcoat, pt.clearcoat_gloss})
+    EXPECT_EQ(w, 1.f);
+  ASSERT_GE(pt.tex_roughness, 0);
+  EXPECT_EQ(d.textures[size_t(pt.tex_roughness)].name.find("#luminance"), std::string::npos);  // grey: no copy
+  EXPECT_EQ(d.textures[size_t(pt.tex_roughness)].rgba[1], 0.5f);
+  EXPECT_TRUE(material_is_transmissive(pt));
+  g = scene_file("principled_aniso_tex.xml", "<shape type=\"cube\"><bsdf type=\"principled\">\n<texture "
+                 "type=\"bitmap\" name=\"anisotropic\"><string name=\"filename\" value=\"tex/t.pfm\"/></texture>"
                  "</bsdf></shape>\n");
-  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"bitmap\" name=\"metallic\">: a metallic texture is not supported "
-                             "(give a number)");
+  EXPECT_EQ(error_of(g), g + ":3: <texture type=\"bitmap\" name=\"anisotropic\">: anisotropic takes a number, "
+                             "not a texture");
+  g = scene_file("principled_vc.xml", "<shape type=\"cube\"><bsdf type=\"principled\">\n<texture "
+                 "type=\"mesh_attribute\" name=\"sheen\"><string name=\"name\" value=\"vertex_color\"/></texture>"
+                 "</bsdf></shape>\n");
+  EXPECT_NE(error_of(g).find("a mesh_attribute texture is supported as a BSDF's colour only"), std::string::npos)
+      << error_of(g);
   g = scene_file("blend_one.xml", "<shape type=\"cube\"><bsdf type=\"blendbsdf\">\n<bsdf type=\"diffuse\"/></bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"blendbsdf\">: expected two nested <bsdf> or <ref> elements (got 1)");
   // twosided around a blend: the blend of two-sided copies; a transmissive BSDF inside is refused as alone.

@@ -16,7 +16,7 @@ import caustica
 
 CUDA, WHY = caustica.cuda_status()
 
-from conftest import mean_and_se, plate_cross_check, sphere_row, white_sky_plate
+from conftest import lamp_plate, mean_and_se, plate_cross_check, sphere_row, white_sky_plate
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
@@ -104,12 +104,84 @@ def test_mitsuba_xml_and_its_export_render_the_same(tmp_path):
     assert np.array_equal(a, b)
 
 
+# Every principled weight with a texture, against the material with that weight as a number: the other weights
+# are set so that each changes the image.
+WEIGHT_BASE = {"type": "principled", "base_color": [0.8, 0.4, 0.3], "roughness": 0.4, "metallic": 0.3,
+               "spec_trans": 0.3, "spec_tint": 0.3, "sheen": 0.5, "sheen_tint": 0.3, "flatness": 0.3,
+               "clearcoat": 0.5, "clearcoat_gloss": 0.3}
+
+
+@pytest.mark.parametrize("weight", ["metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness",
+                                    "clearcoat", "clearcoat_gloss"])
+def test_a_weight_texture_is_the_weight_per_texel(tmp_path, weight):
+    """A weight given as a texture is its scale times the texture's red channel where the ray hits: the plate
+    under a texture black on the left half and red on the right (nearest texels, green and blue the other way
+    round) renders, with the same seed, exactly the plate of weight 0 on the left and of the scale on the
+    right, and those two differ (the weight matters here)."""
+    from PIL import Image
+    Image.fromarray(np.array([[[0, 255, 255], [255, 0, 0]]], np.uint8)).save(tmp_path / "split.png")
+
+    def render(value):
+        d = lamp_plate(dict(WEIGHT_BASE, **{weight: value}))
+        # A black lamp: no path reflects off it back to the plate's other half.
+        d["materials"]["black"] = {"type": "diffuse", "reflectance": 0}
+        d["shapes"][1]["material"] = "black"
+        scene = tmp_path / "s.json"
+        scene.write_text(json.dumps(d))
+        return caustica.render(str(scene), spp=4, seed=3)
+
+    zero, six = render(0.0), render(0.6)
+    textured = render({"texture": "split.png", "scale": 0.6, "filter": "nearest"})
+    # The seam runs down the middle of the 32-pixel image (the camera looks at the plate's centre along -z);
+    # columns 15 and 16 straddle it.
+    left, right = np.s_[:, :15], np.s_[:, 17:]
+    np.testing.assert_array_equal(textured[left], zero[left])
+    np.testing.assert_array_equal(textured[right], six[right])
+    assert not np.array_equal(zero[right], six[right])
+
+
+def test_weight_textures_export_and_render_the_same(tmp_path):
+    """Mitsuba XML with every weight a colour bitmap (read as its luminance) exports to JSON that the schema
+    accepts, with each weight a texture, and the export renders the XML's image exactly."""
+    from PIL import Image
+    rng = np.random.default_rng(7)
+    Image.fromarray(rng.integers(0, 256, (8, 8, 3), np.uint8)).save(tmp_path / "w.png")
+    keys = ["metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness", "clearcoat",
+            "clearcoat_gloss", "roughness"]
+    textures = "".join(f'<texture type="bitmap" name="{k}"><string name="filename" value="w.png"/></texture>'
+                       for k in keys)
+    xml = tmp_path / "p.xml"
+    xml.write_text(f"""<scene version="3.0.0">
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film></sensor>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform>
+    <bsdf type="principled">{textures}</bsdf></shape>
+  <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>
+""")
+    out = tmp_path / "out" / "p.json"
+    out.parent.mkdir()
+    caustica.export_scene(str(xml), str(out))
+    doc = json.loads(out.read_text())
+    schema = json.load(open(os.path.join(ROOT, "docs", "scene.schema.json")))
+    jsonschema.Draft202012Validator(schema).validate(doc)
+    (mat,) = [m for m in doc["materials"].values() if m["type"] == "principled"]
+    for k in keys:
+        assert "texture" in mat[k], (k, mat[k])
+    a = caustica.render(str(xml), spp=8, seed=4)
+    b = caustica.render(str(out), spp=8, seed=4)
+    np.testing.assert_array_equal(a, b)
+
+
 @pytest.mark.parametrize("mat,path,message", [
     ({"sheen": 1.5}, "/sheen", "expected a number in [0, 1]"),
     ({"clearcoat_gloss": -0.1}, "/clearcoat_gloss", "expected a number in [0, 1]"),
     ({"anisotropic": 0.5, "alpha": [0.1, 0.2]}, "/anisotropic", "give 'anisotropic' or 'alpha', not both"),
     ({"roughness": 0.5, "alpha": 0.1}, "/roughness", "give 'roughness' or 'alpha', not both"),
     ({"clearcoat_glos": 0.5}, "/clearcoat_glos", "unknown key (allowed: type, base_color, metallic, roughness"),
+    ({"sheen": {"texture": "t.png", "scale": 2}}, "/sheen/scale", "expected a number in [0, 1]"),
+    ({"metallic": {"value": 0.5}}, "/metallic", "expected a number in [0, 1] or a texture"),
 ])
 def test_bad_json_is_a_clear_error(tmp_path, mat, path, message):
     s = white_sky_plate(dict({"type": "principled"}, **mat))

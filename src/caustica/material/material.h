@@ -104,9 +104,16 @@ struct Material {
   //   tex_sheen_color: its sheen colour times RGB (KHR_materials_sheen's sheenColorTexture);
   //   tex_sheen_roughness: its sheen roughness times R (sheenRoughnessTexture's alpha, moved to red by the glTF
   //     loader). The sheen's albedo table stays the factor's (prepare_sheen).
+  //   Principled: tex_clearcoat and tex_transmission as above (clearcoat, spec_trans times R), and
+  //     tex_metallic, tex_spec_tint, tex_sheen, tex_sheen_tint, tex_flatness, tex_clearcoat_gloss: those weights
+  //     times R (the Mitsuba loader gives them grey copies of its images: Mitsuba reads a float texture's
+  //     luminance). The metallic-roughness layer slots are read for metallic-roughness only, these for
+  //     principled only (scene/shading.h).
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
   int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1,
           tex_transmission = -1, tex_sheen_color = -1, tex_sheen_roughness = -1;
+  int32_t tex_metallic = -1, tex_spec_tint = -1, tex_sheen = -1, tex_sheen_tint = -1, tex_flatness = -1,
+          tex_clearcoat_gloss = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
   // Dielectrics: absorption coefficient inside (per unit length, Beer-Lambert),
   // applied to path segments that end on the back side of this material
@@ -137,10 +144,11 @@ struct Material {
 
 // Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
 // writers' lists of used images); without `opacity` the opacity slot reads as empty.
-inline std::array<int32_t, 14> material_textures(const Material& m, bool opacity = true) {
+inline std::array<int32_t, 20> material_textures(const Material& m, bool opacity = true) {
   return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
           m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, m.tex_transmission,
-          m.tex_sheen_color, m.tex_sheen_roughness, opacity ? m.tex_opacity : -1, m.tex_mix};
+          m.tex_sheen_color, m.tex_sheen_roughness, m.tex_metallic, m.tex_spec_tint, m.tex_sheen,
+          m.tex_sheen_tint, m.tex_flatness, m.tex_clearcoat_gloss, opacity ? m.tex_opacity : -1, m.tex_mix};
 }
 
 // Material::table at cosine mu, linearly interpolated.
@@ -158,7 +166,7 @@ CHD bool material_is_transmissive(const Material& m) {
   return m.type == MaterialType::kDielectric || m.type == MaterialType::kRoughDielectric ||
          m.type == MaterialType::kThinDielectric || m.type == MaterialType::kDiffuseTransmission ||
          ((m.type == MaterialType::kMetallicRoughness || m.type == MaterialType::kPrincipled) &&
-          m.transmission_weight > 0.f && m.metallic < 1.f);
+          m.transmission_weight > 0.f && (m.metallic < 1.f || m.tex_metallic >= 0));  // a texture may lower it
 }
 // True when every lobe is a Dirac delta (NEE is pointless there).
 CHD bool material_is_delta(const Material& m) {

@@ -374,15 +374,24 @@ struct Writer {
       }
       case MaterialType::kPrincipled: {
         o.set("type", JV::str("principled")).set("base_color", color_slot(m.diffuse, m.tex_color));
-        o.set("metallic", JV::flt(m.metallic));
         perceptual_roughness(m, o);
-        o.set("spec_trans", JV::flt(m.transmission_weight)).set("eta", JV::flt(m.eta));
-        const std::pair<const char*, float> weights[] = {{"spec_tint", m.spec_tint}, {"sheen", m.sheen},
-                                                         {"sheen_tint", m.sheen_tint}, {"flatness", m.flatness},
-                                                         {"clearcoat", m.clearcoat},
-                                                         {"clearcoat_gloss", m.clearcoat_gloss}};
-        for (const auto& w : weights)
-          if (w.second != 0.f) o.set(w.first, JV::flt(w.second));
+        o.set("eta", JV::flt(m.eta));
+        // Each weight a number, or its texture with the number as "scale"; zeros without a texture left out
+        // (but metallic and spec_trans).
+        struct Weight { const char* key; float value; int32_t tex; bool always; };
+        const Weight weights[] = {{"metallic", m.metallic, m.tex_metallic, true},
+                                  {"spec_trans", m.transmission_weight, m.tex_transmission, true},
+                                  {"spec_tint", m.spec_tint, m.tex_spec_tint, false},
+                                  {"sheen", m.sheen, m.tex_sheen, false},
+                                  {"sheen_tint", m.sheen_tint, m.tex_sheen_tint, false},
+                                  {"flatness", m.flatness, m.tex_flatness, false},
+                                  {"clearcoat", m.clearcoat, m.tex_clearcoat, false},
+                                  {"clearcoat_gloss", m.clearcoat_gloss, m.tex_clearcoat_gloss, false}};
+        for (const Weight& w : weights) {
+          JV v = JV::flt(w.value);
+          if (w.tex >= 0) o.set(w.key, texture(w.tex, false, &v));
+          else if (w.always || w.value != 0.f) o.set(w.key, v);
+        }
         break;
       }
       case MaterialType::kNull:

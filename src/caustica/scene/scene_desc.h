@@ -2,7 +2,9 @@
 // scenes, JSON, and later OBJ/glTF/Mitsuba XML). It holds no pointers into
 // libraries; Scene::build turns it into flat arrays and acceleration structures.
 #pragma once
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 #include "../camera/camera.h"
 #include "../film/filter.h"
@@ -179,6 +181,19 @@ bool texture_has_alpha(const TextureDesc& t);
 // buffer or a data URI); `name` is the cache key.
 int load_texture_from_memory(SceneDesc& desc, const std::string& name, const unsigned char* bytes, size_t size,
                              bool srgb, const std::string& referrer);
+// Copies of a scene's textures with every texel's RGBA rewritten by f(float* rgba), for a material slot that
+// reads its value from another channel than the image keeps it in (glTF's factors packed in alpha, Mitsuba's
+// float textures read as their luminance). One copy per (texture, key), named the texture's name + key; the
+// copy keeps the texture's sampler and uv transform.
+class DerivedTextures {
+ public:
+  template <class F>
+  int get(SceneDesc& desc, int t, const std::string& key, F&& f);
+
+ private:
+  std::map<std::pair<int, std::string>, int> made_;
+};
+
 // Picks the camera called `name` from desc.cameras (InputError listing the names otherwise).
 void select_camera(SceneDesc& desc, const std::string& name);
 // Counts and bounds for `scene.describe()` / `caustica info`.
@@ -221,5 +236,16 @@ void prepare_rough_plastic(Material& m);
 void prepare_sheen(Material& m);
 // Hemispherical average of dielectric Fresnel reflectance, 2 int_0^1 F(mu) mu dmu.
 float diffuse_fresnel_reflectance(float eta);
+
+template <class F>
+int DerivedTextures::get(SceneDesc& desc, int t, const std::string& key, F&& f) {
+  auto [it, fresh] = made_.try_emplace({t, key}, -1);
+  if (!fresh) return it->second;
+  TextureDesc r = desc.textures[size_t(t)];
+  r.name += key;
+  for (size_t i = 0; i + 3 < r.rgba.size(); i += 4) f(&r.rgba[i]);
+  desc.textures.push_back(std::move(r));
+  return it->second = int(desc.textures.size()) - 1;
+}
 
 }  // namespace caustica

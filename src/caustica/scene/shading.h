@@ -204,18 +204,31 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
       m.alpha_x = m.alpha_y = maxf(r.r, 1e-4f);
     }
   }
-  if (m.tex_sheen_color >= 0) m.sheen_color *= texture_lookup(s.textures[m.tex_sheen_color], sh.uv).rgb();
-  if (m.tex_sheen_roughness >= 0)
-    m.sheen_roughness *= clampf(texture_lookup(s.textures[m.tex_sheen_roughness], sh.uv).r, 0.f, 1.f);
-  if (m.tex_transmission >= 0)
-    m.transmission_weight *= clampf(texture_lookup(s.textures[m.tex_transmission], sh.uv).r, 0.f, 1.f);
-  if (m.tex_specular >= 0) m.specular_weight *= clampf(texture_lookup(s.textures[m.tex_specular], sh.uv).r, 0.f, 1.f);
-  if (m.tex_specular_color >= 0) m.specular *= texture_lookup(s.textures[m.tex_specular_color], sh.uv).rgb();
-  if (m.tex_clearcoat >= 0) m.clearcoat *= clampf(texture_lookup(s.textures[m.tex_clearcoat], sh.uv).r, 0.f, 1.f);
-  if (m.tex_clearcoat_roughness >= 0) {
-    float rough = std::sqrt(maxf(m.clearcoat_alpha, 0.f)) *
-                  clampf(texture_lookup(s.textures[m.tex_clearcoat_roughness], sh.uv).g, 0.f, 1.f);
-    m.clearcoat_alpha = rough * rough;
+  // A weight in [0, 1] times its texture's red channel (unchanged without one).
+  auto weight = [&](float& w, int32_t t) {
+    if (t >= 0) w *= clampf(texture_lookup(s.textures[t], sh.uv).r, 0.f, 1.f);
+  };
+  if (m.type == MaterialType::kMetallicRoughness) {  // the glTF layers
+    if (m.tex_sheen_color >= 0) m.sheen_color *= texture_lookup(s.textures[m.tex_sheen_color], sh.uv).rgb();
+    weight(m.sheen_roughness, m.tex_sheen_roughness);
+    weight(m.transmission_weight, m.tex_transmission);
+    weight(m.specular_weight, m.tex_specular);
+    if (m.tex_specular_color >= 0) m.specular *= texture_lookup(s.textures[m.tex_specular_color], sh.uv).rgb();
+    weight(m.clearcoat, m.tex_clearcoat);
+    if (m.tex_clearcoat_roughness >= 0) {
+      float rough = std::sqrt(maxf(m.clearcoat_alpha, 0.f)) *
+                    clampf(texture_lookup(s.textures[m.tex_clearcoat_roughness], sh.uv).g, 0.f, 1.f);
+      m.clearcoat_alpha = rough * rough;
+    }
+  } else if (m.type == MaterialType::kPrincipled) {  // the Disney BSDF's weights
+    weight(m.metallic, m.tex_metallic);
+    weight(m.transmission_weight, m.tex_transmission);
+    weight(m.spec_tint, m.tex_spec_tint);
+    weight(m.sheen, m.tex_sheen);
+    weight(m.sheen_tint, m.tex_sheen_tint);
+    weight(m.flatness, m.tex_flatness);
+    weight(m.clearcoat, m.tex_clearcoat);
+    weight(m.clearcoat_gloss, m.tex_clearcoat_gloss);
   }
   if (m.tex_aniso >= 0 && m.alpha_x != m.alpha_y) {
     // KHR_materials_anisotropy's texture: the strength s (alpha_x = mix(alpha_y, 1, s^2)) times B, the

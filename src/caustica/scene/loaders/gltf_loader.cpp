@@ -614,18 +614,10 @@ class Converter {
   const unsigned char* view_bytes(size_t view, int64_t& len);
 
   int texture(const json& info, const std::string& path, bool srgb);
-  // A copy of texture t (sampler and transform included) with every texel's RGBA rewritten by f, named
-  // name + suffix; made once per (texture, suffix). The values a material slot reads from another channel.
-  std::map<std::pair<int, std::string>, int> derived_;
+  DerivedTextures derived_;  // the values a material slot reads from another channel
   template <class F>
   int derived_texture(int t, const std::string& suffix, F&& f) {
-    auto [it, fresh] = derived_.try_emplace({t, suffix}, -1);
-    if (!fresh) return it->second;
-    TextureDesc r = d_.textures[size_t(t)];
-    r.name += suffix;
-    for (size_t i = 0; i + 3 < r.rgba.size(); i += 4) f(&r.rgba[i]);
-    d_.textures.push_back(std::move(r));
-    return it->second = int(d_.textures.size()) - 1;
+    return derived_.get(d_, t, suffix, std::forward<F>(f));
   }
   // Texels for a slot that reads red from a glTF texture's alpha: grey of that alpha, opaque.
   static void alpha_to_red(float* px) { px[0] = px[1] = px[2] = px[3], px[3] = 1.f; }

@@ -331,6 +331,23 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     if (!(v >= 0.f && v <= 1.f)) c.fail(path + "/" + k, "expected a number in [0, 1]");
     return v;
   };
+  // A number in [0, 1] or a texture whose "scale" (default 1) is that number, multiplied by one of the
+  // texture's channels (scene/shading.h): metallic-roughness's KHR_materials_transmission weight (R),
+  // KHR_materials_clearcoat's weight (R) and perceptual roughness (G), KHR_materials_specular's weight (R) and
+  // KHR_materials_sheen's roughness (R); principled's weights (R).
+  auto unit_value = [&](const char* k, float def, int32_t& tex) {
+    if (!j.contains(k)) return def;
+    const json& v = j[k];
+    std::string p = path + "/" + k;
+    float x = 1.f;
+    const bool texture = is_texture_ref(v);
+    if (texture && v.is_object() && v.contains("scale")) x = num(c, v["scale"], p + "/scale"), p += "/scale";
+    else if (!texture && v.is_object()) c.fail(p, "expected a number in [0, 1] or a texture ({\"texture\": file, \"scale\": s})");
+    else if (!texture) x = num(c, v, p);
+    if (!(x >= 0.f && x <= 1.f)) c.fail(p, "expected a number in [0, 1]");
+    if (texture) tex = parse_texture(c, v, path + "/" + k, false);
+    return x;
+  };
   // GGX alpha: a number, [alpha_x, alpha_y], or a texture (its "scale" is alpha).
   auto alpha_value = [&](const json& v, const std::string& p) {
     Vec2f a = vec2(c, v, p, true);
@@ -429,22 +446,6 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
                             "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "specular", "specular_color",
                             "sheen_color", "sheen_roughness"});
-    // A number in [0, 1] or a texture whose "scale" (default 1) is that number, multiplied by one of the
-    // texture's channels: KHR_materials_transmission's weight (R), KHR_materials_clearcoat's weight (R) and
-    // perceptual roughness (G), KHR_materials_specular's weight (R) and KHR_materials_sheen's roughness (R).
-    auto unit_value = [&](const char* k, float def, int32_t& tex) {
-      if (!j.contains(k)) return def;
-      const json& v = j[k];
-      std::string p = path + "/" + k;
-      float x = 1.f;
-      const bool texture = is_texture_ref(v);
-      if (texture && v.is_object() && v.contains("scale")) x = num(c, v["scale"], p + "/scale"), p += "/scale";
-      else if (!texture && v.is_object()) c.fail(p, "expected a number in [0, 1] or a texture ({\"texture\": file, \"scale\": s})");
-      else if (!texture) x = num(c, v, p);
-      if (!(x >= 0.f && x <= 1.f)) c.fail(p, "expected a number in [0, 1]");
-      if (texture) tex = parse_texture(c, v, path + "/" + k, false);
-      return x;
-    };
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = perceptual_roughness();
@@ -480,23 +481,27 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
                             "clearcoat_gloss", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
                             "vertex_colors"});
     RGB base = get_ct("base_color", RGB(0.5f));
-    float metallic = unit("metallic", get_f("metallic", 0.f));
+    int32_t tex_metallic = -1, tex_trans = -1;
+    float metallic = unit_value("metallic", 0.f, tex_metallic);
     float rough = perceptual_roughness();
     float aniso = unit("anisotropic", get_f("anisotropic", 0.f));
     if (aniso > 0.f && j.contains("alpha")) c.fail(path + "/anisotropic", "give 'anisotropic' or 'alpha', not both");
-    m = make_principled(base, metallic, rough, aniso, unit("spec_trans", get_f("spec_trans", 0.f)),
-                        positive("eta", get_f("eta", 1.5f)));
+    const float trans = unit_value("spec_trans", 0.f, tex_trans);
+    m = make_principled(base, metallic, rough, aniso, trans, positive("eta", get_f("eta", 1.5f)));
+    m.tex_metallic = tex_metallic;
+    m.tex_transmission = tex_trans;
     if (j.contains("alpha")) {
       const Vec2f al = alpha_value(j["alpha"], path + "/alpha");
       m.alpha_x = al.x;
       m.alpha_y = al.y;
     }
-    m.spec_tint = unit("spec_tint", get_f("spec_tint", 0.f));
-    m.sheen = unit("sheen", get_f("sheen", 0.f));
-    m.sheen_tint = unit("sheen_tint", get_f("sheen_tint", 0.f));
-    m.flatness = unit("flatness", get_f("flatness", 0.f));
-    m.clearcoat = unit("clearcoat", get_f("clearcoat", 0.f));
-    m.clearcoat_gloss = unit("clearcoat_gloss", get_f("clearcoat_gloss", 0.f));
+    // Each weight a number or a texture (its red channel times "scale").
+    m.spec_tint = unit_value("spec_tint", 0.f, m.tex_spec_tint);
+    m.sheen = unit_value("sheen", 0.f, m.tex_sheen);
+    m.sheen_tint = unit_value("sheen_tint", 0.f, m.tex_sheen_tint);
+    m.flatness = unit_value("flatness", 0.f, m.tex_flatness);
+    m.clearcoat = unit_value("clearcoat", 0.f, m.tex_clearcoat);
+    m.clearcoat_gloss = unit_value("clearcoat_gloss", 0.f, m.tex_clearcoat_gloss);
   } else if (type == "blend" || type == "two_sided") {
     // Two materials by name: a blend's second at a share `weight` of the surface; two_sided's first seen from
     // the front (the side the surface's normal faces) and its second from behind (scene/interaction.h).

@@ -757,12 +757,27 @@ class Loader {
   // holding one is an error.
   void resolve_vertex_colors(Material& m) {
     if (vertex_color_textures_.count(m.tex_color)) m.flags |= kVertexColor;
-    for (int t : {m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_opacity, m.tex_mix}) {
+    for (int t : material_textures(m)) {
+      if (t == m.tex_color) continue;
       auto it = vertex_color_textures_.find(t);
       if (it != vertex_color_textures_.end())
         fail(it->second, "a mesh_attribute texture is supported as a BSDF's colour only (reflectance, "
                          "diffuse_reflectance, base_color, specular_reflectance, specular_transmittance)");
     }
+  }
+
+  // A float parameter's texture as Mitsuba reads it (a bitmap's eval_1 is its luminance): the texture itself
+  // where every texel is grey, else a grey copy holding the luminance (caustica's slots read one channel).
+  DerivedTextures derived_;
+  int float_texture(int t) {
+    if (t < 0) return t;
+    const std::vector<float>& px = d.textures[size_t(t)].rgba;
+    bool grey = true;
+    for (size_t i = 0; grey && i + 3 < px.size(); i += 4) grey = px[i] == px[i + 1] && px[i] == px[i + 2];
+    if (grey) return t;
+    return derived_.get(d, t, "#luminance", [](float* c) {
+      c[0] = c[1] = c[2] = luminance(RGB(c[0], c[1], c[2]));
+    });
   }
 
   int parse_texture(xml_node n, bool top_level) {
@@ -861,8 +876,7 @@ class Loader {
       xml_node an = p.get("alpha");
       if (an && (std::string(an.name()) == "texture" || std::string(an.name()) == "ref")) {
         if (!allow_texture) fail(an, "a roughness texture is not supported for this BSDF");
-        ColorOrTexture c = p.get_color_tex("alpha", RGB(0.1f));
-        tex = c.texture;
+        tex = float_texture(p.get_color_tex("alpha", RGB(0.1f)).texture);
         alpha = 1.f;
       } else {
         alpha = p.get_float("alpha", 0.1f);
@@ -1000,9 +1014,9 @@ class Loader {
       }
     } else if (type == "principled") {
       // Mitsuba 3's principled (Burley's Disney BSDF) as caustica's principled material, the same model
-      // (material/principled.h): base colour (texture allowed), roughness (texture allowed: its G channel),
-      // metallic, spec_trans, anisotropic, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss
-      // (numbers in [0, 1]), eta or specular (eta = 2 / (1 - sqrt(0.08 specular)) - 1).
+      // (material/principled.h): base colour, roughness, metallic, spec_trans, spec_tint, sheen, sheen_tint,
+      // flatness, clearcoat, clearcoat_gloss (numbers in [0, 1] or textures, read as their luminance like
+      // Mitsuba's eval_1), anisotropic (a number), eta or specular (eta = 2 / (1 - sqrt(0.08 specular)) - 1).
       ColorOrTexture base = p.get_color_tex("base_color", RGB(0.5f));
       auto is_texture = [](xml_node e) {
         return e && (std::string(e.name()) == "texture" || std::string(e.name()) == "ref");
@@ -1010,21 +1024,20 @@ class Loader {
       auto scalar = [&](const char* k, float def, float hi) {
         xml_node e = p.get(k);
         if (is_texture(e))
-          fail(e, std::string("a ") + k + " texture is not supported (give a number)");
+          fail(e, std::string(k) + " takes a number, not a texture");
         float v = p.get_float(k, def);
         if (!(v >= 0.f && v <= hi)) fail(e, std::string("expected ") + k + " in [0, " + (hi == 1.f ? "1" : "2") + "]");
         return v;
       };
-      int tex_rough = -1;
-      float roughness = 0.5f;
-      xml_node re = p.get("roughness");
-      if (is_texture(re)) {
-        tex_rough = p.get_color_tex("roughness", RGB(1.f)).texture;
-        roughness = 1.f;
-      } else {
-        roughness = scalar("roughness", 0.5f, 1.f);
-      }
-      const float trans = scalar("spec_trans", 0.f, 1.f);
+      // A weight: a number, or a texture (its luminance; the weight 1 that the texture multiplies).
+      auto weight = [&](const char* k, float def, int32_t& tex) {
+        if (!is_texture(p.get(k))) return scalar(k, def, 1.f);
+        tex = float_texture(p.get_color_tex(k, RGB(1.f)).texture);
+        return 1.f;
+      };
+      int32_t tex_rough = -1, tex_metallic = -1, tex_trans = -1;
+      const float roughness = weight("roughness", 0.5f, tex_rough);  // a grey texture: its G is the luminance
+      const float trans = weight("spec_trans", 0.f, tex_trans);
       float eta;
       if (p.has("eta")) {
         eta = p.get_float("eta", 1.5f);
@@ -1036,16 +1049,18 @@ class Loader {
         if (trans > 0.f && specular == 0.f) specular = 1e-3f;  // as Mitsuba
         eta = 2.f / (1.f - std::sqrt(std::min(0.08f * specular, 0.99f))) - 1.f;
       }
-      m = make_principled(base.value, scalar("metallic", 0.f, 1.f), roughness, scalar("anisotropic", 0.f, 1.f),
-                          trans, eta);
+      const float metallic = weight("metallic", 0.f, tex_metallic);
+      m = make_principled(base.value, metallic, roughness, scalar("anisotropic", 0.f, 1.f), trans, eta);
       m.tex_color = base.texture;
       m.tex_roughness = tex_rough;
-      m.spec_tint = scalar("spec_tint", 0.f, 1.f);
-      m.sheen = scalar("sheen", 0.f, 1.f);
-      m.sheen_tint = scalar("sheen_tint", 0.f, 1.f);
-      m.flatness = scalar("flatness", 0.f, 1.f);
-      m.clearcoat = scalar("clearcoat", 0.f, 1.f);
-      m.clearcoat_gloss = scalar("clearcoat_gloss", 0.f, 1.f);
+      m.tex_metallic = tex_metallic;
+      m.tex_transmission = tex_trans;
+      m.spec_tint = weight("spec_tint", 0.f, m.tex_spec_tint);
+      m.sheen = weight("sheen", 0.f, m.tex_sheen);
+      m.sheen_tint = weight("sheen_tint", 0.f, m.tex_sheen_tint);
+      m.flatness = weight("flatness", 0.f, m.tex_flatness);
+      m.clearcoat = weight("clearcoat", 0.f, m.tex_clearcoat);
+      m.clearcoat_gloss = weight("clearcoat_gloss", 0.f, m.tex_clearcoat_gloss);
       for (const char* k : {"main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"})
         p.get(k);  // sampling only
     } else if (type == "blendbsdf") {
