@@ -769,15 +769,19 @@ class Loader {
   // A float parameter's texture as Mitsuba reads it (a bitmap's eval_1 is its luminance): the texture itself
   // where every texel is grey, else a grey copy holding the luminance (caustica's slots read one channel).
   DerivedTextures derived_;
+  std::map<int, int> float_textures_;  // texture -> what float_texture made of it
   int float_texture(int t) {
     if (t < 0) return t;
+    auto [it, fresh] = float_textures_.try_emplace(t, t);
+    if (!fresh) return it->second;
     const std::vector<float>& px = d.textures[size_t(t)].rgba;
     bool grey = true;
     for (size_t i = 0; grey && i + 3 < px.size(); i += 4) grey = px[i] == px[i + 1] && px[i] == px[i + 2];
-    if (grey) return t;
-    return derived_.get(d, t, "#luminance", [](float* c) {
-      c[0] = c[1] = c[2] = luminance(RGB(c[0], c[1], c[2]));
-    });
+    if (!grey)
+      it->second = derived_.get(d, t, "#luminance", [](float* c) {
+        c[0] = c[1] = c[2] = luminance(RGB(c[0], c[1], c[2]));
+      });
+    return it->second;
   }
 
   int parse_texture(xml_node n, bool top_level) {
