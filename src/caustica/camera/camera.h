@@ -14,7 +14,8 @@
 // W x H film is a w x h camera whose image-plane window is that part of the
 // film's: tan_half scaled by w / W and h / H and the window's centre shifted by
 // (shift_x, shift_y) (make_camera). Pixels keep their size, so every pixel's
-// rays, importance and footprint are those of the uncropped film's pixel.
+// rays, importance and footprint are those of the uncropped film's pixel, and its
+// samples are seeded by its index in the uncropped film (film_pixel).
 //
 // Clipping planes (Mitsuba 3's near_clip / far_clip, glTF's znear / zfar):
 // camera rays start where they cross the plane at depth near_clip along the
@@ -142,6 +143,9 @@ struct Camera {
   float aperture_radius = 0.f;  // (perspective only)
   float focus_distance = 1.f;
   int width = 256, height = 256;
+  // A crop window's place in the uncropped film (its first pixel, and the film's width; 0: this camera's own
+  // width, no crop): film_pixel numbers a pixel as the whole film does, which seeds its samples.
+  uint32_t crop_x = 0, crop_y = 0, film_width = 0;
   // The image plane window's centre (a crop window, a principal point offset; 0 for a whole, centred
   // film), in the units of tan_half.
   float shift_x = 0.f, shift_y = 0.f;
@@ -150,6 +154,12 @@ struct Camera {
   // Motion blur: the pose at shutter close; time u in [0, 1) spans the shutter.
   bool moving = false;
   CameraPose close_pose;
+
+  // The index of pixel (px, py) of this camera in the uncropped film: the samplers are seeded by it, so that a
+  // crop draws each of its pixels' samples as the whole film's render does.
+  CHD uint32_t film_pixel(uint32_t px, uint32_t py) const {
+    return (py + crop_y) * (film_width ? film_width : uint32_t(width)) + px + crop_x;
+  }
 
   CHD CameraPose pose() const {
     CameraPose p;

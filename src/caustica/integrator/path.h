@@ -124,7 +124,7 @@ CHD void path_start(const SceneView& s, const PathParams& pp, uint32_t px, uint3
                     PathState& st) {
   st = PathState();
   st.pixel = py * uint32_t(s.camera.width) + px;
-  st.sampler.start(pp.sampler, pp.seed, st.pixel, sample_index);
+  st.sampler.start(pp.sampler, pp.seed, s.camera.film_pixel(px, py), sample_index);
   FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
   if (!pp.jitter) fs = FilterSample{Vec2f(0.f, 0.f), 1.f, 1.f};
   // A pinhole camera takes no lens sample (and spends no dimension on one).

@@ -939,7 +939,7 @@ CHD void vcm_light_continue(const SceneView& s, const VcmParams& p, VcmPathState
 CHD void vcm_camera_start(const SceneView& s, const VcmParams& p, uint32_t px, uint32_t py, VcmPathState& st) {
   st = VcmPathState();
   st.pixel = py * uint32_t(s.camera.width) + px;
-  st.sampler.start(p.sampler, p.seed, st.pixel, p.pass);
+  st.sampler.start(p.sampler, p.seed, s.camera.film_pixel(px, py), p.pass);
   FilterSample fs = filter_sample(s.filter, st.sampler.next_2d());
   Vec2f lens = st.sampler.next_2d();
   // A moving camera: the pose at this path's time (its importance and pdf are the same at every time).

@@ -314,6 +314,9 @@ Camera make_camera(const CameraDesc& c) {
     cam.tan_half_y *= float(c.crop_height) / H;
     cam.width = c.crop_width;
     cam.height = c.crop_height;
+    cam.crop_x = uint32_t(c.crop_x);
+    cam.crop_y = uint32_t(c.crop_y);
+    cam.film_width = uint32_t(c.width);
   }
   if (!(c.near_clip >= 0.f) || !(c.far_clip > c.near_clip)) {
     char msg[160];
