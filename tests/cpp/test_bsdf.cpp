@@ -32,7 +32,9 @@
 #include "caustica/base/rng.h"
 #include "caustica/base/sampling.h"
 #include "caustica/material/bsdf.h"
+#include "caustica/scene/scene.h"
 #include "caustica/scene/scene_desc.h"
+#include "caustica/scene/shading.h"
 #include "chi2.h"
 
 using namespace caustica;
@@ -1151,6 +1153,60 @@ TEST(Sheen, AlbedoTableIsTheLobesIntegral) {
       EXPECT_GT(in.total, 0.0);
     }
   }
+}
+
+TEST(Sheen, RoughnessTextureGivesTheTexelsAlbedoTable) {
+  // A sheen roughness texture: surface_material's table is the texel's roughness's (interpolated between the
+  // scene's kSheenRows tables, in log alpha), not the factor's. Measured here, halfway between two rows: the
+  // interpolation is within 0.007 in E at cosines 1/31 to 1 (near roughness 1), and at cosine 0 within 2.5% of E
+  // (E near 4 there for alpha near 0.002, where it changes fastest); the factor's (roughness 1) table is more
+  // than 0.05 away below roughness 0.7. Bounds: 0.01 and 3% halfway, one step of the 16-bit table at a row.
+  SceneDesc d;
+  d.camera.width = d.camera.height = 4;
+  Material m = sheened(make_metallic_roughness(RGB(0.5f), 0.f, 0.5f), RGB(1.f), 1.f);
+  m.tex_sheen_roughness = 0;
+  d.materials.push_back(m);
+  TextureDesc t;
+  t.name = "grey";
+  t.width = t.height = 1;
+  d.textures.push_back(t);
+  MeshDesc mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}};
+  mesh.uvs = {{0, 0}, {1, 0}, {1, 1}};
+  mesh.indices = {0, 1, 2};
+  d.meshes.push_back(mesh);
+  ShapeDesc shape;
+  shape.mesh = 0;
+  d.shapes.push_back(shape);
+  d.lights.push_back(Light{});
+  for (int k = 0; k < 2 * (kSheenRows - 1) + 1; ++k) {
+    // The rows' roughnesses (k even) and those halfway between them in log alpha.
+    const float r = std::sqrt(std::exp(std::log(kMinSheenAlpha) * (1.f - float(k) / float(2 * (kSheenRows - 1)))));
+    d.textures[0].rgba = {r, r, r, 1.f};
+    std::shared_ptr<Scene> sc = Scene::build(d);
+    ASSERT_NE(sc->view().sheen_table, nullptr);
+    SurfaceHit sh;
+    sh.material = 0;
+    sh.uv = Vec2f(0.5f, 0.5f);
+    const Material got = surface_material(sc->view(), sh);
+    Material want = m;
+    want.sheen_roughness = r;
+    prepare_sheen(want);
+    double err = 0.0, off = 0.0;
+    const double grazing = std::fabs(double(got.table[0]) - double(want.table[0])) / std::max(1.0, double(want.table[0]));
+    for (int i = 0; i < kMaterialTable; ++i) {
+      if (i > 0)
+        err = std::max(err, std::fabs(double(got.table[i]) - double(want.table[i])) * kSheenTableScale / 65535.0);
+      off = std::max(off, std::fabs(double(sc->view().materials[0].table[i]) - double(want.table[i])) *
+                              kSheenTableScale / 65535.0);
+    }
+    EXPECT_LE(err, k % 2 == 0 ? 4.0 / 65535.0 : 0.01) << "roughness " << r;
+    EXPECT_LE(grazing, k % 2 == 0 ? 4.0 / 65535.0 : 0.03) << "roughness " << r;
+    if (r < 0.7f) EXPECT_GT(off, 0.05) << "roughness " << r;  // the factor's (roughness 1) table is far off
+  }
+  // Without a sheen roughness texture there are no tables.
+  d.materials[0].tex_sheen_roughness = -1;
+  EXPECT_EQ(Scene::build(d)->view().sheen_table, nullptr);
 }
 
 TEST(Sheen, MatchesTheLayerFormula) {

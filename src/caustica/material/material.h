@@ -103,7 +103,7 @@ struct Material {
   //     transmissionTexture);
   //   tex_sheen_color: its sheen colour times RGB (KHR_materials_sheen's sheenColorTexture);
   //   tex_sheen_roughness: its sheen roughness times R (sheenRoughnessTexture's alpha, moved to red by the glTF
-  //     loader). The sheen's albedo table stays the factor's (prepare_sheen).
+  //     loader); its albedo table (Material::table) is then the texel's roughness's (mr_sheen_table_at).
   //   Principled: tex_clearcoat and tex_transmission as above (clearcoat, spec_trans times R), and
   //     tex_metallic, tex_spec_tint, tex_sheen, tex_sheen_tint, tex_flatness, tex_clearcoat_gloss: those weights
   //     times R (the Mitsuba loader gives them grey copies of its images: Mitsuba reads a float texture's

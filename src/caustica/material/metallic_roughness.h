@@ -231,6 +231,24 @@ CHD float mr_sheen_lobe(float alpha, Vec3f wo, Vec3f wi) {
 // incidence and small alpha E exceeds 1, up to ~1.6 at alpha 1e-3).
 constexpr float kSheenTableScale = 4.f;
 CHD float mr_sheen_E(const Material& m, float mu) { return kSheenTableScale * material_table(m, mu); }
+// A sheen roughness texture's tables: kSheenRows tables of E like Material::table's, row k for the alpha
+// kMinSheenAlpha^(1 - k / (kSheenRows - 1)), from kMinSheenAlpha to 1 in equal ratios (E changes fastest at small
+// alpha) (SceneView::sheen_table, which Scene::build makes where a material has such a texture);
+// mr_sheen_table_at fills m.table for m's alpha at the hit, linearly in log alpha between the two rows around it.
+constexpr int kSheenRows = 32;
+CHD float mr_sheen_row_alpha(int k) {
+  return std::exp(std::log(kMinSheenAlpha) * (1.f - float(k) / float(kSheenRows - 1)));
+}
+CHD void mr_sheen_table_at(const uint16_t* rows, Material& m) {
+  const float x = clampf(1.f - std::log(minf(mr_sheen_alpha(m), 1.f)) / std::log(kMinSheenAlpha), 0.f, 1.f) *
+                  float(kSheenRows - 1);
+  const int k = x >= float(kSheenRows - 2) ? kSheenRows - 2 : int(x);
+  const float f = x - float(k);
+  const uint16_t* a = rows + k * kMaterialTable;
+  const uint16_t* b = a + kMaterialTable;
+  for (int i = 0; i < kMaterialTable; ++i)
+    m.table[i] = uint16_t(float(a[i]) * (1.f - f) + float(b[i]) * f + 0.5f);
+}
 // The sheen caustica renders: the lobe over max(1, E(cos_o)) max(1, E(cos_i)), which leaves it alone where E <= 1
 // and keeps its albedo at most 1 where the model would create light (symmetric still).
 CHD float mr_sheen_eval(const Material& m, Vec3f wo, Vec3f wi) {

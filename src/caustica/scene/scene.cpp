@@ -181,21 +181,17 @@ void prepare_rough_plastic(Material& m) {
   cache.emplace(key, c);
 }
 
-void prepare_sheen(Material& m) {
+std::array<uint16_t, kMaterialTable> sheen_albedo_table(float alpha) {
   // E(mu) = int f_sheen(wo, wi) cos_i dwi over the upper hemisphere (the white lobe of mr_sheen_lobe), wo at
   // cosine mu, by the midpoint rule on 256 polar angles x 64 azimuths over half the circle (the lobe is
   // symmetric about wo's plane; the smallest alpha's lobe is ~0.03 rad wide in theta_h, 5 steps), with the
   // masking terms of each row computed once and D's power in single precision (~10 ms per alpha). Stored as E / kSheenTableScale. Once per alpha in a process.
   static std::mutex mutex;
   static std::map<float, std::array<uint16_t, kMaterialTable>> cache;
-  const float alpha = mr_sheen_alpha(m);
   {
     std::lock_guard<std::mutex> lock(mutex);
     auto it = cache.find(alpha);
-    if (it != cache.end()) {
-      std::copy(it->second.begin(), it->second.end(), std::begin(m.table));
-      return;
-    }
+    if (it != cache.end()) return it->second;
   }
   constexpr int nt = 256, np = 64;
   const double dt = 0.5 * double(kPi) / nt, dp = double(kPi) / np;
@@ -226,9 +222,14 @@ void prepare_sheen(Material& m) {
     e *= norm / (4.0 * mu) * dt * dp * 2.0;  // both halves of the circle
     t[size_t(i)] = uint16_t(std::lround(std::clamp(e / kSheenTableScale, 0.0, 1.0) * 65535.0));
   }
-  std::copy(t.begin(), t.end(), std::begin(m.table));
   std::lock_guard<std::mutex> lock(mutex);
   cache.emplace(alpha, t);
+  return t;
+}
+
+void prepare_sheen(Material& m) {
+  const std::array<uint16_t, kMaterialTable> t = sheen_albedo_table(mr_sheen_alpha(m));
+  std::copy(t.begin(), t.end(), std::begin(m.table));
 }
 
 Material make_rough_plastic(RGB diffuse, float eta, float alpha, bool beckmann, RGB specular) {
@@ -768,6 +769,13 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   for (Material& m : s.materials)
     if (m.type == MaterialType::kRoughPlastic) prepare_rough_plastic(m);  // its coat tables
     else if (m.type == MaterialType::kMetallicRoughness && mr_has_sheen(m)) prepare_sheen(m);  // its albedo table
+  // A sheen roughness texture: the tables of kSheenRows roughnesses, between which the hit's is interpolated.
+  for (const Material& m : s.materials)
+    if (m.type == MaterialType::kMetallicRoughness && m.tex_sheen_roughness >= 0 && s.sheen_table.empty())
+      for (int k = 0; k < kSheenRows; ++k) {
+        const std::array<uint16_t, kMaterialTable> t = sheen_albedo_table(mr_sheen_row_alpha(k));
+        s.sheen_table.insert(s.sheen_table.end(), t.begin(), t.end());
+      }
 
   for (Material& m : s.materials) {
     for (int t : material_textures(m))
@@ -1251,6 +1259,7 @@ void Scene::update_view() {
   v.prim_material = prim_material.data();
   v.prim_light = prim_light.data();
   v.materials = materials.data();
+  v.sheen_table = sheen_table.empty() ? nullptr : sheen_table.data();
   v.alpha_tested = 0;
   for (const Material& m : materials) v.alpha_tested |= m.flags & kAlphaTested ? 1u : 0u;
   v.media = media.empty() ? nullptr : media.data();

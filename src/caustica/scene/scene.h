@@ -55,6 +55,7 @@ class Scene {
   std::vector<LightBvhNode> light_bvh_nodes;
   std::vector<uint64_t> light_bvh_trail;
   std::vector<uint32_t> light_bvh_where, light_bvh_infinite;
+  std::vector<uint16_t> sheen_table;  // SceneView::sheen_table (empty: none)
   BVH bvh;
 
  private:

@@ -234,6 +234,9 @@ void prepare_rough_plastic(Material& m);
 // A metallic-roughness material's sheen albedo table (Material::table; material/metallic_roughness.h) from its
 // sheen roughness (Scene::build calls it for every such material with a sheen colour).
 void prepare_sheen(Material& m);
+// The sheen's directional albedo table (Material::table's form) for the Charlie alpha `alpha` (computed once per
+// alpha in a process).
+std::array<uint16_t, kMaterialTable> sheen_albedo_table(float alpha);
 // Hemispherical average of dielectric Fresnel reflectance, 2 int_0^1 F(mu) mu dmu.
 float diffuse_fresnel_reflectance(float eta);
 

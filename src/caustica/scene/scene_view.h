@@ -87,6 +87,9 @@ struct SceneView {
   uint32_t has_null = 0;
   // Shading
   const Material* materials = nullptr;
+  // kSheenRows sheen albedo tables (material/metallic_roughness.h, mr_sheen_table_at), or null where no material
+  // has a sheen roughness texture.
+  const uint16_t* sheen_table = nullptr;
   const Light* lights = nullptr;
   uint32_t num_lights = 0;
   uint32_t num_point_lights = 0;  // point and spot lights (equiangular sampling in media, integrator/path.h)

@@ -210,7 +210,10 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
   };
   if (m.type == MaterialType::kMetallicRoughness) {  // the glTF layers
     if (m.tex_sheen_color >= 0) m.sheen_color *= texture_lookup(s.textures[m.tex_sheen_color], sh.uv).rgb();
-    weight(m.sheen_roughness, m.tex_sheen_roughness);
+    if (m.tex_sheen_roughness >= 0) {
+      weight(m.sheen_roughness, m.tex_sheen_roughness);
+      if (s.sheen_table) mr_sheen_table_at(s.sheen_table, m);  // the texel's roughness's albedo table
+    }
     weight(m.transmission_weight, m.tex_transmission);
     weight(m.specular_weight, m.tex_specular);
     if (m.tex_specular_color >= 0) m.specular *= texture_lookup(s.textures[m.tex_specular_color], sh.uv).rgb();

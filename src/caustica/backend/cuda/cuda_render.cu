@@ -54,6 +54,7 @@ class DeviceScene {
     v.prim_material = upload(sc.prim_material);
     v.prim_light = upload(sc.prim_light);
     v.materials = upload(sc.materials);
+    v.sheen_table = upload(sc.sheen_table);
     v.media = upload(sc.media);
     v.prim_medium = upload(sc.prim_medium);
     v.medium_grids = upload(sc.medium_grids);
