@@ -151,6 +151,23 @@ inline std::array<int32_t, 20> material_textures(const Material& m, bool opacity
           m.tex_sheen_tint, m.tex_flatness, m.tex_clearcoat_gloss, opacity ? m.tex_opacity : -1, m.tex_mix};
 }
 
+// The principled weights in [0, 1] that take a texture (its red channel times the weight; scene/shading.h), by
+// their names in JSON and Mitsuba XML: the loaders and the JSON writer read and write them from this list.
+struct PrincipledWeight {
+  const char* name;
+  float Material::*value;
+  int32_t Material::*texture;
+};
+inline constexpr PrincipledWeight kPrincipledWeights[] = {
+    {"metallic", &Material::metallic, &Material::tex_metallic},
+    {"spec_trans", &Material::transmission_weight, &Material::tex_transmission},
+    {"spec_tint", &Material::spec_tint, &Material::tex_spec_tint},
+    {"sheen", &Material::sheen, &Material::tex_sheen},
+    {"sheen_tint", &Material::sheen_tint, &Material::tex_sheen_tint},
+    {"flatness", &Material::flatness, &Material::tex_flatness},
+    {"clearcoat", &Material::clearcoat, &Material::tex_clearcoat},
+    {"clearcoat_gloss", &Material::clearcoat_gloss, &Material::tex_clearcoat_gloss}};
+
 // Material::table at cosine mu, linearly interpolated.
 CHD float material_table(const Material& m, float mu) {
   const float x = clampf(mu, 0.f, 1.f) * float(kMaterialTable - 1);

@@ -378,19 +378,11 @@ struct Writer {
         o.set("eta", JV::flt(m.eta));
         // Each weight a number, or its texture with the number as "scale"; zeros without a texture left out
         // (but metallic and spec_trans).
-        struct Weight { const char* key; float value; int32_t tex; bool always; };
-        const Weight weights[] = {{"metallic", m.metallic, m.tex_metallic, true},
-                                  {"spec_trans", m.transmission_weight, m.tex_transmission, true},
-                                  {"spec_tint", m.spec_tint, m.tex_spec_tint, false},
-                                  {"sheen", m.sheen, m.tex_sheen, false},
-                                  {"sheen_tint", m.sheen_tint, m.tex_sheen_tint, false},
-                                  {"flatness", m.flatness, m.tex_flatness, false},
-                                  {"clearcoat", m.clearcoat, m.tex_clearcoat, false},
-                                  {"clearcoat_gloss", m.clearcoat_gloss, m.tex_clearcoat_gloss, false}};
-        for (const Weight& w : weights) {
-          JV v = JV::flt(w.value);
-          if (w.tex >= 0) o.set(w.key, texture(w.tex, false, &v));
-          else if (w.always || w.value != 0.f) o.set(w.key, v);
+        for (const PrincipledWeight& w : kPrincipledWeights) {
+          JV v = JV::flt(m.*w.value);
+          const bool always = w.value == &Material::metallic || w.value == &Material::transmission_weight;
+          if (m.*w.texture >= 0) o.set(w.name, texture(m.*w.texture, false, &v));
+          else if (always || m.*w.value != 0.f) o.set(w.name, v);
         }
         break;
       }

@@ -481,27 +481,17 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
                             "clearcoat_gloss", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
                             "vertex_colors"});
     RGB base = get_ct("base_color", RGB(0.5f));
-    int32_t tex_metallic = -1, tex_trans = -1;
-    float metallic = unit_value("metallic", 0.f, tex_metallic);
     float rough = perceptual_roughness();
     float aniso = unit("anisotropic", get_f("anisotropic", 0.f));
     if (aniso > 0.f && j.contains("alpha")) c.fail(path + "/anisotropic", "give 'anisotropic' or 'alpha', not both");
-    const float trans = unit_value("spec_trans", 0.f, tex_trans);
-    m = make_principled(base, metallic, rough, aniso, trans, positive("eta", get_f("eta", 1.5f)));
-    m.tex_metallic = tex_metallic;
-    m.tex_transmission = tex_trans;
+    m = make_principled(base, 0.f, rough, aniso, 0.f, positive("eta", get_f("eta", 1.5f)));
     if (j.contains("alpha")) {
       const Vec2f al = alpha_value(j["alpha"], path + "/alpha");
       m.alpha_x = al.x;
       m.alpha_y = al.y;
     }
-    // Each weight a number or a texture (its red channel times "scale").
-    m.spec_tint = unit_value("spec_tint", 0.f, m.tex_spec_tint);
-    m.sheen = unit_value("sheen", 0.f, m.tex_sheen);
-    m.sheen_tint = unit_value("sheen_tint", 0.f, m.tex_sheen_tint);
-    m.flatness = unit_value("flatness", 0.f, m.tex_flatness);
-    m.clearcoat = unit_value("clearcoat", 0.f, m.tex_clearcoat);
-    m.clearcoat_gloss = unit_value("clearcoat_gloss", 0.f, m.tex_clearcoat_gloss);
+    // Each weight (0 if absent) a number or a texture (its red channel times "scale").
+    for (const PrincipledWeight& w : kPrincipledWeights) m.*w.value = unit_value(w.name, 0.f, m.*w.texture);
   } else if (type == "blend" || type == "two_sided") {
     // Two materials by name: a blend's second at a share `weight` of the surface; two_sided's first seen from
     // the front (the side the surface's normal faces) and its second from behind (scene/interaction.h).

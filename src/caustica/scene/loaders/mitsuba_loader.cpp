@@ -1039,9 +1039,11 @@ class Loader {
         tex = float_texture(p.get_color_tex(k, RGB(1.f)).texture);
         return 1.f;
       };
-      int32_t tex_rough = -1, tex_metallic = -1, tex_trans = -1;
+      int32_t tex_rough = -1;
       const float roughness = weight("roughness", 0.5f, tex_rough);  // a grey texture: its G is the luminance
-      const float trans = weight("spec_trans", 0.f, tex_trans);
+      Material weights;  // the weights (0 if absent) and their textures
+      for (const PrincipledWeight& w : kPrincipledWeights) weights.*w.value = weight(w.name, 0.f, weights.*w.texture);
+      const float trans = weights.transmission_weight;
       float eta;
       if (p.has("eta")) {
         eta = p.get_float("eta", 1.5f);
@@ -1053,18 +1055,13 @@ class Loader {
         if (trans > 0.f && specular == 0.f) specular = 1e-3f;  // as Mitsuba
         eta = 2.f / (1.f - std::sqrt(std::min(0.08f * specular, 0.99f))) - 1.f;
       }
-      const float metallic = weight("metallic", 0.f, tex_metallic);
-      m = make_principled(base.value, metallic, roughness, scalar("anisotropic", 0.f, 1.f), trans, eta);
+      m = make_principled(base.value, 0.f, roughness, scalar("anisotropic", 0.f, 1.f), trans, eta);
       m.tex_color = base.texture;
       m.tex_roughness = tex_rough;
-      m.tex_metallic = tex_metallic;
-      m.tex_transmission = tex_trans;
-      m.spec_tint = weight("spec_tint", 0.f, m.tex_spec_tint);
-      m.sheen = weight("sheen", 0.f, m.tex_sheen);
-      m.sheen_tint = weight("sheen_tint", 0.f, m.tex_sheen_tint);
-      m.flatness = weight("flatness", 0.f, m.tex_flatness);
-      m.clearcoat = weight("clearcoat", 0.f, m.tex_clearcoat);
-      m.clearcoat_gloss = weight("clearcoat_gloss", 0.f, m.tex_clearcoat_gloss);
+      for (const PrincipledWeight& w : kPrincipledWeights) {
+        m.*w.value = weights.*w.value;
+        m.*w.texture = weights.*w.texture;
+      }
       for (const char* k : {"main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"})
         p.get(k);  // sampling only
     } else if (type == "blendbsdf") {
