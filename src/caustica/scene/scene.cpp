@@ -769,13 +769,14 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
   for (Material& m : s.materials)
     if (m.type == MaterialType::kRoughPlastic) prepare_rough_plastic(m);  // its coat tables
     else if (m.type == MaterialType::kMetallicRoughness && mr_has_sheen(m)) prepare_sheen(m);  // its albedo table
-  // A sheen roughness texture: the tables of kSheenRows roughnesses, between which the hit's is interpolated.
-  for (const Material& m : s.materials)
-    if (m.type == MaterialType::kMetallicRoughness && m.tex_sheen_roughness >= 0 && s.sheen_table.empty())
-      for (int k = 0; k < kSheenRows; ++k) {
-        const std::array<uint16_t, kMaterialTable> t = sheen_albedo_table(mr_sheen_row_alpha(k));
-        s.sheen_table.insert(s.sheen_table.end(), t.begin(), t.end());
-      }
+  // A sheen roughness texture: the tables of kSheenRows alphas, between which the hit's is interpolated.
+  if (std::any_of(s.materials.begin(), s.materials.end(), [](const Material& m) {
+        return m.type == MaterialType::kMetallicRoughness && m.tex_sheen_roughness >= 0;
+      }))
+    for (int k = 0; k < kSheenRows; ++k) {
+      const std::array<uint16_t, kMaterialTable> t = sheen_albedo_table(mr_sheen_row_alpha(k));
+      s.sheen_table.insert(s.sheen_table.end(), t.begin(), t.end());
+    }
 
   for (Material& m : s.materials) {
     for (int t : material_textures(m))
