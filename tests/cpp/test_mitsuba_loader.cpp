@@ -575,6 +575,12 @@ TEST(MitsubaBsdf, Textures) {
                  "</bsdf></shape>\n");
   EXPECT_NE(error_of(g).find("a mesh_attribute texture is supported as a BSDF's colour only"), std::string::npos)
       << error_of(g);
+  // The same texture as the base colour and a weight (one id): the weight's slot is still refused.
+  g = scene_file("principled_vc_ref.xml", "<texture type=\"mesh_attribute\" id=\"vc\"><string name=\"name\" "
+                 "value=\"vertex_color\"/></texture>\n<shape type=\"cube\"><bsdf type=\"principled\">"
+                 "<ref name=\"base_color\" id=\"vc\"/><ref name=\"sheen\" id=\"vc\"/></bsdf></shape>\n");
+  EXPECT_NE(error_of(g).find("a mesh_attribute texture is supported as a BSDF's colour only"), std::string::npos)
+      << error_of(g);
   g = scene_file("blend_one.xml", "<shape type=\"cube\"><bsdf type=\"blendbsdf\">\n<bsdf type=\"diffuse\"/></bsdf></shape>\n");
   EXPECT_EQ(error_of(g), g + ":2: <bsdf type=\"blendbsdf\">: expected two nested <bsdf> or <ref> elements (got 1)");
   // twosided around a blend: the blend of two-sided copies; a transmissive BSDF inside is refused as alone.

@@ -757,9 +757,9 @@ class Loader {
   // holding one is an error.
   void resolve_vertex_colors(Material& m) {
     if (vertex_color_textures_.count(m.tex_color)) m.flags |= kVertexColor;
-    for (int t : material_textures(m)) {
-      if (t == m.tex_color) continue;
-      auto it = vertex_color_textures_.find(t);
+    const auto slots = material_textures(m);  // tex_color first
+    for (size_t i = 1; i < slots.size(); ++i) {
+      auto it = vertex_color_textures_.find(slots[i]);
       if (it != vertex_color_textures_.end())
         fail(it->second, "a mesh_attribute texture is supported as a BSDF's colour only (reflectance, "
                          "diffuse_reflectance, base_color, specular_reflectance, specular_transmittance)");
