@@ -303,35 +303,105 @@ def test_gpu_instancing_places_each_instance(tmp_path):
     assert np.abs(ic - ib).mean() < 0.01 * ib.mean()  # shorts quantize the rotation: a few edge pixels move
 
 
-@pytest.mark.parametrize("sg,mr", [
-    # A dielectric (specular 0.04): metallic 0, the diffuse colour as base colour.
-    ({"diffuseFactor": [0.8, 0.2, 0.1, 1], "specularFactor": [0.04, 0.04, 0.04], "glossinessFactor": 0.7},
-     {"baseColorFactor": [0.8, 0.2, 0.1, 1], "metallicFactor": 0, "roughnessFactor": 0.3}),
-    # A metal (black diffuse): metallic 1, the specular colour as base colour.
-    ({"diffuseFactor": [0, 0, 0, 1], "specularFactor": [0.9, 0.6, 0.2], "glossinessFactor": 0.4},
-     {"baseColorFactor": [0.9, 0.6, 0.2, 1], "metallicFactor": 1, "roughnessFactor": 0.6}),
+SG = "KHR_materials_pbrSpecularGlossiness"
+
+
+@pytest.mark.parametrize("sg", [
+    {"diffuseFactor": [0.8, 0.2, 0.1, 1], "specularFactor": [0.04, 0.04, 0.04], "glossinessFactor": 0.7},  # plastic
+    {"diffuseFactor": [0, 0, 0, 1], "specularFactor": [1.0, 0.766, 0.336], "glossinessFactor": 0.4},  # gold
+    {"diffuseFactor": [0.5, 0.3, 0.2, 1], "specularFactor": [0.2, 0.25, 0.3], "glossinessFactor": 0.9},  # between
 ])
-def test_specular_glossiness_is_converted(tmp_path, sg, mr):
-    """KHR_materials_pbrSpecularGlossiness: its two limits, a dielectric and a metal, render as the metallic-roughness
-    materials the conversion gives (the same image up to float rounding of the converted factors)."""
+def test_specular_glossiness_is_metallic_roughness_with_specular(tmp_path, sg):
+    """KHR_materials_pbrSpecularGlossiness renders as the dielectric metallic-roughness material with
+    KHR_materials_specular it stands for: base colour the diffuse colour, metallic 0, roughness 1 - glossiness,
+    specular colour the specular factor over F0(1.5) = 0.04 (the same image up to float rounding of that
+    quotient), without a warning."""
+    mr = {"pbrMetallicRoughness": {"baseColorFactor": sg["diffuseFactor"], "metallicFactor": 0,
+                                   "roughnessFactor": 1 - sg["glossinessFactor"]},
+          "extensions": {"KHR_materials_specular": {"specularColorFactor": [s / 0.04 for s in sg["specularFactor"]]}}}
     imgs = []
-    for k, mat in enumerate(({"extensions": {"KHR_materials_pbrSpecularGlossiness": sg}},
-                             {"pbrMetallicRoughness": mr})):
+    for k, mat in enumerate(({"extensions": {SG: sg}}, mr)):
         g = Gltf()
         quad = g.quad(g.add("materials", mat))
         light = g.quad(g.add("materials", {"emissiveFactor": [4, 4, 4]}), half=0.3, facing_down=True)
         g.scene([g.add("nodes", {"mesh": quad, "rotation": [-0.38268343, 0, 0, 0.92387953]}),
                  g.add("nodes", {"mesh": light, "translation": [0, 0.8, 1.5]}), g.camera(3.0, FILL_FOV)])
-        if k == 0:
-            g.doc["extensionsUsed"] = ["KHR_materials_pbrSpecularGlossiness"]
+        g.doc["extensionsUsed"] = [SG] if k == 0 else ["KHR_materials_specular"]
         path = g.write(tmp_path / f"sg{k}.gltf")
         with warnings.catch_warnings(record=True) as w:
             warnings.simplefilter("always")
             imgs.append(render(path, spp=8))
-        if k == 0:
-            assert any("converted to metallic-roughness" in str(x.message) for x in w)
+        assert not w, [str(x.message) for x in w]
     assert imgs[1].mean() > 0.01
     np.testing.assert_allclose(imgs[0], imgs[1], rtol=1e-4, atol=1e-5)
+
+
+def sg_mirror(tmp_path, sg, texel=None):
+    """A glossiness-1 (mirror) specular-glossiness plate with a black diffuse colour, seen straight down
+    through a 0.1 rad field of view, under a black emitter of radiance 1 above the camera: each pixel is the
+    plate's reflectance at incidence within 0.05 rad of the normal (optionally a 2 x 2 specularGlossiness
+    texture of one RGBA texel)."""
+    g = Gltf()
+    sg = dict({"diffuseFactor": [0, 0, 0, 1], "glossinessFactor": 1.0}, **sg)
+    if texel is not None:
+        g.image_data_uri(png_bytes(np.tile(np.array(texel, np.uint8), (2, 2, 1))))
+        g.add("textures", {"source": 0})
+        sg["specularGlossinessTexture"] = {"index": 0}
+    plate = g.quad(g.add("materials", {"extensions": {SG: sg}}))
+    lamp = g.quad(g.add("materials", {"emissiveFactor": [1, 1, 1], "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}}),
+                  half=3.0, z=4.0, facing_down=True)  # black: it reflects nothing back
+    g.scene([g.add("nodes", {"mesh": plate}), g.add("nodes", {"mesh": lamp}), g.camera(3.0, 0.1)])
+    g.doc["extensionsUsed"] = [SG]
+    return render(g.write(tmp_path / "mirror.gltf"), size=8, spp=4)
+
+
+def test_specular_glossiness_specular_is_the_normal_reflectance(tmp_path):
+    """The specular colour is the reflectance at normal incidence, per channel: from the factor, and from the
+    factor times the specularGlossinessTexture's RGB (sRGB; its alpha, the glossiness, 1 here). Within 0.05 rad
+    of the normal the exact Fresnel of IOR 1.5 rises by under 1e-6 of its range above F0; bound 1e-4."""
+    spec = [0.5, 0.3, 0.2]
+    img = sg_mirror(tmp_path, {"specularFactor": spec})
+    np.testing.assert_allclose(img, np.broadcast_to(spec, img.shape), atol=1e-4)
+    texel = [200, 128, 40, 255]
+    img = sg_mirror(tmp_path, {"specularFactor": [1.0, 0.5, 1.0]}, texel)
+    want = srgb_to_linear(np.array(texel[:3]) / 255.0) * [1.0, 0.5, 1.0]
+    np.testing.assert_allclose(img, np.broadcast_to(want, img.shape), atol=1e-4)
+
+
+def test_specular_glossiness_exports_and_renders_the_same(tmp_path):
+    """A textured specular-glossiness material exports to schema-valid JSON (a metallic_roughness with
+    `specular_color` and its texture) that renders the glTF's image exactly."""
+    from test_clearcoat import export_round_trip
+    g = Gltf()
+    rgba = np.zeros((4, 4, 4), np.uint8)
+    rgba[..., 0], rgba[..., 1], rgba[..., 2], rgba[..., 3] = 220, 120, 30, 255
+    rgba[:, :2, 3] = 90  # glossier on the right
+    g.image_data_uri(png_bytes(rgba))
+    g.add("textures", {"source": 0})
+    sg = {"diffuseFactor": [0.3, 0.4, 0.5, 1], "specularFactor": [0.5, 0.5, 0.5], "glossinessFactor": 0.8,
+          "specularGlossinessTexture": {"index": 0}, "diffuseTexture": {"index": 0}}
+    g.scene([g.add("nodes", {"mesh": g.quad(g.add("materials", {"extensions": {SG: sg}})),
+                             "rotation": [-0.38268343, 0, 0, 0.92387953]}), g.camera(3.0, FILL_FOV)])  # lit by
+    # the default white environment
+    g.doc["extensionsUsed"] = [SG]
+    m = export_round_trip(tmp_path, g.write(tmp_path / "sg.gltf"), SG)
+    assert m["type"] == "metallic_roughness" and m.get("metallic", 0) == 0
+    assert "texture" in m["specular_color"]
+
+
+def test_specular_glossiness_with_specular_or_ior_is_an_error(tmp_path):
+    """KHR_materials_specular and KHR_materials_ior must not be used with specular-glossiness (their
+    specifications' exclusions): the conversion sets the specular colour itself."""
+    for other in ("KHR_materials_specular", "KHR_materials_ior"):
+        g = Gltf()
+        mat = g.add("materials", {"extensions": {SG: {"glossinessFactor": 0.5}, other: {}}})
+        g.scene([g.add("nodes", {"mesh": g.quad(mat)}), g.camera(3.0, FILL_FOV)])
+        g.doc["extensionsUsed"] = [SG, other]
+        p = g.write(tmp_path / "both.gltf")
+        with pytest.raises(caustica.InputError) as e:
+            caustica.load_scene(p)
+        assert str(e.value) == (f"{p}: /materials/0/extensions/{other}: must not be used with {SG} (which sets the "
+                                "specular colour itself)")
 
 
 def test_errors_are_input_errors(tmp_path):

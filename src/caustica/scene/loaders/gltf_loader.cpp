@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "../../base/error.h"
+#include "../../material/fresnel.h"
 #include "json_text.h"
 #include "../load.h"
 
@@ -859,6 +860,7 @@ int Converter::material(size_t i) {
   const json *sg_diffuse_texture = nullptr, *sg_texture = nullptr;  // KHR_materials_pbrSpecularGlossiness
   std::string sg_path;
   float glossiness = -1.f;  // >= 0: the material is specular-glossiness, converted below
+  RGB sg_specular(1.f);     // its specularFactor: F0, the reflectance at normal incidence
   MatExtra ex;
   if (const json* e = member(m, "emissiveFactor")) ex.emission = nonneg_color(c_, *e, P(p, "emissiveFactor"), 3);
   if (const json* exts = member(m, "extensions")) {
@@ -905,42 +907,31 @@ int Converter::material(size_t i) {
       }
     }
     if (const json* t = member(*exts, "KHR_materials_pbrSpecularGlossiness")) {
-      // The archived specular-glossiness model, converted to metallic-roughness by the Khronos glTF converters'
-      // rule: metallic solves the dielectric/metal mix of the diffuse and specular brightness (perceived, with
-      // a dielectric F0 of 0.04), the base colour blends the colour each side implies by metallic^2, and
-      // roughness = 1 - glossiness. The extension takes the place of pbrMetallicRoughness (its fallback).
+      // The archived specular-glossiness model, which takes the place of pbrMetallicRoughness (its fallback),
+      // as a dielectric metallic-roughness material with KHR_materials_specular (below, after the material
+      // exists): the diffuse colour as base colour, metallic 0, roughness = 1 - glossiness, and the specular
+      // colour as the layer's reflectance at normal incidence. This is how that extension's authors meant
+      // specular-glossiness to be carried over (gltf-transform's metalRough does the same with IOR 1000);
+      // there is no metallic to solve for.
       sg_path = P(ep, "KHR_materials_pbrSpecularGlossiness");
       object_at(c_, *t, sg_path);
-      RGB diffuse(1.f), specular(1.f);
+      for (const char* other : {"KHR_materials_specular", "KHR_materials_ior"})
+        if (member(*exts, other))
+          c_.fail(P(ep, other), std::string("must not be used with KHR_materials_pbrSpecularGlossiness (which sets "
+                                            "the specular colour itself)"));
+      RGB diffuse(1.f);
       if (const json* d = member(*t, "diffuseFactor")) {
         diffuse = nonneg_color(c_, *d, P(sg_path, "diffuseFactor"), 4);
         base_alpha = float((*d)[3].get<double>());
         if (base_alpha > 1.f) c_.fail(P(sg_path, "diffuseFactor/3"), "expected an alpha in [0, 1]");
       }
-      if (const json* s = member(*t, "specularFactor")) specular = nonneg_color(c_, *s, P(sg_path, "specularFactor"), 3);
+      if (const json* s = member(*t, "specularFactor")) sg_specular = nonneg_color(c_, *s, P(sg_path, "specularFactor"), 3);
       glossiness = unit_interval(c_, *t, "glossinessFactor", sg_path, 1.f);
-      const double f0 = 0.04;
-      auto brightness = [](RGB c) { return std::sqrt(0.299 * c.x * c.x + 0.587 * c.y * c.y + 0.114 * c.z * c.z); };
-      const double one_minus = 1.0 - std::min(1.0, double(max_component(specular)));
-      const double bd = brightness(diffuse), bs = brightness(specular);
-      double m = 0.0;
-      if (bs >= f0) {  // the quadratic f0 m^2 + b m + c = 0's larger root
-        const double b = bd * one_minus / (1.0 - f0) + bs - 2.0 * f0, c = f0 - bs;
-        m = std::clamp((-b + std::sqrt(std::max(b * b - 4.0 * f0 * c, 0.0))) / (2.0 * f0), 0.0, 1.0);
-      }
-      RGB b_col;
-      for (int k = 0; k < 3; ++k) {
-        const double from_diffuse = diffuse[k] * one_minus / (1.0 - f0) / std::max(1.0 - m, 1e-6);
-        const double from_specular = (specular[k] - f0 * (1.0 - m)) / std::max(m, 1e-6);
-        b_col[k] = float(std::clamp(from_diffuse + (from_specular - from_diffuse) * m * m, 0.0, 1.0));
-      }
-      base = b_col;
-      metallic = float(m);
+      base = diffuse;
+      metallic = 0.f;
       roughness = 1.f - glossiness;
       sg_diffuse_texture = member(*t, "diffuseTexture");
       sg_texture = member(*t, "specularGlossinessTexture");
-      warn_once("KHR_materials_pbrSpecularGlossiness is converted to metallic-roughness (from its factors; its "
-                "diffuse texture tints the base colour and its glossiness channel sets the roughness)");
     }
     if (const json* t = member(*exts, "KHR_materials_emissive_strength")) {
       std::string sp = P(ep, "KHR_materials_emissive_strength");
@@ -1019,8 +1010,12 @@ int Converter::material(size_t i) {
     }
   }
   if (glossiness >= 0.f) {
+    // KHR_materials_specular's colour scales the dielectric's F0 (mr_dielectric_fresnel, at weight 1), so
+    // specular / F0 gives F0 = specular; the texture's RGB (sRGB) multiplies it.
+    mat.specular = sg_specular / fresnel_dielectric(1.f, mat.eta);
     if (sg_diffuse_texture) mat.tex_color = texture(*sg_diffuse_texture, P(sg_path, "diffuseTexture"), true);
     if (sg_texture) {
+      mat.tex_specular_color = texture(*sg_texture, P(sg_path, "specularGlossinessTexture"), true);
       // Roughness 1 - glossiness x the texture's alpha, as a metallic-roughness texture (green: the roughness,
       // the factor being 1; blue: 1, keeping the metallic factor).
       const int t = texture(*sg_texture, P(sg_path, "specularGlossinessTexture"), false);
