@@ -168,6 +168,9 @@ std::vector<Case> make_cases() {
   add("mr_spec_tinted_r030", specular(make_metallic_roughness(base, 0.f, 0.3f), 0.6f, RGB(1.f, 0.5f, 0.2f)), above);
   add("mr_spec_bright_smooth", specular(make_metallic_roughness(base, 0.2f, 0.f), 0.8f, RGB(30.f, 1.f, 0.5f)), above);
   add("mr_spec_none_r040", specular(make_metallic_roughness(base, 0.f, 0.4f), 0.f, RGB(1.f)), above);
+  // IOR 1000 (gltf-transform's metalRough): Schlick's rise (mr_dielectric_fresnel).
+  add("mr_spec_ior1000_r030", specular(make_metallic_roughness(base, 0.f, 0.3f, 0.f, 1000.f), 0.9f, RGB(0.05f, 0.1f, 0.2f)),
+      above);
   // KHR_materials_sheen: over a rough dielectric, with a coat over metal, over smooth glass, over all, and a
   // white sheen over a white Lambertian base (the albedo bound is tight there).
   add("mr_sheen_r050_over_r060", sheened(make_metallic_roughness(base, 0.f, 0.6f), RGB(0.9f, 0.7f, 0.5f), 0.5f), above);
@@ -1105,6 +1108,34 @@ TEST(KhrSpecular, WeightZeroLeavesLambertAndTheColourScalesTheNormalReflectance)
     for (int ch = 0; ch < 3; ++ch) {
       const double f0s = std::min(double(tint[ch]) * F0, 1.0), want = 0.7 * (f0s + (1.0 - f0s) * t);
       EXPECT_NEAR(mirror.mean(ch), want, 4.0 * mirror.se(ch) + 1e-6) << "cos " << c << " channel " << ch;  // 4 SE
+    }
+  }
+}
+
+TEST(KhrSpecular, AboveF0QuarterTheLayerRisesAsSchlick) {
+  // At the IOR of 1000 that gltf-transform's metalRough writes (F0 0.996, so the colour alone sets the layer's
+  // F0), the exact Fresnel's normalized rise is negative at every cosine below 1 (-0.25 at 0.5); the layer
+  // takes Schlick's (1 - c)^5 there, from F0 = 0.25 (eta 3) up. The mirror mass of a smooth plate (weight 1,
+  // colour 0.04 / F0 and 0.5 / F0): F0s + (1 - F0s) (1 - c)^5, checked as above (4 standard errors); at eta 3
+  // still the exact rise.
+  const RGB base(0.f);
+  for (float eta : {1000.f, 3.f}) {
+    Material m = make_metallic_roughness(base, 0.f, 0.f);
+    m.eta = eta;
+    const double F0 = fresnel_ref(1.0, eta);
+    m = specular(m, 1.f, RGB(float(0.04 / F0), float(0.5 / F0), 1.f));
+    for (float c : {1.f, 0.5f, 0.2f, 0.05f}) {
+      BsdfSampler draw{m, dir(c, 0.7f), TransportMode::kRadiance, PCG32(13, 0x5eed)};
+      Mean3 mirror;
+      for (int i = 0; i < 20000; ++i) {
+        Draw d = draw();
+        mirror.add(d.ok && d.s.delta ? d.s.weight : RGB(0.f));
+      }
+      const double t = eta > 3.f ? std::pow(1.0 - c, 5.0) : (fresnel_ref(c, eta) - F0) / (1.0 - F0);
+      for (int ch = 0; ch < 3; ++ch) {
+        const double f0s = std::min(double(m.specular[ch]) * F0, 1.0), want = f0s + (1.0 - f0s) * t;
+        EXPECT_NEAR(mirror.mean(ch), want, 4.0 * mirror.se(ch) + 1e-5) << "eta " << eta << " cos " << c << " channel " << ch;
+      }
     }
   }
 }

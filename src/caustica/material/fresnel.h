@@ -7,6 +7,12 @@
 
 namespace caustica {
 
+// Schlick's weight (1 - c)^5 (Schlick 1994, Eq. 24), c clamped to [0, 1].
+CHD float schlick_weight(float c) {
+  const float m = clampf(1.f - c, 0.f, 1.f);
+  return (m * m) * (m * m) * m;
+}
+
 // cos_i: cosine on the incident side (negative: from inside); eta = eta_t / eta_i
 // for a ray arriving from outside.
 CHD float fresnel_dielectric(float cos_i, float eta) {

@@ -59,11 +59,7 @@ namespace caustica {
 
 constexpr float kSmoothAlpha = 1e-3f;
 
-CHD RGB schlick_fresnel(RGB f0, float cos_i) {
-  float c = clampf(1.f - cos_i, 0.f, 1.f);
-  float c5 = c * c * c * c * c;
-  return f0 + (RGB(1.f) - f0) * c5;
-}
+CHD RGB schlick_fresnel(RGB f0, float cos_i) { return f0 + (RGB(1.f) - f0) * schlick_weight(cos_i); }
 
 struct MRWeights {
   float metal, glass, dielectric;
@@ -81,8 +77,12 @@ CHD DielectricParams mr_glass(const Material& m) { return {m.eta, RGB(1.f), m.di
 // dielectric's specular reflectance at cosine c. With F the exact Fresnel of eta and F0 = F(1), the colour
 // scales the reflectance at normal incidence (capped at 1) and the weight scales the whole,
 // w (F0s + (1 - F0s) (F - F0) / (1 - F0)), F0s = min(s F0, 1): F's angular shape, and F itself at w = 1,
-// s = 1 (the extension's fresnel_mix does the same to Schlick's approximation). The glass keeps its own
-// Fresnel (the extension's effect on transmission is not modelled).
+// s = 1 (the extension's fresnel_mix does the same to Schlick's approximation). Above F0 = 0.25 (eta 3) that
+// rise (F - F0) / (1 - F0) stops being monotone (from eta 3.5 it dips below zero on its way to 1, down to
+// -124 at the IOR of 1000 that gltf-transform's metalRough writes so that the colour alone sets F0); there the
+// layer takes Schlick's rise (1 - c)^5, the extension's own. The glass keeps its own Fresnel (the extension's
+// effect on transmission is not modelled).
+constexpr float kExactRiseMaxF0 = 0.25f;
 CHD bool mr_plain_specular(const Material& m) {
   return m.specular_weight == 1.f && m.specular.x == 1.f && m.specular.y == 1.f && m.specular.z == 1.f;
 }
@@ -90,7 +90,7 @@ CHD RGB mr_dielectric_fresnel(const Material& m, float c) {
   const float F = fresnel_dielectric(c, m.eta);
   if (mr_plain_specular(m)) return RGB(F);
   const float F0 = fresnel_dielectric(1.f, m.eta);
-  const float t = F0 < 1.f ? clampf((F - F0) / (1.f - F0), 0.f, 1.f) : 1.f;
+  const float t = F0 <= kExactRiseMaxF0 ? clampf((F - F0) / (1.f - F0), 0.f, 1.f) : schlick_weight(c);
   const RGB f0s(minf(F0 * m.specular.x, 1.f), minf(F0 * m.specular.y, 1.f), minf(F0 * m.specular.z, 1.f));
   return (f0s + (RGB(1.f) - f0s) * t) * m.specular_weight;
 }

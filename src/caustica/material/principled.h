@@ -60,18 +60,13 @@ CHD PrincipledLobes principled_lobes(const Material& m) {
           std::sqrt(std::sqrt(maxf(m.alpha_x * m.alpha_y, 0.f)))};
 }
 
-// (1 - c)^5, c clamped to [0, 1].
-CHD float principled_schlick_weight(float c) {
-  const float m = clampf(1.f - c, 0.f, 1.f);
-  return (m * m) * (m * m) * m;
-}
 // Schlick's weight at wo.h = c for a surface of relative index eta: the incident angle when the ray goes into
 // the denser side, else the transmitted angle (1 beyond the critical angle).
 CHD float principled_schlick(float c, float eta) {
   const float eta_it = c >= 0.f ? eta : 1.f / eta;
-  if (eta_it > 1.f) return principled_schlick_weight(std::fabs(c));
+  if (eta_it > 1.f) return schlick_weight(std::fabs(c));
   const float eta_ti = 1.f / eta_it;
-  return principled_schlick_weight(safe_sqrt(1.f - (1.f - c * c) * eta_ti * eta_ti));
+  return schlick_weight(safe_sqrt(1.f - (1.f - c * c) * eta_ti * eta_ti));
 }
 CHD RGB principled_tint(RGB base) {
   const float lum = luminance(base);
@@ -161,7 +156,7 @@ CHD RGB principled_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mod
     f += RGB(0.25f * cc * Fcc * Dcc * Gcc);
   }
   if (L.brdf > 0.f) {
-    const float Fv = principled_schlick_weight(std::fabs(co)), Fl = principled_schlick_weight(std::fabs(ci));
+    const float Fv = schlick_weight(std::fabs(co)), Fl = schlick_weight(std::fabs(ci));
     const float cos_d = dot(H.h, wi);
     const float rr = 2.f * L.roughness * cos_d * cos_d;
     float d = (1.f - 0.5f * Fl) * (1.f - 0.5f * Fv) + rr * (Fl + Fv + Fl * Fv * (rr - 1.f));
@@ -176,7 +171,7 @@ CHD RGB principled_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mod
     if (sheen > 0.f && metal < 1.f) {
       const float st = clampf(m.sheen_tint, 0.f, 1.f);
       const RGB c = RGB(1.f) + (principled_tint(m.diffuse) - RGB(1.f)) * st;
-      f += c * (sheen * (1.f - metal) * principled_schlick_weight(std::fabs(cos_d)));
+      f += c * (sheen * (1.f - metal) * schlick_weight(std::fabs(cos_d)));
     }
   }
   return f;
