@@ -668,7 +668,7 @@ TEST(GltfLoader, MalformedInputMessages) {
   EXPECT_EQ(error_of(p), p + ": /asset/version: glTF version '1.0' is not supported (expected 2.x)");
   p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_draco_mesh_compression"]})");
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_draco_mesh_compression' is required but not supported "
-                             "(supported: EXT_mesh_gpu_instancing, KHR_lights_punctual, KHR_materials_anisotropy, "
+                             "(supported: EXT_mesh_gpu_instancing, EXT_texture_webp, KHR_lights_punctual, KHR_materials_anisotropy, "
                              "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, "
                              "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
                              "KHR_texture_transform)");

@@ -1,10 +1,14 @@
-// Image textures for scenes: decoding (stb_image for PNG/JPEG/BMP/TGA/HDR,
+// Image textures for scenes: decoding (stb_image for PNG/JPEG/BMP/TGA/HDR, libwebp for WebP,
 // OpenEXR and PFM through film/image_io) into linear RGBA floats, with a
 // per-scene cache so one file is decoded once per (path, colour space).
 #include <stb/stb_image.h>
+#include <webp/decode.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
 #include "../base/error.h"
 #include "../film/image_io.h"
@@ -30,8 +34,8 @@ int find_cached(const SceneDesc& d, const std::string& key, bool srgb) {
   return -1;
 }
 
-// Decodes stb output (8-bit or float) into linear RGBA.
-TextureDesc from_stb(const std::string& name, int w, int h, int n, const unsigned char* px8, const float* pxf,
+// Decoded pixels (8-bit from stb_image or libwebp, or float) into linear RGBA.
+TextureDesc decoded_texture(const std::string& name, int w, int h, int n, const unsigned char* px8, const float* pxf,
                      bool srgb) {
   TextureDesc t;
   t.name = name;
@@ -53,6 +57,27 @@ TextureDesc from_stb(const std::string& name, int w, int h, int n, const unsigne
     }
     for (int k = 0; k < 4; ++k) t.rgba[i * 4 + k] = c[k];
   }
+  return t;
+}
+
+// A WebP file: "RIFF", its size, "WEBP".
+bool is_webp(const unsigned char* bytes, size_t size) {
+  return size >= 12 && std::memcmp(bytes, "RIFF", 4) == 0 && std::memcmp(bytes + 8, "WEBP", 4) == 0;
+}
+
+// Decodes a WebP image (lossy or lossless, with or without alpha) into linear RGBA.
+TextureDesc from_webp(const std::string& name, const unsigned char* bytes, size_t size, bool srgb,
+                      const std::string& referrer) {
+  WebPBitstreamFeatures f;
+  if (WebPGetFeatures(bytes, size, &f) != VP8_STATUS_OK)
+    throw InputError(referrer + ": cannot decode image '" + name + "': not a valid WebP image");
+  if (f.has_animation)
+    throw InputError(referrer + ": cannot decode image '" + name + "': animated WebP images are not supported");
+  int w = 0, h = 0;
+  uint8_t* px = f.has_alpha ? WebPDecodeRGBA(bytes, size, &w, &h) : WebPDecodeRGB(bytes, size, &w, &h);
+  if (!px) throw InputError(referrer + ": cannot decode image '" + name + "': corrupt WebP data");
+  TextureDesc t = decoded_texture(name, w, h, f.has_alpha ? 4 : 3, px, nullptr, srgb);
+  WebPFree(px);
   return t;
 }
 
@@ -89,15 +114,20 @@ int load_texture(SceneDesc& d, const std::string& path, bool srgb, const std::st
   }
   int w = 0, h = 0, n = 0;
   TextureDesc t;
-  if (stbi_is_hdr(path.c_str())) {
+  if (ext == ".webp") {
+    std::ifstream f(path, std::ios::binary);
+    const std::vector<unsigned char> bytes{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+    if (!f.good() && !f.eof()) throw InputError(referrer + ": cannot read texture '" + path + "'");
+    t = from_webp(path, bytes.data(), bytes.size(), srgb, referrer);
+  } else if (stbi_is_hdr(path.c_str())) {
     float* px = stbi_loadf(path.c_str(), &w, &h, &n, 0);
     if (!px) throw InputError(referrer + ": cannot read texture '" + path + "': " + stbi_failure_reason());
-    t = from_stb(path, w, h, n, nullptr, px, srgb);
+    t = decoded_texture(path, w, h, n, nullptr, px, srgb);
     stbi_image_free(px);
   } else {
     unsigned char* px = stbi_load(path.c_str(), &w, &h, &n, 0);
     if (!px) throw InputError(referrer + ": cannot read texture '" + path + "': " + stbi_failure_reason());
-    t = from_stb(path, w, h, n, px, nullptr, srgb);
+    t = decoded_texture(path, w, h, n, px, nullptr, srgb);
     stbi_image_free(px);
   }
   d.textures.push_back(std::move(t));
@@ -110,15 +140,17 @@ int load_texture_from_memory(SceneDesc& d, const std::string& name, const unsign
   if (hit >= 0) return hit;
   int w = 0, h = 0, n = 0;
   TextureDesc t;
-  if (stbi_is_hdr_from_memory(bytes, int(size))) {
+  if (is_webp(bytes, size)) {
+    t = from_webp(name, bytes, size, srgb, referrer);
+  } else if (stbi_is_hdr_from_memory(bytes, int(size))) {
     float* px = stbi_loadf_from_memory(bytes, int(size), &w, &h, &n, 0);
     if (!px) throw InputError(referrer + ": cannot decode image '" + name + "': " + stbi_failure_reason());
-    t = from_stb(name, w, h, n, nullptr, px, srgb);
+    t = decoded_texture(name, w, h, n, nullptr, px, srgb);
     stbi_image_free(px);
   } else {
     unsigned char* px = stbi_load_from_memory(bytes, int(size), &w, &h, &n, 0);
     if (!px) throw InputError(referrer + ": cannot decode image '" + name + "': " + stbi_failure_reason());
-    t = from_stb(name, w, h, n, px, nullptr, srgb);
+    t = decoded_texture(name, w, h, n, px, nullptr, srgb);
     stbi_image_free(px);
   }
   d.textures.push_back(std::move(t));

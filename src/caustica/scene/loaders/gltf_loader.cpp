@@ -42,7 +42,7 @@ const std::set<std::string>& supported_extensions() {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
-      "KHR_materials_pbrSpecularGlossiness"};
+      "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
@@ -50,7 +50,7 @@ const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_iridescence",
       "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu", "KHR_draco_mesh_compression",
-      "EXT_meshopt_compression", "EXT_texture_webp", "KHR_animation_pointer", "KHR_xmp_json_ld"};
+      "EXT_meshopt_compression", "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
 }
 
@@ -322,6 +322,11 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
     std::string p = P("/textures", i);
     const json& t = object_at(c, textures[i], p);
     if (const json* s = member(t, "source")) index_into(c, *s, P(p, "source"), images, "/images");
+    if (const json* ex = member(t, "extensions"))
+      if (const json* w = member(object_at(c, *ex, P(p, "extensions")), "EXT_texture_webp")) {
+        const std::string wp = P(P(p, "extensions"), "EXT_texture_webp");
+        index_into(c, req(object_at(c, *w, wp), "source", wp, "an index into /images"), P(wp, "source"), images, "/images");
+      }
     if (const json* s = member(t, "sampler")) index_into(c, *s, P(p, "sampler"), samplers, "/samplers");
   }
   // Materials: texture references.
@@ -737,7 +742,10 @@ int Converter::texture(const json& info, const std::string& path, bool srgb) {
   const json& t = root_["textures"][ti];
   if (const json* tc = member(info, "texCoord"))
     if (tc->get<int64_t>() != 0) warn_once("texture coordinate sets other than TEXCOORD_0 are not supported; TEXCOORD_0 is used");
+  // EXT_texture_webp: its WebP image in place of `source` (a PNG or JPEG fallback, if there is one).
   const json* src = member(t, "source");
+  if (const json* ex = member(t, "extensions"))
+    if (const json* w = member(*ex, "EXT_texture_webp")) src = member(*w, "source");
   if (!src) {
     warn_once(P("/textures", ti) + ": no image source; the texture is ignored");
     return -1;
