@@ -7,6 +7,7 @@
 // describes the mapping and the conventions.
 #include "gltf_loader.h"
 
+#include <draco/compression/decode.h>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -42,14 +43,14 @@ const std::set<std::string>& supported_extensions() {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
-      "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp"};
+      "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_iridescence",
-      "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu", "KHR_draco_mesh_compression",
+      "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu",
       "EXT_meshopt_compression", "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
 }
@@ -389,6 +390,19 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
       for (auto it = attrs.begin(); it != attrs.end(); ++it)
         index_into(c, it.value(), P(P(pp, "attributes"), it.key()), accessors, "/accessors");
       if (const json* ix = member(pr, "indices")) index_into(c, *ix, P(pp, "indices"), accessors, "/accessors");
+      if (const json* ex = member(pr, "extensions"))
+        if (const json* dc = member(object_at(c, *ex, P(pp, "extensions")), "KHR_draco_mesh_compression")) {
+          const std::string dp = P(P(pp, "extensions"), "KHR_draco_mesh_compression");
+          object_at(c, *dc, dp);
+          index_into(c, req(*dc, "bufferView", dp, "an index into /bufferViews"), P(dp, "bufferView"), views, "/bufferViews");
+          const json& da = object_at(c, req(*dc, "attributes", dp, "an object of Draco attribute ids"), P(dp, "attributes"));
+          for (auto it = da.begin(); it != da.end(); ++it) {
+            if (!attrs.contains(it.key()))
+              c.fail(P(P(dp, "attributes"), it.key()), "not among the primitive's attributes");
+            const int64_t id = integer(c, it.value(), P(P(dp, "attributes"), it.key()));
+            if (id < 0) c.fail(P(P(dp, "attributes"), it.key()), "expected a non-negative Draco attribute id");
+          }
+        }
       if (const json* mt = member(pr, "material")) index_into(c, *mt, P(pp, "material"), materials, "/materials");
       if (const json* md = member(pr, "mode")) {
         int64_t mode = integer(c, *md, P(pp, "mode"));
@@ -617,6 +631,12 @@ class Converter {
   std::vector<float> read_floats(size_t ai, const std::string& use_path, const std::vector<std::string>& types,
                                  size_t& count, int& ncomp);
   std::vector<uint32_t> read_indices(size_t ai, const std::string& use_path);
+  int accessor_components(size_t ai, const std::string& use_path, const std::vector<std::string>& types);
+  // KHR_draco_mesh_compression: a primitive's Draco data, decoded, and one attribute of it as floats.
+  std::unique_ptr<draco::Mesh> decode_draco(const json& ext, const std::string& ext_path);
+  std::vector<float> draco_floats(const draco::Mesh& mesh, const json& ext, const std::string& ext_path,
+                                  const std::string& name, size_t ai, const std::string& use_path,
+                                  const std::vector<std::string>& types, size_t& count, int& ncomp);
   const unsigned char* view_bytes(size_t view, int64_t& len);
 
   int texture(const json& info, const std::string& path, bool srgb);
@@ -664,19 +684,24 @@ uint32_t read_uint(const unsigned char* p, int ct) {
   return v;
 }
 
-std::vector<float> Converter::read_floats(size_t ai, const std::string& use_path, const std::vector<std::string>& types,
-                                          size_t& count, int& ncomp) {
-  const json& a = root_["accessors"][ai];
-  std::string type = a["type"].get<std::string>();
+// The number of components of accessor ai, whose type must be one of `types`.
+int Converter::accessor_components(size_t ai, const std::string& use_path, const std::vector<std::string>& types) {
+  const std::string type = root_["accessors"][ai]["type"].get<std::string>();
   if (std::find(types.begin(), types.end(), type) == types.end()) {
     std::string list;
     for (const std::string& t : types) list += (list.empty() ? "" : " or ") + t;
     c_.fail(use_path, "expected an accessor of type " + list + ", got accessor " + std::to_string(ai) + " of type " + type);
   }
+  return type_components(type);
+}
+
+std::vector<float> Converter::read_floats(size_t ai, const std::string& use_path, const std::vector<std::string>& types,
+                                          size_t& count, int& ncomp) {
+  const json& a = root_["accessors"][ai];
+  ncomp = accessor_components(ai, use_path, types);
   int ct = a["componentType"].get<int>();
   bool normalized = member(a, "normalized") && a["normalized"].is_boolean() && a["normalized"].get<bool>();
   count = a["count"].get<size_t>();
-  ncomp = type_components(type);
   int elem = ncomp * component_size(ct);
   std::vector<float> out(count * ncomp, 0.f);
   if (const json* bv = member(a, "bufferView")) {
@@ -734,6 +759,44 @@ std::vector<uint32_t> Converter::read_indices(size_t ai, const std::string& use_
     std::vector<float> f = read_floats(ai, use_path, {"SCALAR"}, n, nc);
     for (size_t i = 0; i < count; ++i) out[i] = uint32_t(f[i]);
   }
+  return out;
+}
+
+std::unique_ptr<draco::Mesh> Converter::decode_draco(const json& ext, const std::string& ext_path) {
+  int64_t len;
+  const unsigned char* bytes = view_bytes(ext["bufferView"].get<size_t>(), len);
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(bytes), size_t(len));
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  if (!decoded.ok()) c_.fail(ext_path, "cannot decode the Draco data: " + decoded.status().error_msg_string());
+  std::unique_ptr<draco::Mesh> mesh = std::move(decoded).value();
+  if (!mesh) c_.fail(ext_path, "cannot decode the Draco data: not a mesh");
+  return mesh;
+}
+
+// The glTF accessor still gives the attribute's type and count (KHR_draco_mesh_compression); the values are
+// the Draco attribute's, converted to floats (normalized integers to [0, 1] or [-1, 1] by Draco).
+std::vector<float> Converter::draco_floats(const draco::Mesh& mesh, const json& ext, const std::string& ext_path,
+                                           const std::string& name, size_t ai, const std::string& use_path,
+                                           const std::vector<std::string>& types, size_t& count, int& ncomp) {
+  ncomp = accessor_components(ai, use_path, types);
+  const std::string ap = P(P(ext_path, "attributes"), name);
+  const int64_t id = ext["attributes"][name].get<int64_t>();
+  const draco::PointAttribute* att = mesh.GetAttributeByUniqueId(uint32_t(id));
+  if (!att) c_.fail(ap, "the Draco data has no attribute with id " + std::to_string(id));
+  count = mesh.num_points();
+  const size_t declared = root_["accessors"][ai]["count"].get<size_t>();
+  if (declared != count)
+    c_.fail(use_path, "accessor " + std::to_string(ai) + " has count " + std::to_string(declared) + ", the Draco data " +
+                          std::to_string(count) + " points");
+  if (att->num_components() < ncomp)
+    c_.fail(ap, "the Draco attribute has " + std::to_string(int(att->num_components())) + " components, accessor " +
+                    std::to_string(ai) + " " + std::to_string(ncomp));
+  std::vector<float> out(count * size_t(ncomp));
+  for (size_t i = 0; i < count; ++i)
+    if (!att->ConvertValue<float>(att->mapped_index(draco::PointIndex(uint32_t(i))), int8_t(ncomp), &out[i * size_t(ncomp)]))
+      c_.fail(ap, "the Draco attribute's values cannot be read as floats");
   return out;
 }
 
@@ -1092,16 +1155,29 @@ int Converter::mesh(size_t mi, size_t pi) {
   }
   const json& attrs = pr["attributes"];
   if (!member(attrs, "POSITION")) c_.fail(P(p, "attributes"), "missing POSITION");
+  // KHR_draco_mesh_compression: the attributes it lists, and the triangles, come from its Draco data.
+  std::unique_ptr<draco::Mesh> draco_mesh;
+  const json* draco = nullptr;
+  const std::string draco_path = P(P(p, "extensions"), "KHR_draco_mesh_compression");
+  if (const json* ex = member(pr, "extensions"))
+    if ((draco = member(*ex, "KHR_draco_mesh_compression"))) draco_mesh = decode_draco(*draco, draco_path);
+  auto floats = [&](const char* name, const std::vector<std::string>& types, size_t& count, int& comps) {
+    const size_t ai = attrs[name].get<size_t>();
+    const std::string ap = P(P(p, "attributes"), name);
+    if (draco && member((*draco)["attributes"], name))
+      return draco_floats(*draco_mesh, *draco, draco_path, name, ai, ap, types, count, comps);
+    return read_floats(ai, ap, types, count, comps);
+  };
   size_t n;
   int nc;
-  std::vector<float> pos = read_floats(attrs["POSITION"].get<size_t>(), P(P(p, "attributes"), "POSITION"), {"VEC3"}, n, nc);
+  std::vector<float> pos = floats("POSITION", {"VEC3"}, n, nc);
   MeshDesc md;
   md.name = string_or(c_, root_["meshes"][mi], "name", P("/meshes", mi), "mesh" + std::to_string(mi));
   md.positions.resize(n);
   for (size_t i = 0; i < n; ++i) md.positions[i] = Vec3f(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]);
-  if (const json* nj = member(attrs, "NORMAL")) {
+  if (member(attrs, "NORMAL")) {
     size_t nn;
-    std::vector<float> nor = read_floats(nj->get<size_t>(), P(P(p, "attributes"), "NORMAL"), {"VEC3"}, nn, nc);
+    std::vector<float> nor = floats("NORMAL", {"VEC3"}, nn, nc);
     if (nn != n) c_.fail(P(P(p, "attributes"), "NORMAL"), "has " + std::to_string(nn) + " elements, POSITION has " + std::to_string(n));
     md.normals.resize(n);
     bool ok = true;
@@ -1116,9 +1192,9 @@ int Converter::mesh(size_t mi, size_t pi) {
       d_.warnings.push_back(c_.file + ": " + p + ": zero or non-finite normals; using geometric normals");
     }
   }
-  if (const json* tj = member(attrs, "TEXCOORD_0")) {
+  if (member(attrs, "TEXCOORD_0")) {
     size_t nt;
-    std::vector<float> uv = read_floats(tj->get<size_t>(), P(P(p, "attributes"), "TEXCOORD_0"), {"VEC2"}, nt, nc);
+    std::vector<float> uv = floats("TEXCOORD_0", {"VEC2"}, nt, nc);
     if (nt != n) c_.fail(P(P(p, "attributes"), "TEXCOORD_0"), "has " + std::to_string(nt) + " elements, POSITION has " + std::to_string(n));
     md.uvs.resize(n);
     bool ok = true;
@@ -1141,9 +1217,9 @@ int Converter::mesh(size_t mi, size_t pi) {
     wants_tangents = mat.tex_normal >= 0 || mat.alpha_x != mat.alpha_y;
   }
   if (wants_tangents && !md.normals.empty() && !md.uvs.empty()) {
-    if (const json* gj = member(attrs, "TANGENT")) {
+    if (member(attrs, "TANGENT")) {
       size_t ng;
-      std::vector<float> tg = read_floats(gj->get<size_t>(), P(P(p, "attributes"), "TANGENT"), {"VEC4"}, ng, nc);
+      std::vector<float> tg = floats("TANGENT", {"VEC4"}, ng, nc);
       if (ng != n) c_.fail(P(P(p, "attributes"), "TANGENT"), "has " + std::to_string(ng) + " elements, POSITION has " + std::to_string(n));
       md.tangents.resize(n);
       size_t bad = 0;
@@ -1163,10 +1239,10 @@ int Converter::mesh(size_t mi, size_t pi) {
   // COLOR_0 (glTF 2.0 Sec. 3.7.2.1: linear RGB or RGBA, float or normalized unsigned integers) multiplies the
   // base colour: the primitive's shape gets its material's kVertexColor copy (visit). Its alpha would multiply
   // the base colour's alpha, which caustica does not apply (a warning where it is below 1).
-  if (const json* cj = member(attrs, "COLOR_0")) {
+  if (member(attrs, "COLOR_0")) {
     size_t ncol;
     int comps;
-    std::vector<float> col = read_floats(cj->get<size_t>(), P(P(p, "attributes"), "COLOR_0"), {"VEC3", "VEC4"}, ncol, comps);
+    std::vector<float> col = floats("COLOR_0", {"VEC3", "VEC4"}, ncol, comps);
     if (ncol != n) c_.fail(P(P(p, "attributes"), "COLOR_0"), "has " + std::to_string(ncol) + " elements, POSITION has " + std::to_string(n));
     md.colors.resize(n);
     size_t bad = 0;
@@ -1186,7 +1262,12 @@ int Converter::mesh(size_t mi, size_t pi) {
   }
   if (member(attrs, "JOINTS_0") || member(pr, "targets")) warn_once("skinning and morph targets are not supported; meshes are used in their rest pose");
   std::vector<uint32_t> idx;
-  if (const json* ij = member(pr, "indices")) {
+  if (draco_mesh) {  // Draco's faces, a triangle list whatever the mode (TRIANGLES or TRIANGLE_STRIP)
+    idx.reserve(size_t(draco_mesh->num_faces()) * 3);
+    for (uint32_t f = 0; f < draco_mesh->num_faces(); ++f)
+      for (draco::PointIndex v : draco_mesh->face(draco::FaceIndex(f))) idx.push_back(v.value());
+    mode = 4;
+  } else if (const json* ij = member(pr, "indices")) {
     idx = read_indices(ij->get<size_t>(), P(p, "indices"));
   } else {
     idx.resize(n);
@@ -1491,6 +1572,7 @@ SceneDesc load_gltf_scene(const std::string& path) {
   if (ext == ".glb" && !glb) throw InputError(path + ": not a GLB file (expected the magic bytes 'glTF' at the start)");
   std::string text;
   bool has_bin = false;
+  size_t bin_chunk = 0, bin_chunk_len = 0;  // GLB: the BIN chunk's offset and size (header included)
   if (glb) {
     auto bad = [&](const std::string& what) { throw InputError(path + ": invalid GLB file: " + what); };
     if (bytes.size() < 20) bad("shorter than the 12-byte header and a chunk header");
@@ -1508,6 +1590,7 @@ SceneDesc load_gltf_scene(const std::string& path) {
       if (btype == 0x004E4942u) {
         if (bin + 8 + blen > length) bad("the BIN chunk exceeds the file length");
         has_bin = true;
+        bin_chunk = bin, bin_chunk_len = 8 + size_t(blen);
       }
     }
   } else {
@@ -1519,12 +1602,33 @@ SceneDesc load_gltf_scene(const std::string& path) {
   d.name = fs::path(path).stem().string();
   check_structure(c, root, has_bin, d.warnings);
 
+  // tinygltf reads what caustica takes from it, the buffers and the (still encoded) images, from a document of
+  // those alone (and the GLB's BIN chunk): the rest, checked and converted here, stays out of its way (it
+  // refuses, for one, the index accessors of Draco-compressed primitives, which have no bufferView).
+  json slim = {{"asset", root["asset"]}};
+  for (const char* k : {"buffers", "bufferViews", "images"})
+    if (root.contains(k)) slim[k] = root[k];
+  std::string slim_text = slim.dump();
+  std::vector<unsigned char> slim_glb;
+  if (glb) {
+    while (slim_text.size() % 4) slim_text += ' ';
+    auto put32 = [&](uint32_t v) {
+      for (int k = 0; k < 4; ++k) slim_glb.push_back((unsigned char)(v >> (8 * k)));
+    };
+    slim_glb.insert(slim_glb.end(), {'g', 'l', 'T', 'F'});
+    put32(2);
+    put32(uint32_t(12 + 8 + slim_text.size() + bin_chunk_len));
+    put32(uint32_t(slim_text.size()));
+    put32(0x4E4F534Au);
+    slim_glb.insert(slim_glb.end(), slim_text.begin(), slim_text.end());
+    slim_glb.insert(slim_glb.end(), bytes.begin() + bin_chunk, bytes.begin() + bin_chunk + bin_chunk_len);
+  }
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(keep_encoded_image, nullptr);
   tinygltf::Model model;
   std::string err, warn;
-  bool ok = glb ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), c.base_dir.string())
-                : loader.LoadASCIIFromString(&model, &err, &warn, text.data(), unsigned(text.size()), c.base_dir.string());
+  bool ok = glb ? loader.LoadBinaryFromMemory(&model, &err, &warn, slim_glb.data(), unsigned(slim_glb.size()), c.base_dir.string())
+                : loader.LoadASCIIFromString(&model, &err, &warn, slim_text.data(), unsigned(slim_text.size()), c.base_dir.string());
   if (!ok) {
     std::string first = err.substr(0, err.find('\n'));
     throw InputError(path + ": invalid glTF: " + (first.empty() ? "tinygltf could not load the file" : first));
