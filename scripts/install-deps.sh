@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 
 APT_PACKAGES=(build-essential pkg-config python3 python3-venv python3-dev
   libembree-dev libtbb-dev libopenexr-dev libstb-dev nlohmann-json3-dev libgtest-dev libnanoflann-dev libtinyobjloader-dev libtinygltf-dev libpugixml-dev
-  libopenvdb-dev libboost-dev zlib1g-dev libwebp-dev libdraco-dev)
+  libopenvdb-dev libboost-dev zlib1g-dev libwebp-dev libdraco-dev libmeshoptimizer-dev)
 
 missing=()
 for p in "${APT_PACKAGES[@]}"; do

@@ -5,7 +5,10 @@
 #include <draco/compression/encode.h>
 #include <draco/mesh/triangle_soup_mesh_builder.h>
 #include <gtest/gtest.h>
+#include <meshoptimizer.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -100,10 +103,11 @@ struct Builder {
     return push("meshes", {{"primitives", json::array({prim})}});
   }
   void scene(std::vector<int> roots) { j["scenes"] = json::array({{{"nodes", roots}}}); j["scene"] = 0; }
-  void finish_buffer(const std::string& uri) {
+  void finish_buffer(const std::string& uri) {  // buffer 0 (any others stay)
     json b = {{"byteLength", bin.size()}};
     if (!uri.empty()) b["uri"] = uri;
-    j["buffers"] = json::array({b});
+    if (!j.contains("buffers") || j["buffers"].empty()) j["buffers"] = json::array({b});
+    else j["buffers"][0] = b;
   }
   // .gltf with the buffer in NAME.bin next to it.
   std::string write(const std::string& name) {
@@ -753,6 +757,131 @@ TEST(GltfLoader, DracoCompressedPrimitive) {
                                "Draco data has no attribute with id 42");
 }
 
+TEST(GltfLoader, MeshoptCompressedViews) {
+  // EXT_meshopt_compression: a 9 x 9 grid (128 triangles) whose views meshoptimizer's encoders compressed into
+  // buffer 0, with a fallback buffer 1 that has no data: positions (floats, no filter: lossless, so exact),
+  // normals (8-bit octahedral, stride 4, byte normalized under KHR_mesh_quantization: within 2/127 of the unit
+  // normal, twice the quantization step), UVs (the exponential filter with 16-bit mantissas: within 1e-4),
+  // and indices (the triangle codec, which may rotate a triangle's corners but keeps its winding: the same
+  // triangles up to rotation). The same mesh through INDICES mode (16-bit) gives the indices exactly.
+  std::vector<float> pos, nor, uv;
+  for (int j = 0; j <= 8; ++j)
+    for (int i = 0; i <= 8; ++i) {
+      const float x = i / 8.f * 2.f - 1.f, y = j / 8.f * 2.f - 1.f;
+      pos.insert(pos.end(), {x, y, 0.2f * std::sin(3.f * x) * std::cos(2.f * y)});
+      const Vec3f n = normalize(Vec3f(-0.6f * std::cos(3.f * x) * std::cos(2.f * y), 0.4f * std::sin(3.f * x) * std::sin(2.f * y), 1.f));
+      nor.insert(nor.end(), {n.x, n.y, n.z, 0.f});
+      uv.insert(uv.end(), {i / 8.f + 0.01f * j, 1.f - j / 8.f});
+    }
+  std::vector<uint32_t> idx;
+  for (uint32_t j = 0; j < 8; ++j)
+    for (uint32_t i = 0; i < 8; ++i) {
+      const uint32_t a = j * 9 + i;
+      idx.insert(idx.end(), {a, a + 1, a + 10, a, a + 10, a + 9});
+    }
+  const size_t nv = 81;
+  std::vector<int8_t> oct(nv * 4);
+  meshopt_encodeFilterOct(oct.data(), nv, 4, 8, nor.data());
+  std::vector<uint32_t> expuv(nv * 2);
+  meshopt_encodeFilterExp(expuv.data(), nv, 8, 16, uv.data());
+
+  for (const char* index_mode : {"TRIANGLES", "INDICES"}) {
+    Builder b;
+    size_t fallback = 0;  // bytes of the fallback buffer
+    auto compressed = [&](const void* data, size_t count, size_t stride, const char* mode, const char* filter, bool vertex) {
+      std::vector<unsigned char> enc;
+      if (std::string(mode) == "ATTRIBUTES") {
+        enc.resize(meshopt_encodeVertexBufferBound(count, stride));
+        enc.resize(meshopt_encodeVertexBuffer(enc.data(), enc.size(), data, count, stride));
+      } else {
+        std::vector<uint32_t> ix(static_cast<const uint32_t*>(data), static_cast<const uint32_t*>(data) + count);
+        enc.resize(meshopt_encodeIndexBufferBound(count, nv));
+        enc.resize(std::string(mode) == "TRIANGLES" ? meshopt_encodeIndexBuffer(enc.data(), enc.size(), ix.data(), count)
+                                                     : meshopt_encodeIndexSequence(enc.data(), enc.size(), ix.data(), count));
+      }
+      while (b.bin.size() % 4) b.bin.push_back(0);
+      const size_t off = b.bin.size();
+      b.bin.insert(b.bin.end(), enc.begin(), enc.end());
+      json v = {{"buffer", 1}, {"byteOffset", fallback}, {"byteLength", count * stride}};
+      if (vertex) v["byteStride"] = stride;
+      v["extensions"]["EXT_meshopt_compression"] = {{"buffer", 0}, {"byteOffset", off}, {"byteLength", enc.size()},
+                                                    {"byteStride", stride}, {"count", count}, {"mode", mode}, {"filter", filter}};
+      fallback += count * stride;
+      return b.push("bufferViews", v);
+    };
+    const int vp = compressed(pos.data(), nv, 12, "ATTRIBUTES", "NONE", true);
+    const int vn = compressed(oct.data(), nv, 4, "ATTRIBUTES", "OCTAHEDRAL", true);
+    const int vt = compressed(expuv.data(), nv, 8, "ATTRIBUTES", "EXPONENTIAL", true);
+    const bool tri = std::string(index_mode) == "TRIANGLES";
+    const int vi = compressed(idx.data(), idx.size(), tri ? 4 : 2, index_mode, "NONE", false);
+    json attrs = {{"POSITION", b.push("accessors", {{"bufferView", vp}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"}})},
+                  {"NORMAL", b.push("accessors", {{"bufferView", vn}, {"componentType", 5120}, {"normalized", true},
+                                                  {"count", nv}, {"type", "VEC3"}})},
+                  {"TEXCOORD_0", b.push("accessors", {{"bufferView", vt}, {"componentType", 5126}, {"count", nv}, {"type", "VEC2"}})}};
+    const int ia = b.push("accessors", {{"bufferView", vi}, {"componentType", tri ? 5125 : 5123}, {"count", idx.size()},
+                                        {"type", "SCALAR"}});
+    const int m = b.push("meshes", {{"primitives", json::array({{{"attributes", attrs}, {"indices", ia}}})}});
+    b.scene({b.push("nodes", {{"mesh", m}})});
+    json fb = {{"byteLength", fallback}};
+    fb["extensions"]["EXT_meshopt_compression"]["fallback"] = true;
+    b.j["buffers"] = json::array({json::object(), fb});
+    b.j["extensionsUsed"] = {"EXT_meshopt_compression", "KHR_mesh_quantization"};
+    b.j["extensionsRequired"] = {"EXT_meshopt_compression", "KHR_mesh_quantization"};
+    for (int glb = 0; glb < 2; ++glb) {
+      Builder w = b;
+      const std::string path = glb ? w.write_glb("meshopt") : w.write("meshopt");
+      SceneDesc d = load_gltf_scene(path);
+      ASSERT_EQ(d.meshes.size(), 1u) << index_mode;
+      const MeshDesc& md = d.meshes[0];
+      ASSERT_EQ(md.positions.size(), nv);
+      ASSERT_EQ(md.normals.size(), nv);
+      ASSERT_EQ(md.uvs.size(), nv);
+      for (size_t v = 0; v < nv; ++v) {
+        expect_near(md.positions[v], Vec3f(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]), 0.f);
+        expect_near(md.normals[v], Vec3f(nor[4 * v], nor[4 * v + 1], nor[4 * v + 2]), 2.f / 127.f);
+        EXPECT_NEAR(md.uvs[v].x, uv[2 * v], 1e-4f);
+        EXPECT_NEAR(md.uvs[v].y, 1.f - uv[2 * v + 1], 1e-4f);
+      }
+      ASSERT_EQ(md.indices.size(), idx.size());
+      auto canonical = [](const std::vector<uint32_t>& ix, size_t t) {
+        std::array<uint32_t, 3> c{ix[t], ix[t + 1], ix[t + 2]};
+        while (c[0] > c[1] || c[0] > c[2]) std::rotate(c.begin(), c.begin() + 1, c.end());
+        return c;
+      };
+      for (size_t t = 0; t < idx.size(); t += 3) EXPECT_EQ(canonical(md.indices, t), canonical(idx, t)) << t;
+      if (!tri) EXPECT_EQ(md.indices, idx);
+    }
+  }
+}
+
+TEST(GltfLoader, MeshoptErrors) {
+  // A view into a fallback buffer without EXT_meshopt_compression, a bad mode, and data that does not decode.
+  Builder b;
+  b.bin.assign(64, 0x55);
+  b.push("bufferViews", {{"buffer", 1}, {"byteLength", 12}});
+  b.scene({});
+  json fb = {{"byteLength", 12}};
+  fb["extensions"]["EXT_meshopt_compression"]["fallback"] = true;
+  b.j["buffers"] = json::array({json::object(), fb});
+  std::string p = b.write("meshopt_plain");
+  EXPECT_EQ(error_of(p), p + ": /bufferViews/0: refers to buffer 1, an EXT_meshopt_compression fallback without data, "
+                             "but has no EXT_meshopt_compression of its own");
+  b.j["bufferViews"][0]["extensions"]["EXT_meshopt_compression"] = {{"buffer", 0}, {"byteLength", 64}, {"byteStride", 4},
+                                                                   {"count", 3}, {"mode", "VERTICES"}};
+  p = b.write("meshopt_mode");
+  EXPECT_EQ(error_of(p), p + ": /bufferViews/0/extensions/EXT_meshopt_compression/mode: expected ATTRIBUTES, TRIANGLES or "
+                             "INDICES, got 'VERTICES'");
+  b.j["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["mode"] = "ATTRIBUTES";
+  b.j["bufferViews"][0]["byteStride"] = 4;
+  const int a = b.push("accessors", {{"bufferView", 0}, {"componentType", 5126}, {"count", 1}, {"type", "VEC3"}});
+  b.j["meshes"] = json::array({{{"primitives", json::array({{{"attributes", {{"POSITION", a}}}}})}}});
+  b.scene({b.push("nodes", {{"mesh", 0}})});
+  p = b.write("meshopt_junk");
+  const std::string e = error_of(p);
+  EXPECT_EQ(e, p + ": /bufferViews/0/extensions/EXT_meshopt_compression: cannot decode the compressed ATTRIBUTES "
+                   "(meshoptimizer error -1)") << e;  // -1: the first byte is not a known version
+}
+
 TEST(GltfLoader, BadGeometryIsSkippedWithCountedWarnings) {
   Builder b;
   float nan = std::nanf("");
@@ -791,7 +920,7 @@ TEST(GltfLoader, MalformedInputMessages) {
   EXPECT_EQ(error_of(p), p + ": /asset/version: glTF version '1.0' is not supported (expected 2.x)");
   p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_texture_basisu"]})");
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_texture_basisu' is required but not supported "
-                             "(supported: EXT_mesh_gpu_instancing, EXT_texture_webp, KHR_draco_mesh_compression, KHR_lights_punctual, KHR_materials_anisotropy, "
+                             "(supported: EXT_mesh_gpu_instancing, EXT_meshopt_compression, EXT_texture_webp, KHR_draco_mesh_compression, KHR_lights_punctual, KHR_materials_anisotropy, "
                              "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, "
                              "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_volume, KHR_mesh_quantization, "
                              "KHR_texture_transform)");

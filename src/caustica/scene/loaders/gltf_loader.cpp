@@ -8,6 +8,7 @@
 #include "gltf_loader.h"
 
 #include <draco/compression/decode.h>
+#include <meshoptimizer.h>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -43,7 +44,8 @@ const std::set<std::string>& supported_extensions() {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
-      "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression"};
+      "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression",
+      "EXT_meshopt_compression"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
@@ -51,7 +53,7 @@ const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_iridescence",
       "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu",
-      "EXT_meshopt_compression", "KHR_animation_pointer", "KHR_xmp_json_ld"};
+      "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
 }
 
@@ -167,6 +169,14 @@ bool is_data_uri(const std::string& u) { return u.rfind("data:", 0) == 0; }
 // ---------------------------------------------------------------- checks ----
 // Everything tinygltf would trip over (and every reference the conversion
 // follows) is checked here, so that errors carry a glTF object path.
+// An EXT_meshopt_compression fallback buffer (no data of its own; its views are compressed elsewhere).
+bool meshopt_fallback(const json& buffer) {
+  const json* ex = buffer.is_object() ? member(buffer, "extensions") : nullptr;
+  const json* mo = ex && ex->is_object() ? member(*ex, "EXT_meshopt_compression") : nullptr;
+  const json* fb = mo && mo->is_object() ? member(*mo, "fallback") : nullptr;
+  return fb && fb->is_boolean() && fb->get<bool>();
+}
+
 void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vector<std::string>& warnings) {
   if (!root.is_object()) c.fail("/", std::string("expected a JSON object, got ") + root.type_name());
   const json* asset = member(root, "asset");
@@ -228,7 +238,9 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
     buffer_len[i] = integer(c, req(b, "byteLength", p, "the buffer's size in bytes"), P(p, "byteLength"));
     if (buffer_len[i] < 1) c.fail(P(p, "byteLength"), "expected a positive integer");
     std::string uri = string_or(c, b, "uri", p, "");
-    if (uri.empty()) {
+    if (uri.empty() && meshopt_fallback(b)) {
+      // EXT_meshopt_compression's fallback buffer: no data; its views are decoded from another buffer.
+    } else if (uri.empty()) {
       if (i != 0 || !glb_has_bin)
         c.fail(p, glb_has_bin || i != 0 ? "missing 'uri' (only the first buffer of a GLB file may omit it)"
                                         : "missing 'uri' (and the file has no GLB binary chunk)");
@@ -260,6 +272,47 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
       if (st < 4 || st > 252 || st % 4) c.fail(P(p, "byteStride"), "expected a multiple of 4 in [4, 252]");
     }
     view_len[i] = len;
+    // EXT_meshopt_compression: count elements of byteStride bytes, decoded from a range of another buffer.
+    const json* ex = member(v, "extensions");
+    const json* mo = ex ? member(object_at(c, *ex, P(p, "extensions")), "EXT_meshopt_compression") : nullptr;
+    if (!mo) {
+      if (meshopt_fallback(buffers[b]))
+        c.fail(p, "refers to buffer " + std::to_string(b) + ", an EXT_meshopt_compression fallback without data, but "
+                      "has no EXT_meshopt_compression of its own");
+      continue;
+    }
+    const std::string mp = P(P(p, "extensions"), "EXT_meshopt_compression");
+    object_at(c, *mo, mp);
+    const size_t mb = index_into(c, req(*mo, "buffer", mp, "an index into /buffers"), P(mp, "buffer"), buffers, "/buffers");
+    if (meshopt_fallback(buffers[mb])) c.fail(P(mp, "buffer"), "refers to a fallback buffer, which has no data");
+    const int64_t moff = member(*mo, "byteOffset") ? integer(c, (*mo)["byteOffset"], P(mp, "byteOffset")) : 0;
+    const int64_t mlen = integer(c, req(*mo, "byteLength", mp, "the compressed size in bytes"), P(mp, "byteLength"));
+    if (moff < 0 || mlen < 1 || moff + mlen > buffer_len[mb])
+      c.fail(mp, "bytes [" + std::to_string(moff) + ", " + std::to_string(moff + mlen) + ") do not lie in buffer " +
+                     std::to_string(mb) + " (" + std::to_string(buffer_len[mb]) + " bytes)");
+    const int64_t stride = integer(c, req(*mo, "byteStride", mp, "the size of an element"), P(mp, "byteStride"));
+    const int64_t count = integer(c, req(*mo, "count", mp, "the number of elements"), P(mp, "count"));
+    const std::string mode = string_or(c, *mo, "mode", mp, "");
+    const std::string filter = string_or(c, *mo, "filter", mp, "NONE");
+    if (mode == "ATTRIBUTES") {
+      if (stride < 4 || stride > 256 || stride % 4) c.fail(P(mp, "byteStride"), "expected a multiple of 4 in [4, 256]");
+    } else if (mode == "TRIANGLES" || mode == "INDICES") {
+      if (stride != 2 && stride != 4) c.fail(P(mp, "byteStride"), "expected 2 or 4 (bytes per index)");
+      if (mode == "TRIANGLES" && count % 3) c.fail(P(mp, "count"), "expected a multiple of 3 (whole triangles)");
+      if (filter != "NONE") c.fail(P(mp, "filter"), "expected NONE for mode " + mode);
+    } else {
+      c.fail(P(mp, "mode"), "expected ATTRIBUTES, TRIANGLES or INDICES, got '" + mode + "'");
+    }
+    if (filter == "OCTAHEDRAL") {
+      if (stride != 4 && stride != 8) c.fail(P(mp, "byteStride"), "expected 4 or 8 for the OCTAHEDRAL filter");
+    } else if (filter == "QUATERNION") {
+      if (stride != 8) c.fail(P(mp, "byteStride"), "expected 8 for the QUATERNION filter");
+    } else if (filter != "NONE" && filter != "EXPONENTIAL") {
+      c.fail(P(mp, "filter"), "expected NONE, OCTAHEDRAL, QUATERNION or EXPONENTIAL, got '" + filter + "'");
+    }
+    if (count < 1 || count * stride != len)
+      c.fail(mp, "count " + std::to_string(count) + " x byteStride " + std::to_string(stride) +
+                     " differs from the view's byteLength " + std::to_string(len));
   }
   // Accessors (and their byte ranges).
   auto check_range = [&](const std::string& p, size_t view, int64_t offset, int64_t count, int64_t elem) {
@@ -638,6 +691,9 @@ class Converter {
                                   const std::string& name, size_t ai, const std::string& use_path,
                                   const std::vector<std::string>& types, size_t& count, int& ncomp);
   const unsigned char* view_bytes(size_t view, int64_t& len);
+  // EXT_meshopt_compression: a view's data, decoded once (meshoptimizer's decoders and filters).
+  std::map<size_t, std::vector<unsigned char>> meshopt_views_;
+  const unsigned char* meshopt_view(size_t view, const json& ext, int64_t& len);
 
   int texture(const json& info, const std::string& path, bool srgb);
   DerivedTextures derived_;  // the values a material slot reads from another channel
@@ -655,6 +711,8 @@ class Converter {
 
 const unsigned char* Converter::view_bytes(size_t view, int64_t& len) {
   const json& v = root_["bufferViews"][view];
+  if (const json* ex = member(v, "extensions"))
+    if (const json* mo = member(*ex, "EXT_meshopt_compression")) return meshopt_view(view, *mo, len);
   size_t b = v["buffer"].get<size_t>();
   int64_t off = member(v, "byteOffset") ? v["byteOffset"].get<int64_t>() : 0;
   len = v["byteLength"].get<int64_t>();
@@ -663,6 +721,32 @@ const unsigned char* Converter::view_bytes(size_t view, int64_t& len) {
     c_.fail(P("/bufferViews", view), "exceeds the data of buffer " + std::to_string(b) + " (" +
                                          std::to_string(data.size()) + " bytes)");
   return data.data() + off;
+}
+
+const unsigned char* Converter::meshopt_view(size_t view, const json& ext, int64_t& len) {
+  const size_t count = ext["count"].get<size_t>(), stride = ext["byteStride"].get<size_t>();
+  len = int64_t(count * stride);
+  auto hit = meshopt_views_.find(view);
+  if (hit != meshopt_views_.end()) return hit->second.data();
+  const std::string mp = P(P(P("/bufferViews", view), "extensions"), "EXT_meshopt_compression");
+  const size_t b = ext["buffer"].get<size_t>();
+  const size_t off = member(ext, "byteOffset") ? ext["byteOffset"].get<size_t>() : 0;
+  const size_t n = ext["byteLength"].get<size_t>();
+  const std::vector<unsigned char>& data = model_.buffers.at(b).data;
+  if (off + n > data.size())
+    c_.fail(mp, "exceeds the data of buffer " + std::to_string(b) + " (" + std::to_string(data.size()) + " bytes)");
+  std::vector<unsigned char> out(count * stride);
+  const std::string mode = ext["mode"].get<std::string>();
+  const std::string filter = member(ext, "filter") ? ext["filter"].get<std::string>() : "NONE";
+  const unsigned char* src = data.data() + off;
+  const int rc = mode == "ATTRIBUTES" ? meshopt_decodeVertexBuffer(out.data(), count, stride, src, n)
+                 : mode == "TRIANGLES" ? meshopt_decodeIndexBuffer(out.data(), count, stride, src, n)
+                                       : meshopt_decodeIndexSequence(out.data(), count, stride, src, n);
+  if (rc != 0) c_.fail(mp, "cannot decode the compressed " + mode + " (meshoptimizer error " + std::to_string(rc) + ")");
+  if (filter == "OCTAHEDRAL") meshopt_decodeFilterOct(out.data(), count, stride);
+  else if (filter == "QUATERNION") meshopt_decodeFilterQuat(out.data(), count, stride);
+  else if (filter == "EXPONENTIAL") meshopt_decodeFilterExp(out.data(), count, stride);
+  return (meshopt_views_[view] = std::move(out)).data();
 }
 
 float read_component(const unsigned char* p, int ct, bool normalized) {
@@ -1608,6 +1692,9 @@ SceneDesc load_gltf_scene(const std::string& path) {
   json slim = {{"asset", root["asset"]}};
   for (const char* k : {"buffers", "bufferViews", "images"})
     if (root.contains(k)) slim[k] = root[k];
+  if (slim.contains("buffers"))  // EXT_meshopt_compression's fallback buffers have no data: a byte stands in
+    for (json& b : slim["buffers"])
+      if (meshopt_fallback(b)) b = {{"byteLength", 1}, {"uri", "data:application/octet-stream;base64,AA=="}};
   std::string slim_text = slim.dump();
   std::vector<unsigned char> slim_glb;
   if (glb) {
