@@ -404,6 +404,58 @@ def test_specular_glossiness_with_specular_or_ior_is_an_error(tmp_path):
                                 "specular colour itself)")
 
 
+def unlit_scene(tmp_path, name, unlit, lamp_light=True, half=1.0):
+    """A 2 x 2 textured panel (TEXELS, nearest, times a factor) of half-width `half` (1: filling the view)
+    seen head-on, under a strong point light; with `unlit` KHR_materials_unlit, else the equivalent by hand:
+    black, emitting factor x texture. A diffuse floor just below the panel, facing up, catches its light
+    (in view below a smaller panel)."""
+    g = Gltf()
+    g.image_data_uri(png_bytes(TEXELS))
+    g.add("samplers", {"magFilter": 9728, "minFilter": 9728})
+    g.add("textures", {"source": 0, "sampler": 0})
+    factor = [0.9, 0.7, 1.0, 1.0]
+    if unlit:
+        mat = {"pbrMetallicRoughness": {"baseColorFactor": factor, "baseColorTexture": {"index": 0}},
+               "extensions": {"KHR_materials_unlit": {}}}
+    else:
+        mat = {"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0},
+               "extensions": {"KHR_materials_ior": {"ior": 1.0}},  # no specular layer: black
+               "emissiveFactor": factor[:3], "emissiveTexture": {"index": 0}}
+    floor = g.add("materials", {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0}})
+    g.doc["extensionsUsed"] = ["KHR_lights_punctual", "KHR_materials_unlit" if unlit else "KHR_materials_ior"]
+    g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 683.0 * 50}]}}
+    nodes = [g.add("nodes", {"mesh": g.quad(g.add("materials", mat), half=half)}), g.camera(3.0, FILL_FOV),
+             g.add("nodes", {"mesh": g.quad(floor, half=3.0), "translation": [0, -half - 0.1, 1],
+                             "rotation": [-0.70710678, 0, 0, 0.70710678]})]
+    if lamp_light:
+        nodes.append(g.add("nodes", {"translation": [0.3, 0.2, 1.5], "extensions": {"KHR_lights_punctual": {"light": 0}}}))
+    g.scene(nodes)
+    return g.write(tmp_path / f"{name}.gltf")
+
+
+def test_unlit_shows_its_base_colour_whatever_the_light(tmp_path):
+    """KHR_materials_unlit (no warning): under a strong point light or none, each quadrant of the panel shows
+    factor x texel (sRGB decoded) exactly: it reflects nothing and emits its base colour."""
+    factor = np.array([0.9, 0.7, 1.0])
+    for lamp in (True, False):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            out = render(unlit_scene(tmp_path, f"unlit{lamp}", True, lamp))
+        assert not [x for x in w if "unlit" in str(x.message)], [str(x.message) for x in w]
+        for (r, c), px in quadrant_centres(out).items():
+            np.testing.assert_allclose(px, factor * srgb_to_linear(TEXELS[r, c] / 255.0), rtol=1e-4, atol=1e-5)
+
+
+def test_unlit_is_a_black_emitter(tmp_path):
+    """An unlit panel renders, light it casts on the floor included, as the same panel made black and
+    emissive by hand (the same image with the same seed, up to float rounding), and that light is there."""
+    a = render(unlit_scene(tmp_path, "unlit", True, half=0.5), size=48, spp=16)
+    b = render(unlit_scene(tmp_path, "byhand", False, half=0.5), size=48, spp=16)
+    np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-6)
+    dark = render(unlit_scene(tmp_path, "dark", True, lamp_light=False, half=0.5), size=48, spp=16)
+    assert dark[-4:].mean() > 0.01  # the floor at the bottom, lit by the panel alone
+
+
 def test_errors_are_input_errors(tmp_path):
     p = tmp_path / "bad.gltf"
     p.write_text('{\n  "asset": {"version": "2.0"},\n  "nodes": [}\n')

@@ -45,14 +45,14 @@ const std::set<std::string>& supported_extensions() {
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression",
-      "EXT_meshopt_compression"};
+      "EXT_meshopt_compression", "KHR_materials_unlit"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_iridescence",
-      "KHR_materials_dispersion", "KHR_materials_unlit", "KHR_materials_variants", "KHR_texture_basisu",
+      "KHR_materials_dispersion", "KHR_materials_variants", "KHR_texture_basisu",
       "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
 }
@@ -665,6 +665,7 @@ class Converter {
     RGB emission{0.f};
     int emission_texture = -1;
     bool two_sided = false;
+    bool unlit = false;  // KHR_materials_unlit: the emission is the base colour
   };
   std::map<size_t, MatExtra> mat_extra_;
   std::map<std::pair<size_t, size_t>, int> mesh_of_;  // (mesh, primitive) -> meshes index (-1: skipped)
@@ -1218,6 +1219,21 @@ int Converter::material(size_t i) {
   } else if (mode != "OPAQUE") {
     c_.fail(P(p, "alphaMode"), "expected OPAQUE, MASK or BLEND, got '" + mode + "'");
   }
+  // KHR_materials_unlit: a surface drawn in its base colour whatever the light. Read physically: it reflects
+  // nothing and emits its base colour (factor times baseColorTexture, in place of any emissive colour) as
+  // radiance, so the camera sees exactly that colour, as a rasteriser draws it, and it lights what it faces
+  // (Blender's importer emits too). Cut-outs stay.
+  if (exts && member(*exts, "KHR_materials_unlit")) {
+    object_at(c_, (*exts)["KHR_materials_unlit"], P(P(p, "extensions"), "KHR_materials_unlit"));
+    ex.emission = base;
+    ex.emission_texture = mat.tex_color;
+    ex.unlit = true;
+    Material black = make_diffuse(RGB(0.f), ex.two_sided);
+    black.opacity = mat.opacity;
+    black.tex_opacity = mat.tex_opacity;
+    black.opacity_cutoff = mat.opacity_cutoff;
+    mat = black;
+  }
   std::string name = string_or(c_, m, "name", p, "");
   int idx = d_.add_material(name.empty() ? "material" + std::to_string(i) : name, mat);
   material_of_[i] = idx;
@@ -1479,6 +1495,9 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
         s.emission = ex.emission;
         s.emission_texture = ex.emission_texture;
         s.emission_two_sided = ex.two_sided;
+        if (ex.unlit && !d_.meshes[size_t(id)].colors.empty())
+          warn_once("vertex colours (COLOR_0) do not tint an unlit material's colour (KHR_materials_unlit); the base "
+                    "colour is used alone");
       } else {
         if (default_material_ < 0)  // the glTF default material: white, metallic 1, roughness 1
           default_material_ = d_.add_material("default", make_metallic_roughness(RGB(1.f), 1.f, 1.f));
