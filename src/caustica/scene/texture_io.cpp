@@ -36,7 +36,7 @@ int find_cached(const SceneDesc& d, const std::string& key, bool srgb) {
 
 // Decoded pixels (8-bit from stb_image or libwebp, or float) into linear RGBA.
 TextureDesc decoded_texture(const std::string& name, int w, int h, int n, const unsigned char* px8, const float* pxf,
-                     bool srgb) {
+                            bool srgb) {
   TextureDesc t;
   t.name = name;
   t.width = w;
