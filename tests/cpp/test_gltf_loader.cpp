@@ -873,6 +873,13 @@ TEST(GltfLoader, MeshoptErrors) {
                              "INDICES, got 'VERTICES'");
   b.j["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]["mode"] = "ATTRIBUTES";
   b.j["bufferViews"][0]["byteStride"] = 4;
+  {  // An image in a compressed view (which tinygltf would read from the fallback buffer, which has no data).
+    Builder im = b;
+    im.push("images", {{"bufferView", 0}, {"mimeType", "image/png"}});
+    p = im.write("meshopt_image");
+    EXPECT_EQ(error_of(p), p + ": /images/0/bufferView: refers to bufferView 0, which EXT_meshopt_compression "
+                               "compresses (images are stored as they are)");
+  }
   const int a = b.push("accessors", {{"bufferView", 0}, {"componentType", 5126}, {"count", 1}, {"type", "VEC3"}});
   b.j["meshes"] = json::array({{{"primitives", json::array({{{"attributes", {{"POSITION", a}}}}})}}});
   b.scene({b.push("nodes", {{"mesh", 0}})});

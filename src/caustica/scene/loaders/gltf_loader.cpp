@@ -367,7 +367,12 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
     std::string p = P("/images", i);
     const json& im = object_at(c, images[i], p);
     const json* bv = member(im, "bufferView");
-    if (bv) index_into(c, *bv, P(p, "bufferView"), views, "/bufferViews");
+    if (bv) {
+      const size_t v = index_into(c, *bv, P(p, "bufferView"), views, "/bufferViews");
+      if (meshopt_fallback(buffers[views[v]["buffer"].get<size_t>()]))  // its view is compressed: not for images
+        c.fail(P(p, "bufferView"), "refers to bufferView " + std::to_string(v) + ", which EXT_meshopt_compression "
+                                       "compresses (images are stored as they are)");
+    }
     std::string uri = string_or(c, im, "uri", p, "");
     if (!bv && uri.empty()) c.fail(p, "expected a 'uri' or a 'bufferView'");
   }
