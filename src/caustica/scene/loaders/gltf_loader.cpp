@@ -1679,8 +1679,7 @@ SceneDesc load_gltf_scene(const std::string& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
   if (ext == ".glb" && !glb) throw InputError(path + ": not a GLB file (expected the magic bytes 'glTF' at the start)");
   std::string text;
-  bool has_bin = false;
-  size_t bin_chunk = 0, bin_chunk_len = 0;  // GLB: the BIN chunk's offset and size (header included)
+  size_t bin_chunk = 0, bin_chunk_len = 0;  // GLB: the BIN chunk's offset and size (header included; 0: none)
   if (glb) {
     auto bad = [&](const std::string& what) { throw InputError(path + ": invalid GLB file: " + what); };
     if (bytes.size() < 20) bad("shorter than the 12-byte header and a chunk header");
@@ -1697,7 +1696,6 @@ SceneDesc load_gltf_scene(const std::string& path) {
       uint32_t blen = le32(&bytes[bin]), btype = le32(&bytes[bin + 4]);
       if (btype == 0x004E4942u) {
         if (bin + 8 + blen > length) bad("the BIN chunk exceeds the file length");
-        has_bin = true;
         bin_chunk = bin, bin_chunk_len = 8 + size_t(blen);
       }
     }
@@ -1708,7 +1706,7 @@ SceneDesc load_gltf_scene(const std::string& path) {
   root = parse_json_text<json>(text, path);
   SceneDesc d;
   d.name = fs::path(path).stem().string();
-  check_structure(c, root, has_bin, d.warnings);
+  check_structure(c, root, bin_chunk_len > 0, d.warnings);
 
   // tinygltf reads what caustica takes from it, the buffers and the (still encoded) images, from a document of
   // those alone (and the GLB's BIN chunk): the rest, checked and converted here, stays out of its way (it
