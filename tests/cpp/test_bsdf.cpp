@@ -81,6 +81,14 @@ Material specular(Material m, float w, RGB s) {
   return m;
 }
 
+// A metallic-roughness material under a KHR_materials_iridescence film of weight k, IOR eta and thickness d nm.
+Material iridescent(Material m, float k, float eta, float d) {
+  m.iridescence = k;
+  m.iridescence_eta = eta;
+  m.iridescence_thickness = d;
+  return m;
+}
+
 Vec3f dir(float cos_theta, float phi) {
   float s = safe_sqrt(1.f - cos_theta * cos_theta);
   return Vec3f(s * std::cos(phi), s * std::sin(phi), cos_theta);
@@ -170,6 +178,15 @@ std::vector<Case> make_cases() {
   add("mr_spec_none_r040", specular(make_metallic_roughness(base, 0.f, 0.4f), 0.f, RGB(1.f)), above);
   // IOR 1000 (gltf-transform's metalRough): Schlick's rise (mr_dielectric_fresnel).
   add("mr_spec_ior1000_r030", specular(make_metallic_roughness(base, 0.f, 0.3f, 0.f, 1000.f), 0.9f, RGB(0.05f, 0.1f, 0.2f)),
+      above);
+  // KHR_materials_iridescence: films over a rough dielectric, a rough metal, a smooth metal over a little dielectric, a mixture with glass,
+  // under a coat, and a film of the base's IOR over a dielectric with a specular colour.
+  add("mr_irid_r030", iridescent(make_metallic_roughness(base, 0.f, 0.3f), 1.f, 1.3f, 400.f), above);
+  add("mr_irid_metal_r040", iridescent(make_metallic_roughness(RGB(0.9f, 0.6f, 0.3f), 1.f, 0.4f), 0.7f, 1.8f, 550.f), above);
+  add("mr_irid_smooth_mostly_metal", iridescent(make_metallic_roughness(base, 0.8f, 0.f), 1.f, 1.5f, 300.f), above);
+  add("mr_irid_all_r050", iridescent(make_metallic_roughness(base, 0.3f, 0.5f, 0.5f, 1.33f), 0.5f, 2.f, 800.f), both);
+  add("mr_irid_coat_smooth_mix", coated(iridescent(make_metallic_roughness(base, 0.4f, 0.f), 1.f, 1.4f, 250.f), 0.6f, 0.2f), above);
+  add("mr_irid_spec_r030", iridescent(specular(make_metallic_roughness(base, 0.f, 0.3f), 0.8f, RGB(1.f, 0.6f, 0.3f)), 0.8f, 1.5f, 0.f),
       above);
   // KHR_materials_sheen: over a rough dielectric, with a coat over metal, over smooth glass, over all, and a
   // white sheen over a white Lambertian base (the albedo bound is tight there).

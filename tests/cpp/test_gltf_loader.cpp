@@ -303,7 +303,7 @@ TEST(GltfLoader, PunctualLights) {
 TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
   Builder b;
   b.j["extensionsUsed"] = {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume",
-                           "KHR_materials_emissive_strength", "KHR_materials_iridescence", "EXT_made_up"};
+                           "KHR_materials_emissive_strength", "KHR_materials_dispersion", "EXT_made_up"};
   b.push("materials", {{"name", "glass"},
                        {"pbrMetallicRoughness", {{"baseColorFactor", {0.9, 0.8, 0.7, 1}}, {"metallicFactor", 0.0},
                                                  {"roughnessFactor", 0.1}}},
@@ -334,7 +334,7 @@ TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
   expect_near(d.shapes[0].emission, RGB(0.f));
   expect_near(d.shapes[1].emission, RGB(5.f));  // emissiveFactor * emissiveStrength
   EXPECT_TRUE(d.shapes[1].emission_two_sided);
-  EXPECT_TRUE(has_warning(d, "extension KHR_materials_iridescence is not supported; its properties are ignored"));
+  EXPECT_TRUE(has_warning(d, "extension KHR_materials_dispersion is not supported; its properties are ignored"));
   EXPECT_TRUE(has_warning(d, "unknown extension EXT_made_up ignored"));
   EXPECT_FALSE(has_warning(d, "no lights"));  // the emissive quad is an area light
 }
@@ -425,6 +425,51 @@ TEST(GltfLoader, Specular) {
   std::string p = e.write("badspec");
   EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_specular/specularColorFactor: expected "
                              "non-negative colour values");
+}
+
+TEST(GltfLoader, Iridescence) {
+  // KHR_materials_iridescence: weight (times the iridescenceTexture's red), IOR, thickness range (the
+  // iridescenceThicknessTexture's green moved to a copy's red, linear); the maximum alone without a texture;
+  // defaults 1.3, 100 and 400 nm; no texture is read at weight 0; an IOR below 1 is an error.
+  Builder b;
+  b.j["extensionsUsed"] = {"KHR_materials_iridescence"};
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {255, 153, 0, 255}, 4))}});
+  b.push("textures", {{"source", 0}});
+  b.push("materials", {{"extensions", {{"KHR_materials_iridescence",
+                                         {{"iridescenceFactor", 0.8}, {"iridescenceIor", 1.6},
+                                          {"iridescenceThicknessMinimum", 150}, {"iridescenceThicknessMaximum", 700},
+                                          {"iridescenceTexture", {{"index", 0}}},
+                                          {"iridescenceThicknessTexture", {{"index", 0}}}}}}}});
+  b.push("materials", {{"extensions", {{"KHR_materials_iridescence", {{"iridescenceFactor", 1.0}}}}}});
+  b.push("materials", {{"extensions", {{"KHR_materials_iridescence", {{"iridescenceThicknessTexture", {{"index", 0}}}}}}}});
+  int q0 = b.quad(0), q1 = b.quad(1), q2 = b.quad(2);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}}), b.push("nodes", {{"mesh", q2}})});
+  SceneDesc d = load_gltf_scene(b.write("film"));
+  ASSERT_EQ(d.materials.size(), 3u);
+  const Material& m = d.materials[0];
+  EXPECT_FLOAT_EQ(m.iridescence, 0.8f);
+  EXPECT_FLOAT_EQ(m.iridescence_eta, 1.6f);
+  EXPECT_FLOAT_EQ(m.iridescence_thickness, 700.f);
+  EXPECT_FLOAT_EQ(m.iridescence_thickness_min, 150.f);
+  ASSERT_GE(m.tex_iridescence, 0);
+  ASSERT_GE(m.tex_iridescence_thickness, 0);
+  EXPECT_FALSE(d.textures[size_t(m.tex_iridescence)].srgb);
+  EXPECT_NEAR(d.textures[size_t(m.tex_iridescence)].rgba[0], 1.f, 1e-6f);
+  EXPECT_FALSE(d.textures[size_t(m.tex_iridescence_thickness)].srgb);
+  EXPECT_NEAR(d.textures[size_t(m.tex_iridescence_thickness)].rgba[0], 0.6f, 1e-6f);  // green 153/255
+  const Material& plain = d.materials[1];
+  EXPECT_FLOAT_EQ(plain.iridescence, 1.f);
+  EXPECT_FLOAT_EQ(plain.iridescence_eta, 1.3f);
+  EXPECT_FLOAT_EQ(plain.iridescence_thickness, 400.f);
+  EXPECT_EQ(plain.tex_iridescence_thickness, -1);
+  EXPECT_FLOAT_EQ(d.materials[2].iridescence, 0.f);
+  EXPECT_EQ(d.materials[2].tex_iridescence_thickness, -1);
+  Builder e;
+  e.push("materials", {{"extensions", {{"KHR_materials_iridescence", {{"iridescenceFactor", 1.0}, {"iridescenceIor", 0.9}}}}}});
+  e.scene({e.push("nodes", {{"mesh", e.quad(0)}})});
+  std::string p = e.write("badfilm");
+  EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_iridescence/iridescenceIor: expected an index of "
+                             "refraction >= 1");
 }
 
 TEST(GltfLoader, Sheen) {
@@ -928,7 +973,7 @@ TEST(GltfLoader, MalformedInputMessages) {
   p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_texture_basisu"]})");
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_texture_basisu' is required but not supported "
                              "(supported: EXT_mesh_gpu_instancing, EXT_meshopt_compression, EXT_texture_webp, KHR_draco_mesh_compression, KHR_lights_punctual, KHR_materials_anisotropy, "
-                             "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, "
+                             "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_iridescence, "
                              "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_unlit, KHR_materials_volume, KHR_mesh_quantization, "
                              "KHR_texture_transform)");
   // A missing buffer file names both files.

@@ -81,6 +81,13 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_TRUE(same(a.sheen_roughness, b.sheen_roughness)) << w << ".sheen_roughness";
   EXPECT_EQ(a.tex_sheen_color, b.tex_sheen_color) << w;
   EXPECT_EQ(a.tex_sheen_roughness, b.tex_sheen_roughness) << w;
+  EXPECT_TRUE(same(a.iridescence, b.iridescence)) << w << ".iridescence";
+  EXPECT_TRUE(same(a.iridescence_eta, b.iridescence_eta)) << w << ".iridescence_eta";
+  EXPECT_TRUE(same(a.iridescence_thickness, b.iridescence_thickness)) << w << ".iridescence_thickness";
+  if (a.tex_iridescence_thickness >= 0)  // the minimum means nothing without the texture
+    EXPECT_TRUE(same(a.iridescence_thickness_min, b.iridescence_thickness_min)) << w << ".iridescence_thickness_min";
+  EXPECT_EQ(a.tex_iridescence, b.tex_iridescence) << w;
+  EXPECT_EQ(a.tex_iridescence_thickness, b.tex_iridescence_thickness) << w;
   EXPECT_TRUE(same(a.metallic, b.metallic)) << w << ".metallic";
   EXPECT_TRUE(same(a.transmission_weight, b.transmission_weight)) << w << ".transmission_weight";
   EXPECT_TRUE(same(a.spec_tint, b.spec_tint)) << w << ".spec_tint";
@@ -397,6 +404,11 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   velvet.tex_sheen_color = 0;
   velvet.tex_sheen_roughness = 1;
   d.add_material("sheen textures", velvet);
+  Material film = make_metallic_roughness(RGB(0.2f, 0.3f, 0.9f), 0.6f, 0.25f);
+  film.iridescence = 0.75f, film.iridescence_eta = 1.45f, film.iridescence_thickness = 520.f;
+  d.add_material("iridescence", film);
+  film.tex_iridescence = 1, film.tex_iridescence_thickness = 0, film.iridescence_thickness_min = 120.f;
+  d.add_material("iridescence textures", film);
   Material disney = make_principled(RGB(0.8f, 0.4f, 0.3f), 0.25f, 0.4f, 0.f, 0.5f, 1.45f);
   disney.spec_tint = 0.1f, disney.sheen = 0.2f, disney.sheen_tint = 0.3f, disney.flatness = 0.4f;
   disney.clearcoat = 0.6f, disney.clearcoat_gloss = 0.7f;

@@ -89,7 +89,9 @@ def main():
                        "anisotropic": 0.3, "spec_trans": 0.1, "sheen": 0.5, "clearcoat": 0.6},
             "paint": {"type": "metallic_roughness", "base_color": [0.6, 0.1, 0.1], "roughness": 0.5,
                       "clearcoat": 0.9, "clearcoat_roughness": 0.1, "specular": 0.5, "specular_color": [1, 0.8, 0.6],
-                      "sheen_color": [0.7, 0.7, 0.9], "sheen_roughness": 0.3, "transmission": 0.2},
+                      "sheen_color": [0.7, 0.7, 0.9], "sheen_roughness": 0.3, "transmission": 0.2,
+                      "iridescence": 0.5, "iridescence_eta": 1.4, "iridescence_thickness": {"texture": "checker.png", "scale": 500},
+                      "iridescence_thickness_min": 150},
         },
         "shapes": [
             {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
@@ -153,7 +155,7 @@ def main():
         return {
             "asset": {"version": "2.0"},
             "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat",
-                               "KHR_materials_specular", "KHR_materials_sheen"],
+                               "KHR_materials_specular", "KHR_materials_sheen", "KHR_materials_iridescence"],
             "scene": 0,
             "scenes": [{"nodes": [0, 3, 4]}],
             "nodes": [
@@ -175,7 +177,10 @@ def main():
                                 "KHR_materials_specular": {"specularFactor": 0.6, "specularColorFactor": [1.2, 1, 0.5],
                                                            "specularTexture": {"index": 0}},
                                 "KHR_materials_sheen": {"sheenColorFactor": [0.8, 0.5, 0.6], "sheenRoughnessFactor": 0.4,
-                                                        "sheenRoughnessTexture": {"index": 0}}}},
+                                                        "sheenRoughnessTexture": {"index": 0}},
+                                "KHR_materials_iridescence": {"iridescenceFactor": 0.8, "iridescenceIor": 1.5,
+                                                              "iridescenceThicknessMaximum": 600,
+                                                              "iridescenceThicknessTexture": {"index": 0}}}},
                 {"emissiveFactor": [1, 0.8, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}},
             ],
             "textures": [{"source": 0, "sampler": 0}],

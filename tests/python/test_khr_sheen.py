@@ -103,6 +103,9 @@ GPU_LAYERS = {
                      mr(metallic=1.0, roughness=0.4)),
     "coated-velvet": (velvet(clearcoat=0.5, clearcoat_roughness=0.3), mr(roughness=0.7)),
     "tinted-specular": (mr(specular=0.7, specular_color=[1.0, 0.6, 0.3]), mr()),
+    # KHR_materials_iridescence's thin film over the metal and the dielectric (material/thin_film.h).
+    "iridescent": (mr(metallic=0.5, roughness=0.3, iridescence=0.9, iridescence_thickness=350.0),
+                   mr(metallic=0.5, roughness=0.3)),
     # The sheen's albedo tables for a roughness texture (SceneView::sheen_table, uploaded to the GPU).
     "velvet-roughness-texture": (velvet(sheen_roughness={"texture": "GREY51"}), velvet(sheen_roughness=1.0)),
 }

@@ -83,6 +83,10 @@ struct Material {
   // (perceptual; the Charlie distribution's alpha is its square).
   RGB sheen_color{0.f};
   float sheen_roughness = 0.f;
+  // Metallic-roughness: KHR_materials_iridescence, a thin film over the specular layers (material/thin_film.h):
+  // its weight iridescenceFactor (0: none), IOR, and thickness in nm, iridescence_thickness, or with
+  // tex_iridescence_thickness, from iridescence_thickness_min (texel 0) to iridescence_thickness (texel 1).
+  float iridescence = 0.f, iridescence_eta = 1.3f, iridescence_thickness = 400.f, iridescence_thickness_min = 0.f;
   // Textures (indices into SceneView::textures, -1 = none), applied at the hit:
   //   tex_color multiplies the main colour (diffuse/base colour; a tinted
   //     mirror's or conductor's `specular`; a dielectric's `transmission`);
@@ -104,6 +108,9 @@ struct Material {
   //   tex_sheen_color: its sheen colour times RGB (KHR_materials_sheen's sheenColorTexture);
   //   tex_sheen_roughness: its sheen roughness times R (sheenRoughnessTexture's alpha, moved to red by the glTF
   //     loader); its albedo table (Material::table) is then the texel's roughness's (mr_sheen_table_at).
+  //   tex_iridescence: its iridescence weight times R (KHR_materials_iridescence's iridescenceTexture);
+  //   tex_iridescence_thickness: its film thickness from the minimum to iridescence_thickness by R (the glTF
+  //     loader moves iridescenceThicknessTexture's green channel there).
   //   Principled: tex_clearcoat and tex_transmission as above (clearcoat, spec_trans times R), and
   //     tex_metallic, tex_spec_tint, tex_sheen, tex_sheen_tint, tex_flatness, tex_clearcoat_gloss: those weights
   //     times R (the Mitsuba loader gives them grey copies of its images: Mitsuba reads a float texture's
@@ -111,7 +118,8 @@ struct Material {
   //     principled only (scene/shading.h).
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
   int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1,
-          tex_transmission = -1, tex_sheen_color = -1, tex_sheen_roughness = -1;
+          tex_transmission = -1, tex_sheen_color = -1, tex_sheen_roughness = -1, tex_iridescence = -1,
+          tex_iridescence_thickness = -1;
   int32_t tex_metallic = -1, tex_spec_tint = -1, tex_sheen = -1, tex_sheen_tint = -1, tex_flatness = -1,
           tex_clearcoat_gloss = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
@@ -144,10 +152,10 @@ struct Material {
 
 // Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
 // writers' lists of used images); without `opacity` the opacity slot reads as empty.
-inline std::array<int32_t, 20> material_textures(const Material& m, bool opacity = true) {
+inline std::array<int32_t, 22> material_textures(const Material& m, bool opacity = true) {
   return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
           m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, m.tex_transmission,
-          m.tex_sheen_color, m.tex_sheen_roughness, m.tex_metallic, m.tex_spec_tint, m.tex_sheen,
+          m.tex_sheen_color, m.tex_sheen_roughness, m.tex_iridescence, m.tex_iridescence_thickness, m.tex_metallic, m.tex_spec_tint, m.tex_sheen,
           m.tex_sheen_tint, m.tex_flatness, m.tex_clearcoat_gloss, opacity ? m.tex_opacity : -1, m.tex_mix};
 }
 

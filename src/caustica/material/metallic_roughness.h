@@ -41,6 +41,13 @@
 // clearcoatNormalTexture is not used). Sampling picks the coat with probability c Fc(cos_o), its reflectance,
 // and the base mixture otherwise; a coat with alpha below kSmoothAlpha is a mirror (a delta lobe).
 //
+// KHR_materials_iridescence (m.iridescence k, m.iridescence_eta, m.iridescence_thickness): a thin film over the
+// metal and the dielectric's specular layer (material/thin_film.h, Belcour & Barla 2017). As the extension
+// says, each layer's Fresnel term F becomes (1 - k) F + k F_film, F_film the film's reflectance over a base of
+// the dielectric's IOR, or, for the metal, per channel over a dielectric whose F0 is the base colour
+// (film_ior_from_f0). The film's colour then plays the part of the specular colour: the dielectric's base
+// takes 1 - max(F) on each side and its lobe is picked by max(F), as with KHR_materials_specular.
+//
 // KHR_materials_sheen (m.sheen_color, m.sheen_roughness; alpha = roughness^2, at least 1e-3), under the coat and
 // over the rest: the extension's sheen lobe, sheen_color D V with the Charlie distribution and the visibility of
 // Estevez & Kulla 2017, divided by max(1, E(cos_o)) max(1, E(cos_i)) (E the white lobe's directional albedo,
@@ -54,12 +61,24 @@
 #include "microfacet.h"
 #include "plastic.h"
 #include "rough_dielectric.h"
+#include "thin_film.h"
 
 namespace caustica {
 
 constexpr float kSmoothAlpha = 1e-3f;
 
 CHD RGB schlick_fresnel(RGB f0, float cos_i) { return f0 + (RGB(1.f) - f0) * schlick_weight(cos_i); }
+CHD bool mr_iridescent(const Material& m) { return m.iridescence > 0.f; }
+// F mixed with the film's reflectance over a base of IOR eta3 (KHR_materials_iridescence; top of this file).
+CHD RGB mr_film_mix(const Material& m, RGB F, float c, RGB eta3) {
+  return F * (1.f - m.iridescence) + thin_film_reflectance(c, m.iridescence_eta, eta3, m.iridescence_thickness) * m.iridescence;
+}
+// The metal's Fresnel: Schlick's with F0 the base colour, under the film where there is one.
+CHD RGB mr_metal_fresnel(const Material& m, float c) {
+  const RGB F = schlick_fresnel(m.diffuse, c);
+  if (!mr_iridescent(m)) return F;
+  return mr_film_mix(m, F, c, RGB(film_ior_from_f0(m.diffuse.x), film_ior_from_f0(m.diffuse.y), film_ior_from_f0(m.diffuse.z)));
+}
 
 struct MRWeights {
   float metal, glass, dielectric;
@@ -83,8 +102,10 @@ CHD DielectricParams mr_glass(const Material& m) { return {m.eta, RGB(1.f), m.di
 // layer takes Schlick's rise (1 - c)^5, the extension's own. The glass keeps its own Fresnel (the extension's
 // effect on transmission is not modelled).
 constexpr float kExactRiseMaxF0 = 0.25f;
+// A film (KHR_materials_iridescence) mixes its reflectance into that.
 CHD bool mr_plain_specular(const Material& m) {
-  return m.specular_weight == 1.f && m.specular.x == 1.f && m.specular.y == 1.f && m.specular.z == 1.f;
+  return m.specular_weight == 1.f && m.specular.x == 1.f && m.specular.y == 1.f && m.specular.z == 1.f &&
+         !mr_iridescent(m);
 }
 CHD RGB mr_dielectric_fresnel(const Material& m, float c) {
   const float F = fresnel_dielectric(c, m.eta);
@@ -92,7 +113,8 @@ CHD RGB mr_dielectric_fresnel(const Material& m, float c) {
   const float F0 = fresnel_dielectric(1.f, m.eta);
   const float t = F0 <= kExactRiseMaxF0 ? clampf((F - F0) / (1.f - F0), 0.f, 1.f) : schlick_weight(c);
   const RGB f0s(minf(F0 * m.specular.x, 1.f), minf(F0 * m.specular.y, 1.f), minf(F0 * m.specular.z, 1.f));
-  return (f0s + (RGB(1.f) - f0s) * t) * m.specular_weight;
+  const RGB Fs = (f0s + (RGB(1.f) - f0s) * t) * m.specular_weight;
+  return mr_iridescent(m) ? mr_film_mix(m, Fs, c, RGB(m.eta)) : Fs;
 }
 // The share of the light the specular layer takes from the diffuse base at cosine c: the largest channel of
 // its reflectance (the extension's max_value(fr)).
@@ -117,7 +139,7 @@ CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) 
     Microfacet g = material_microfacet(m);
     float dg = g.D(wm) * g.G(wo, wi) / (4.f * wo.z * wi.z);
     float c = absdot(wo, wm);
-    if (w.metal > 0.f) f += schlick_fresnel(m.diffuse, c) * (dg * w.metal);
+    if (w.metal > 0.f) f += mr_metal_fresnel(m, c) * (dg * w.metal);
     if (w.dielectric > 0.f) f += mr_dielectric_fresnel(m, c) * (dg * w.dielectric);
   }
   if (w.dielectric > 0.f) {
@@ -179,7 +201,7 @@ CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, Transpor
       s.delta = true;
       if (metal) {
         s.pdf = w.metal;
-        s.weight = schlick_fresnel(m.diffuse, wo.z);
+        s.weight = mr_metal_fresnel(m, wo.z);
       } else {
         s.pdf = w.dielectric * ps;
         s.weight = mr_plain_specular(m) ? RGB(Fo / ps) : mr_dielectric_fresnel(m, wo.z) / ps;

@@ -363,6 +363,13 @@ struct Writer {
           o.set("sheen_color", color_slot(m.sheen_color, m.tex_sheen_color));
           o.set("sheen_roughness", m.tex_sheen_roughness >= 0 ? texture(m.tex_sheen_roughness, false, &r) : r);
         }
+        if (m.iridescence > 0.f || m.tex_iridescence >= 0) {
+          JV w = JV::flt(m.iridescence), t = JV::flt(m.iridescence_thickness);
+          o.set("iridescence", m.tex_iridescence >= 0 ? texture(m.tex_iridescence, false, &w) : w);
+          o.set("iridescence_eta", JV::flt(m.iridescence_eta));
+          o.set("iridescence_thickness", m.tex_iridescence_thickness >= 0 ? texture(m.tex_iridescence_thickness, false, &t) : t);
+          if (m.tex_iridescence_thickness >= 0) o.set("iridescence_thickness_min", JV::flt(m.iridescence_thickness_min));
+        }
         if (m.clearcoat > 0.f || m.tex_clearcoat >= 0) {
           float rough = std::sqrt(m.clearcoat_alpha);
           roughness_for_alpha(m.clearcoat_alpha, rough);  // the roughness whose square is alpha, where one is

@@ -218,6 +218,11 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
     weight(m.specular_weight, m.tex_specular);
     if (m.tex_specular_color >= 0) m.specular *= texture_lookup(s.textures[m.tex_specular_color], sh.uv).rgb();
     weight(m.clearcoat, m.tex_clearcoat);
+    weight(m.iridescence, m.tex_iridescence);
+    if (m.tex_iridescence_thickness >= 0) {  // from the minimum (texel 0) to the thickness (texel 1)
+      const float t = clampf(texture_lookup(s.textures[m.tex_iridescence_thickness], sh.uv).r, 0.f, 1.f);
+      m.iridescence_thickness = m.iridescence_thickness_min + (m.iridescence_thickness - m.iridescence_thickness_min) * t;
+    }
     if (m.tex_clearcoat_roughness >= 0) {
       float rough = std::sqrt(maxf(m.clearcoat_alpha, 0.f)) *
                     clampf(texture_lookup(s.textures[m.tex_clearcoat_roughness], sh.uv).g, 0.f, 1.f);

@@ -45,13 +45,12 @@ const std::set<std::string>& supported_extensions() {
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression",
-      "EXT_meshopt_compression", "KHR_materials_unlit"};
+      "EXT_meshopt_compression", "KHR_materials_unlit", "KHR_materials_iridescence"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
-      "KHR_materials_iridescence",
       "KHR_materials_dispersion", "KHR_materials_variants", "KHR_texture_basisu",
       "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
@@ -709,6 +708,7 @@ class Converter {
   }
   // Texels for a slot that reads red from a glTF texture's alpha: grey of that alpha, opaque.
   static void alpha_to_red(float* px) { px[0] = px[1] = px[2] = px[3], px[3] = 1.f; }
+  static void green_to_red(float* px) { px[0] = px[2] = px[1], px[3] = 1.f; }
   int material(size_t i);
   int mesh(size_t mi, size_t pi);
   void visit(size_t node, const Mat4& parent_world);
@@ -1167,6 +1167,31 @@ int Converter::material(size_t i) {
       if (const json* tx = member(t, "sheenRoughnessTexture")) {
         const int ti = texture(*tx, P(sp, "sheenRoughnessTexture"), false);
         if (ti >= 0) mat.tex_sheen_roughness = derived_texture(ti, "#red-from-alpha", alpha_to_red);
+      }
+    }
+  }
+  if (const json* irid = extension("KHR_materials_iridescence", sp)) {
+    // A thin film (material/thin_film.h): its weight iridescenceFactor times iridescenceTexture's red, its IOR,
+    // and its thickness from iridescenceThicknessMinimum to _Maximum by iridescenceThicknessTexture's green
+    // (moved to a copy's red), or the maximum without that texture.
+    const json& t = *irid;
+    mat.iridescence = unit_interval(c_, t, "iridescenceFactor", sp, 0.f);
+    const double eta = number_or(c_, t, "iridescenceIor", sp, 1.3);
+    if (!(eta >= 1.0)) c_.fail(P(sp, "iridescenceIor"), "expected an index of refraction >= 1");
+    mat.iridescence_eta = float(eta);
+    const double lo = number_or(c_, t, "iridescenceThicknessMinimum", sp, 100.0);
+    const double hi = number_or(c_, t, "iridescenceThicknessMaximum", sp, 400.0);
+    if (!(lo >= 0.0)) c_.fail(P(sp, "iridescenceThicknessMinimum"), "expected a thickness >= 0 (nm)");
+    if (!(hi >= 0.0)) c_.fail(P(sp, "iridescenceThicknessMaximum"), "expected a thickness >= 0 (nm)");
+    mat.iridescence_thickness = float(hi);
+    if (mat.iridescence > 0.f) {
+      if (const json* tx = member(t, "iridescenceTexture")) mat.tex_iridescence = texture(*tx, P(sp, "iridescenceTexture"), false);
+      if (const json* tx = member(t, "iridescenceThicknessTexture")) {
+        const int ti = texture(*tx, P(sp, "iridescenceThicknessTexture"), false);
+        if (ti >= 0) {
+          mat.tex_iridescence_thickness = derived_texture(ti, "#red-from-green", green_to_red);
+          mat.iridescence_thickness_min = float(lo);
+        }
       }
     }
   }

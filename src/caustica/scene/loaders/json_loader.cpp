@@ -445,7 +445,8 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "distribution", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
                             "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "specular", "specular_color",
-                            "sheen_color", "sheen_roughness"});
+                            "sheen_color", "sheen_roughness", "iridescence", "iridescence_eta",
+                            "iridescence_thickness", "iridescence_thickness_min"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = perceptual_roughness();
@@ -474,6 +475,25 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     if (max_component(m.sheen_color) > 1.f || min_component(m.sheen_color) < 0.f)
       c.fail(path + "/sheen_color", "expected colour values in [0, 1]");
     m.sheen_roughness = unit_value("sheen_roughness", 0.f, m.tex_sheen_roughness);
+    // KHR_materials_iridescence's thin film (material/thin_film.h): weight, IOR, thickness in nm (a number,
+    // or a texture whose red channel goes from iridescence_thickness_min to its "scale").
+    m.iridescence = unit_value("iridescence", 0.f, m.tex_iridescence);
+    m.iridescence_eta = positive("iridescence_eta", get_f("iridescence_eta", 1.3f));
+    if (j.contains("iridescence_thickness")) {
+      const json& v = j["iridescence_thickness"];
+      std::string p = path + "/iridescence_thickness";
+      if (is_texture_ref(v)) {
+        m.tex_iridescence_thickness = parse_texture(c, v, p, false);
+        m.iridescence_thickness = v.is_object() && v.contains("scale") ? num(c, v["scale"], p += "/scale") : 400.f;
+      } else if (v.is_object()) {
+        c.fail(p, "expected a thickness in nm or a texture ({\"texture\": file, \"scale\": nm})");
+      } else {
+        m.iridescence_thickness = num(c, v, p);
+      }
+      if (!(m.iridescence_thickness >= 0.f)) c.fail(p, "expected a thickness >= 0 (nm)");
+    }
+    m.iridescence_thickness_min = get_f("iridescence_thickness_min", 0.f);
+    if (!(m.iridescence_thickness_min >= 0.f)) c.fail(path + "/iridescence_thickness_min", "expected a thickness >= 0 (nm)");
   } else if (type == "principled") {
     // Mitsuba 3's principled BSDF (material/principled.h).
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "anisotropic", "alpha", "anisotropy_rotation",
