@@ -2,7 +2,8 @@
 """Writes the fuzzer's seed corpus (tests/fuzz/corpus): one small valid file
 per scene format, each using the features its loader parses (materials,
 textures, transforms, lights, cameras), so mutations reach deep code paths.
-Run it again after changing a seed; the files are committed."""
+Run it again after changing a seed (with the venv's Python, which has Pillow for the WebP seed:
+.venv/bin/python tests/fuzz/make_corpus.py); the files are committed."""
 import base64
 import json
 import struct
@@ -215,6 +216,39 @@ def main():
     glb = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(glb_bin))
     glb += struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(glb_bin), 0x004E4942) + glb_bin
     (OUT / "scene.glb").write_bytes(glb)
+
+    # A GLB whose quad's texture is an embedded lossless WebP (EXT_texture_webp, no PNG fallback), so that
+    # mutations reach the WebP decoder and the image's size checks.
+    import io
+    from PIL import Image
+    webp = io.BytesIO()
+    Image.frombytes("RGB", (2, 2), bytes(v for px in [(255, 0, 0), (0, 255, 0), (0, 0, 255), (255, 255, 255)] for v in px)
+                    ).save(webp, format="WEBP", lossless=True)
+    webp = webp.getvalue()
+    wbin = pos + uv + idx + b"\0\0" + webp
+    wbin += b"\0" * ((4 - len(wbin) % 4) % 4)
+    wdoc = {
+        "asset": {"version": "2.0"}, "extensionsUsed": ["EXT_texture_webp"], "extensionsRequired": ["EXT_texture_webp"],
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"extensions": {"EXT_texture_webp": {"source": 0}}}],
+        "images": [{"bufferView": 3, "mimeType": "image/webp"}],
+        "buffers": [{"byteLength": len(wbin)}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
+                        {"buffer": 0, "byteOffset": len(pos), "byteLength": len(uv)},
+                        {"buffer": 0, "byteOffset": len(pos) + len(uv), "byteLength": len(idx)},
+                        {"buffer": 0, "byteOffset": len(pos) + len(uv) + len(idx) + 2, "byteLength": len(webp)}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+    }
+    js = json.dumps(wdoc).encode()
+    js += b" " * ((4 - len(js) % 4) % 4)
+    glb = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(wbin))
+    glb += struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(wbin), 0x004E4942) + wbin
+    (OUT / "webp.glb").write_bytes(glb)
 
     # Mitsuba 3 XML: defaults and $params, ref, twosided, shapes of each kind, emitters, sensor.
     (OUT / "scene.xml").write_text("""<scene version="3.0.0">

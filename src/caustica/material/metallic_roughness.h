@@ -46,7 +46,8 @@
 // says, each layer's Fresnel term F becomes (1 - k) F + k F_film, F_film the film's reflectance over a base of
 // the dielectric's IOR, or, for the metal, per channel over a dielectric whose F0 is the base colour
 // (film_ior_from_f0). The film's colour then plays the part of the specular colour: the dielectric's base
-// takes 1 - max(F) on each side and its lobe is picked by max(F), as with KHR_materials_specular.
+// takes 1 - max(F) on each side and its lobe is picked by max(F), as with KHR_materials_specular. The glass keeps
+// its own Fresnel.
 //
 // KHR_materials_sheen (m.sheen_color, m.sheen_roughness; alpha = roughness^2, at least 1e-3), under the coat and
 // over the rest: the extension's sheen lobe, sheen_color D V with the Charlie distribution and the visibility of

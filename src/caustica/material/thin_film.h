@@ -1,9 +1,11 @@
 // Thin-film interference (KHR_materials_iridescence): the reflectance, as a linear sRGB colour, of a
 // dielectric film of IOR eta2 and thickness d (nm) between the outside (IOR 1) and a base of IOR eta3, after
 // Belcour & Barla 2017, "A Practical Extension to Microfacet Theory for the Modeling of Varying Iridescence"
-// (ACM TOG 36(4), 65): the film's reflections summed as Airy does (their Sec. 3) and the spectrum integrated
-// against the colour matching functions in closed form (their Sec. 4), the functions being Gaussians in
-// wavenumber whose cosine transforms are known (the fits of their supplemental material).
+// (ACM TOG 36(4), 65): the film's reflections summed as Airy does and the spectrum integrated against the
+// colour matching functions in closed form, the functions being Gaussians in wavenumber whose cosine transforms
+// are known (the fits of their supplemental material, whose constants are used below). Their equation numbers
+// could not be checked here (the paper was not reachable), so the derivation caustica uses is written out in
+// full below instead; it is its own (a Fourier series in the phase of the exact amplitude sum).
 //
 // Per polarization, with real amplitude coefficients a = r12 and b = r23 (no total internal reflection; the
 // amplitude form carries the pi phase shifts in their signs) and the phase delta = 2 pi x / lambda of the
