@@ -12,22 +12,10 @@ import copy
 import datetime
 import json
 import os
-import platform
 import statistics
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def cpu_name():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def main():
@@ -39,7 +27,7 @@ def main():
     ap.add_argument("--no-append", action="store_true")
     a = ap.parse_args()
     import caustica
-    from caustica._provenance import commit
+    from caustica._provenance import commit, machine
     with open(os.path.join(ROOT, "bench", "scenes", "mr_spheres.json")) as f:
         plain = json.load(f)
     film = copy.deepcopy(plain)
@@ -60,7 +48,7 @@ def main():
     if not a.no_append:
         when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         with open(os.path.join(ROOT, "bench", "RESULTS.md"), "a") as f:
-            f.write(f"\n| {when} | {cpu_name()}, {os.cpu_count()} cores | {commit(ROOT)} | `{cmd}` "
+            f.write(f"\n| {when} | {machine()} | {commit(ROOT)} | `{cmd}` "
                     f"(mr_spheres {a.integrator} {a.spp} spp, {a.threads} thread(s)) | {line} |\n")
 
 

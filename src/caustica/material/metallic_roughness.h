@@ -70,8 +70,9 @@ constexpr float kSmoothAlpha = 1e-3f;
 
 CHD RGB schlick_fresnel(RGB f0, float cos_i) { return f0 + (RGB(1.f) - f0) * schlick_weight(cos_i); }
 CHD bool mr_iridescent(const Material& m) { return m.iridescence > 0.f; }
-// F mixed with the film's reflectance over a base of IOR eta3 (KHR_materials_iridescence; top of this file).
-CHD RGB mr_film_mix(const Material& m, RGB F, float c, RGB eta3) {
+// F mixed with the film's reflectance over a base of IOR eta3 (KHR_materials_iridescence; top of this file). Out
+// of line, as the layers below, so that materials without a film do not carry its code inlined.
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB mr_film_mix(const Material& m, RGB F, float c, RGB eta3) {
   return F * (1.f - m.iridescence) + thin_film_reflectance(c, m.iridescence_eta, eta3, m.iridescence_thickness) * m.iridescence;
 }
 // The metal's Fresnel: Schlick's with F0 the base colour, under the film where there is one.
