@@ -3,7 +3,7 @@
 on its metal and plastic spheres (material/thin_film.h: 4 cosines and 4 exponentials per Fresnel evaluation), in
 the current build, the two alternating in one process so that drifts of the machine's speed hit both alike.
 Reports the median render seconds (stats["seconds"]: the passes, not the load) and their ratio, and appends a row
-to bench/RESULTS.md unless --no-append.
+to bench/RESULTS.md unless --no-append (under the table of such rows there, the last lines of the file).
 
 usage: .venv/bin/python bench/bench_iridescence.py [--integrator path] [--spp 16] [--runs 5] [--threads 1]
 """
@@ -48,7 +48,7 @@ def main():
     if not a.no_append:
         when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         with open(os.path.join(ROOT, "bench", "RESULTS.md"), "a") as f:
-            f.write(f"\n| {when} | {machine()} | {commit(ROOT)} | `{cmd}` "
+            f.write(f"| {when} | {machine()} | {commit(ROOT)} | `{cmd}` "
                     f"(mr_spheres {a.integrator} {a.spp} spp, {a.threads} thread(s)) | {line} |\n")
 
 
