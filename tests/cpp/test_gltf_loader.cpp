@@ -470,6 +470,15 @@ TEST(GltfLoader, Iridescence) {
   std::string p = e.write("badfilm");
   EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_iridescence/iridescenceIor: expected an index of "
                              "refraction >= 1");
+  // Its texture infos are checked as the other extensions' (the fuzzer found one without an index read freed
+  // memory).
+  Builder t;
+  t.push("materials", {{"extensions", {{"KHR_materials_iridescence", {{"iridescenceFactor", 1.0},
+                                                                       {"iridescenceThicknessTexture", {{"texCoord", 0}}}}}}}});
+  t.scene({t.push("nodes", {{"mesh", t.quad(0)}})});
+  p = t.write("badfilmtex");
+  EXPECT_NE(error_of(p).find(p + ": /materials/0/extensions/KHR_materials_iridescence/iridescenceThicknessTexture"),
+            std::string::npos) << error_of(p);
 }
 
 TEST(GltfLoader, Sheen) {

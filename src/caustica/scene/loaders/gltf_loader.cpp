@@ -432,6 +432,11 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
         object_at(c, *t, sp);
         for (const char* k : {"sheenColorTexture", "sheenRoughnessTexture"}) check_texinfo(*t, k, sp);
       }
+      if (const json* t = member(*ext, "KHR_materials_iridescence")) {
+        const std::string ip = P(ep, "KHR_materials_iridescence");
+        object_at(c, *t, ip);
+        for (const char* k : {"iridescenceTexture", "iridescenceThicknessTexture"}) check_texinfo(*t, k, ip);
+      }
     }
   }
   // Meshes.
