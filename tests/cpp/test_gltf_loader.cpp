@@ -479,6 +479,16 @@ TEST(GltfLoader, Iridescence) {
   p = t.write("badfilmtex");
   EXPECT_NE(error_of(p).find(p + ": /materials/0/extensions/KHR_materials_iridescence/iridescenceThicknessTexture"),
             std::string::npos) << error_of(p);
+  // So are KHR_materials_anisotropy's and KHR_materials_pbrSpecularGlossiness's, which were not either.
+  for (const char* ext : {"KHR_materials_anisotropy", "KHR_materials_pbrSpecularGlossiness"}) {
+    const char* key = std::string(ext) == "KHR_materials_anisotropy" ? "anisotropyTexture" : "diffuseTexture";
+    Builder u;
+    u.push("materials", {{"extensions", {{ext, {{key, {{"texCoord", 0}}}}}}}});
+    u.scene({u.push("nodes", {{"mesh", u.quad(0)}})});
+    p = u.write("badtexinfo");
+    EXPECT_NE(error_of(p).find(p + ": /materials/0/extensions/" + std::string(ext) + "/" + key + "/index: missing"),
+              std::string::npos) << error_of(p);
+  }
 }
 
 TEST(GltfLoader, Sheen) {

@@ -437,6 +437,16 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
         object_at(c, *t, ip);
         for (const char* k : {"iridescenceTexture", "iridescenceThicknessTexture"}) check_texinfo(*t, k, ip);
       }
+      if (const json* t = member(*ext, "KHR_materials_anisotropy")) {
+        const std::string ap = P(ep, "KHR_materials_anisotropy");
+        check_texinfo(object_at(c, *t, ap), "anisotropyTexture", ap);
+      }
+      if (const json* t = member(*ext, "KHR_materials_pbrSpecularGlossiness")) {
+        const std::string gp = P(ep, "KHR_materials_pbrSpecularGlossiness");
+        object_at(c, *t, gp);
+        for (const char* k : {"diffuseTexture", "specularGlossinessTexture"}) check_texinfo(*t, k, gp);
+      }
+      // Every texture info Converter::material reads must be checked here: it indexes them without checks.
     }
   }
   // Meshes.
