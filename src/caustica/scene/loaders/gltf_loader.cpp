@@ -412,41 +412,27 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
     if (const json* ext = member(m, "extensions")) {
       object_at(c, *ext, P(p, "extensions"));
       std::string ep = P(p, "extensions");
-      if (const json* t = member(*ext, "KHR_materials_transmission"))
-        check_texinfo(object_at(c, *t, P(ep, "KHR_materials_transmission")), "transmissionTexture", P(ep, "KHR_materials_transmission"));
-      if (const json* t = member(*ext, "KHR_materials_volume"))
-        check_texinfo(object_at(c, *t, P(ep, "KHR_materials_volume")), "thicknessTexture", P(ep, "KHR_materials_volume"));
-      if (const json* t = member(*ext, "KHR_materials_clearcoat")) {
-        const std::string cp = P(ep, "KHR_materials_clearcoat");
-        object_at(c, *t, cp);
-        for (const char* k : {"clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"})
-          check_texinfo(*t, k, cp);
-      }
-      if (const json* t = member(*ext, "KHR_materials_specular")) {
-        const std::string sp = P(ep, "KHR_materials_specular");
-        object_at(c, *t, sp);
-        for (const char* k : {"specularTexture", "specularColorTexture"}) check_texinfo(*t, k, sp);
-      }
-      if (const json* t = member(*ext, "KHR_materials_sheen")) {
-        const std::string sp = P(ep, "KHR_materials_sheen");
-        object_at(c, *t, sp);
-        for (const char* k : {"sheenColorTexture", "sheenRoughnessTexture"}) check_texinfo(*t, k, sp);
-      }
-      if (const json* t = member(*ext, "KHR_materials_iridescence")) {
-        const std::string ip = P(ep, "KHR_materials_iridescence");
-        object_at(c, *t, ip);
-        for (const char* k : {"iridescenceTexture", "iridescenceThicknessTexture"}) check_texinfo(*t, k, ip);
-      }
-      if (const json* t = member(*ext, "KHR_materials_anisotropy")) {
-        const std::string ap = P(ep, "KHR_materials_anisotropy");
-        check_texinfo(object_at(c, *t, ap), "anisotropyTexture", ap);
-      }
-      if (const json* t = member(*ext, "KHR_materials_pbrSpecularGlossiness")) {
-        const std::string gp = P(ep, "KHR_materials_pbrSpecularGlossiness");
-        object_at(c, *t, gp);
-        for (const char* k : {"diffuseTexture", "specularGlossinessTexture"}) check_texinfo(*t, k, gp);
-      }
-      // Every texture info Converter::material reads must be checked here: it indexes them without checks.
+      // The texture infos of the material extensions; every one Converter::material reads must be listed here:
+      // it indexes them without checks.
+      struct ExtTextures {
+        const char* ext;
+        std::vector<const char*> keys;
+      };
+      static const ExtTextures kExtTextures[] = {
+          {"KHR_materials_transmission", {"transmissionTexture"}},
+          {"KHR_materials_volume", {"thicknessTexture"}},
+          {"KHR_materials_clearcoat", {"clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"}},
+          {"KHR_materials_specular", {"specularTexture", "specularColorTexture"}},
+          {"KHR_materials_sheen", {"sheenColorTexture", "sheenRoughnessTexture"}},
+          {"KHR_materials_iridescence", {"iridescenceTexture", "iridescenceThicknessTexture"}},
+          {"KHR_materials_anisotropy", {"anisotropyTexture"}},
+          {"KHR_materials_pbrSpecularGlossiness", {"diffuseTexture", "specularGlossinessTexture"}}};
+      for (const ExtTextures& e : kExtTextures)
+        if (const json* t = member(*ext, e.ext)) {
+          const std::string xp = P(ep, e.ext);
+          object_at(c, *t, xp);
+          for (const char* k : e.keys) check_texinfo(*t, k, xp);
+        }
     }
   }
   // Meshes.
