@@ -341,7 +341,8 @@ TEST(GltfLoader, MaterialsTransmissionVolumeEmission) {
 
 TEST(GltfLoader, Clearcoat) {
   // KHR_materials_clearcoat: the factor and the roughness (alpha = roughness^2), their textures (linear), the
-  // coat normal warned about; no coat without the extension or with factor 0 (its textures unused then).
+  // coat's normal texture and its scale; no coat without the extension or with factor 0 (its textures unused
+  // then).
   Builder b;
   b.j["extensionsUsed"] = {"KHR_materials_clearcoat"};
   b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {200, 100, 50}))}});
@@ -350,7 +351,7 @@ TEST(GltfLoader, Clearcoat) {
                        {"extensions",
                         {{"KHR_materials_clearcoat",
                           {{"clearcoatFactor", 0.8}, {"clearcoatRoughnessFactor", 0.3}, {"clearcoatTexture", {{"index", 0}}},
-                           {"clearcoatRoughnessTexture", {{"index", 0}}}, {"clearcoatNormalTexture", {{"index", 0}}}}}}}});
+                           {"clearcoatRoughnessTexture", {{"index", 0}}}, {"clearcoatNormalTexture", {{"index", 0}, {"scale", 0.5}}}}}}}});
   b.push("materials", {{"name", "plain"}});
   b.push("materials", {{"name", "off"},
                        {"extensions", {{"KHR_materials_clearcoat", {{"clearcoatTexture", {{"index", 0}}}}}}}});
@@ -365,12 +366,16 @@ TEST(GltfLoader, Clearcoat) {
   EXPECT_EQ(m.tex_clearcoat_roughness, m.tex_clearcoat);  // one image, both linear: decoded once
   EXPECT_FALSE(d.textures[size_t(m.tex_clearcoat)].srgb);
   EXPECT_NEAR(d.textures[size_t(m.tex_clearcoat)].rgba[0], 200.f / 255.f, 1e-6f);
-  EXPECT_TRUE(has_warning(d, "KHR_materials_clearcoat's clearcoatNormalTexture is not supported; the coat uses the "
-                             "base's shading normal"));
+  EXPECT_EQ(m.tex_clearcoat_normal, m.tex_clearcoat);  // linear too
+  EXPECT_FLOAT_EQ(m.clearcoat_normal_scale, 0.5f);
+  EXPECT_EQ(m.tex_normal, -1);  // the base's normal stays unmapped
+  for (const std::string& w : d.warnings) EXPECT_EQ(w.find("clearcoatNormalTexture"), std::string::npos) << w;  // supported
   EXPECT_EQ(d.materials[1].clearcoat, 0.f);
+  EXPECT_EQ(d.materials[1].tex_clearcoat_normal, -1);
   EXPECT_EQ(d.materials[1].tex_clearcoat, -1);
   EXPECT_EQ(d.materials[2].clearcoat, 0.f);  // clearcoatFactor defaults to 0: the texture scales nothing
   EXPECT_EQ(d.materials[2].tex_clearcoat, -1);
+  EXPECT_EQ(d.materials[2].tex_clearcoat_normal, -1);
   // Bad values name the JSON path.
   Builder e;
   e.push("materials", {{"extensions", {{"KHR_materials_clearcoat", {{"clearcoatRoughnessFactor", 1.5}}}}}});

@@ -79,6 +79,11 @@ struct Material {
   // clearcoat_alpha (clearcoatRoughness^2; material/metallic_roughness.h).
   float spec_tint = 0.f, sheen = 0.f, sheen_tint = 0.f, flatness = 0.f, clearcoat = 0.f, clearcoat_gloss = 0.f;
   float clearcoat_alpha = 0.f;
+  // Metallic-roughness: the coat's normal in the shading frame (z along the shading normal), set per hit by
+  // surface_material (scene/shading.h): the surface's normal before the base's normal or bump map, turned by
+  // tex_clearcoat_normal (KHR_materials_clearcoat's clearcoatNormalTexture, scaled by clearcoat_normal_scale).
+  Vec3f coat_normal{0.f, 0.f, 1.f};
+  float clearcoat_normal_scale = 1.f;
   // Metallic-roughness: KHR_materials_sheen's sheenColorFactor (black: no sheen) and sheenRoughnessFactor
   // (perceptual; the Charlie distribution's alpha is its square).
   RGB sheen_color{0.f};
@@ -111,6 +116,8 @@ struct Material {
   //   tex_iridescence: its iridescence weight times R (KHR_materials_iridescence's iridescenceTexture);
   //   tex_iridescence_thickness: its film thickness from the minimum to iridescence_thickness by R (the glTF
   //     loader moves iridescenceThicknessTexture's green channel there).
+  //   tex_clearcoat_normal: a tangent-space normal map for the coat alone (clearcoatNormalTexture; as tex_normal,
+  //     on the surface's normal: the base's normal map does not move the coat).
   //   Principled: tex_clearcoat and tex_transmission as above (clearcoat, spec_trans times R), and
   //     tex_metallic, tex_spec_tint, tex_sheen, tex_sheen_tint, tex_flatness, tex_clearcoat_gloss: those weights
   //     times R (the Mitsuba loader gives them grey copies of its images: Mitsuba reads a float texture's
@@ -119,7 +126,7 @@ struct Material {
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
   int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1,
           tex_transmission = -1, tex_sheen_color = -1, tex_sheen_roughness = -1, tex_iridescence = -1,
-          tex_iridescence_thickness = -1;
+          tex_iridescence_thickness = -1, tex_clearcoat_normal = -1;
   int32_t tex_metallic = -1, tex_spec_tint = -1, tex_sheen = -1, tex_sheen_tint = -1, tex_flatness = -1,
           tex_clearcoat_gloss = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
@@ -152,10 +159,11 @@ struct Material {
 
 // Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
 // writers' lists of used images); without `opacity` the opacity slot reads as empty.
-inline std::array<int32_t, 22> material_textures(const Material& m, bool opacity = true) {
+inline std::array<int32_t, 23> material_textures(const Material& m, bool opacity = true) {
   return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
           m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, m.tex_transmission,
-          m.tex_sheen_color, m.tex_sheen_roughness, m.tex_iridescence, m.tex_iridescence_thickness, m.tex_metallic, m.tex_spec_tint, m.tex_sheen,
+          m.tex_sheen_color, m.tex_sheen_roughness, m.tex_iridescence, m.tex_iridescence_thickness, m.tex_clearcoat_normal,
+          m.tex_metallic, m.tex_spec_tint, m.tex_sheen,
           m.tex_sheen_tint, m.tex_flatness, m.tex_clearcoat_gloss, opacity ? m.tex_opacity : -1, m.tex_mix};
 }
 

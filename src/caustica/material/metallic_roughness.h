@@ -37,9 +37,16 @@
 // Fresnel at the microfacet, as the dielectric's specular lobe above), and, as for the dielectric's base, the
 // base is attenuated on both sides, (1 - c Fc(cos_o)) (1 - c Fc(cos_i)), a direction below the surface (glass
 // seen from inside) passing no coat: reciprocal, and the albedo stays <= 1 (the coat reflects at most
-// c Fc(cos_o) of the light, the base gets the rest). The coat shares the shading normal (a
-// clearcoatNormalTexture is not used). Sampling picks the coat with probability c Fc(cos_o), its reflectance,
-// and the base mixture otherwise; a coat with alpha below kSmoothAlpha is a mirror (a delta lobe).
+// c Fc(cos_o) of the light, the base gets the rest). Sampling picks the coat with probability c Fc(cos_o), its
+// reflectance, and the base mixture otherwise; a coat with alpha below kSmoothAlpha is a mirror (a delta lobe).
+// The coat has its own normal n_c (m.coat_normal): as the extension says, the surface's normal without the
+// base's normal map, or its clearcoatNormalTexture's. The coat's cosines, D and G are taken about n_c, and the
+// lobe is the microfacet BRDF about n_c put in the shading frame's measure: c Fc D G / (4 |wo.n_c| |wi.z|),
+// whose projected-solid-angle integral is the coat's own albedo about n_c (<= c Fc(wo.n_c), so the albedo stays
+// <= 1 and the VNDF sample's weight is Fc(wo.h) G / (Fc(wo.n_c) G1(wo))). Like a shading normal (Veach 1997,
+// Sec. 5.3.2) a tilted n_c makes the lobe asymmetric: importance transport (mode kImportance) evaluates the
+// adjoint f(wi, wo), c Fc D G / (4 |wi.n_c| |wo.z|). The base's side factors 1 - c Fc(w.n_c) are symmetric.
+// With n_c the shading normal all of this is the lobe above.
 //
 // KHR_materials_iridescence (m.iridescence k, m.iridescence_eta, m.iridescence_thickness): a thin film over the
 // metal and the dielectric's specular layer (material/thin_film.h, Belcour & Barla 2017). As the extension
@@ -292,15 +299,36 @@ CHD float mr_sheen_scaling(const Material& m, Vec3f wo, Vec3f wi) {
 // The clear coat (KHR_materials_clearcoat; see the top of this file).
 constexpr float kCoatEta = 1.5f;
 CHD bool mr_coat_smooth(const Material& m) { return m.clearcoat_alpha < kSmoothAlpha; }
-// The share of the light the coat lets through towards w: 1 - c Fc(cos), and 1 below the surface.
+// The share of the light the coat lets through towards w: 1 - c Fc(w.n_c), and 1 below the surface or the coat.
 CHD float mr_coat_through(const Material& m, Vec3f w) {
-  return w.z > 0.f ? 1.f - m.clearcoat * fresnel_dielectric(w.z, kCoatEta) : 1.f;
+  const float c = dot(w, m.coat_normal);
+  return w.z > 0.f && c > 0.f ? 1.f - m.clearcoat * fresnel_dielectric(c, kCoatEta) : 1.f;
 }
-// The coat's reflectance seen from wo, c Fc(cos_o): its lobe's selection probability.
+// The coat's reflectance seen from wo, c Fc(wo.n_c): its lobe's selection probability.
 CHD float mr_coat_prob(const Material& m, Vec3f wo) {
-  return wo.z > 0.f && m.clearcoat > 0.f ? m.clearcoat * fresnel_dielectric(wo.z, kCoatEta) : 0.f;
+  const float c = dot(wo, m.coat_normal);
+  return wo.z > 0.f && c > 0.f && m.clearcoat > 0.f ? m.clearcoat * fresnel_dielectric(c, kCoatEta) : 0.f;
 }
 CHD Microfacet mr_coat_microfacet(const Material& m) { return Microfacet{m.clearcoat_alpha, m.clearcoat_alpha, false}; }
+// The rough coat's lobe (without the cosine) and its sampling density given the coat is picked; zero unless wo
+// and wi are above both the surface and the coat.
+CHD RGB mr_coat_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
+  const Frame fc(m.coat_normal);
+  const Vec3f o = fc.to_local(wo), i = fc.to_local(wi);
+  if (wo.z <= 0.f || wi.z <= 0.f || o.z <= 0.f || i.z <= 0.f) return RGB(0.f);
+  const Vec3f wm = normalize(o + i);
+  const Microfacet g = mr_coat_microfacet(m);
+  const float cos_in_frame = mode == TransportMode::kRadiance ? o.z * wi.z : i.z * wo.z;
+  return RGB(m.clearcoat * fresnel_dielectric(absdot(o, wm), kCoatEta) * g.D(wm) * g.G(o, i) /
+             (4.f * cos_in_frame));
+}
+CHD float mr_coat_pdf(const Material& m, Vec3f wo, Vec3f wi) {
+  const Frame fc(m.coat_normal);
+  const Vec3f o = fc.to_local(wo), i = fc.to_local(wi);
+  if (wi.z <= 0.f || i.z <= 0.f) return 0.f;
+  const Vec3f wm = normalize(o + i);
+  return mr_coat_microfacet(m).pdf_wm(o, wm) / (4.f * absdot(o, wm));
+}
 
 // A coat or a sheen over the base. Without one, eval, pdf and sample are the base's alone, and the layers'
 // code below is kept out of line so that plain metallic-roughness materials run the base's code as before the
@@ -315,11 +343,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB mr_layered_eval(const Material
     f = f * mr_sheen_scaling(m, wo, wi) + m.sheen_color * mr_sheen_eval(m, wo, wi);
   if (!(m.clearcoat > 0.f)) return f;
   f = f * (mr_coat_through(m, wo) * mr_coat_through(m, wi));
-  if (wo.z <= 0.f || wi.z <= 0.f || mr_coat_smooth(m)) return f;
-  Vec3f wm = normalize(wo + wi);
-  Microfacet g = mr_coat_microfacet(m);
-  return f + RGB(m.clearcoat * fresnel_dielectric(absdot(wo, wm), kCoatEta) * g.D(wm) * g.G(wo, wi) /
-                 (4.f * wo.z * wi.z));
+  return mr_coat_smooth(m) ? f : f + mr_coat_eval(m, wo, wi, mode);
 }
 
 // Density of the continuous parts of the sampling mixture, with the layers.
@@ -330,9 +354,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline float mr_layered_pdf(const Materia
   float pc = mr_coat_prob(m, wo);
   if (!(pc > 0.f)) return pdf;
   pdf *= 1.f - pc;
-  if (wi.z <= 0.f || mr_coat_smooth(m)) return pdf;
-  Vec3f wm = normalize(wo + wi);
-  return pdf + pc * mr_coat_microfacet(m).pdf_wm(wo, wm) / (4.f * absdot(wo, wm));
+  return mr_coat_smooth(m) ? pdf : pdf + pc * mr_coat_pdf(m, wo, wi);
 }
 
 CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
@@ -349,15 +371,19 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool mr_layered_sample(const Mater
   const float pc = mr_coat_prob(m, wo);
   if (uc < pc) {  // the coat
     s.eta = 1.f;
+    const Vec3f nc = m.coat_normal;
     if (mr_coat_smooth(m)) {
-      s.wi = Vec3f(-wo.x, -wo.y, wo.z);
+      s.wi = reflect(wo, nc);
+      if (s.wi.z <= 0.f) return false;
       s.delta = true;
       s.pdf = pc;
-      s.weight = RGB(1.f);  // the mirror's mass c Fc(cos_o) over its probability
+      // The mirror's mass c Fc(wo.n_c) over its probability; the adjoint's carries |wi.z| / |wo.z| (see above).
+      s.weight = RGB(mode == TransportMode::kRadiance ? 1.f : s.wi.z / wo.z);
       return true;
     }
-    s.wi = reflect(wo, mr_coat_microfacet(m).sample_wm(wo, u));
-    if (s.wi.z <= 0.f) return false;
+    const Frame fc(nc);
+    s.wi = reflect(wo, fc.to_world(mr_coat_microfacet(m).sample_wm(fc.to_local(wo), u)));
+    if (s.wi.z <= 0.f || dot(s.wi, nc) <= 0.f) return false;
   } else {
     if (pc > 0.f) uc = minf((uc - pc) / (1.f - pc), 0.99999994f);
     const float psh = mr_sheen_albedo(m, wo);

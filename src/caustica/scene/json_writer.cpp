@@ -376,6 +376,10 @@ struct Writer {
           JV w = JV::flt(m.clearcoat), r = JV::flt(rough);
           o.set("clearcoat", m.tex_clearcoat >= 0 ? texture(m.tex_clearcoat, false, &w) : w);
           o.set("clearcoat_roughness", m.tex_clearcoat_roughness >= 0 ? texture(m.tex_clearcoat_roughness, false, &r) : r);
+          if (m.tex_clearcoat_normal >= 0) {
+            JV sc = JV::flt(m.clearcoat_normal_scale);
+            o.set("clearcoat_normal_map", texture(m.tex_clearcoat_normal, false, &sc));
+          }
         }
         break;
       }

@@ -122,22 +122,32 @@ CHD Frame shading_frame(const SceneView& s, const SurfaceHit& sh, const Material
   return tangent_frame(sh.ns, shading_tangent(s, sh, m));
 }
 
-CHD void apply_normal_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
+// The normal that normal map `tex` (scaled by `scale`) gives at a hit: from the shading normal sh.ns in the
+// frame of the surface's u and v axes; false where there is no such frame or the normal would cross the
+// geometric surface.
+CHD bool normal_map_normal(const SceneView& s, const Material& m, const SurfaceHit& sh, int32_t tex, float scale,
+                           Vec3f& out) {
   Vec3f dpdu, dpdv;
-  if (!surface_uv_axes(s, sh, dpdu, dpdv)) return;
+  if (!surface_uv_axes(s, sh, dpdu, dpdv)) return false;
   Vec3f n = sh.ns;
   Vec3f t = dpdu - n * dot(n, dpdu);
-  if (length_sq(t) == 0.f) return;
+  if (length_sq(t) == 0.f) return false;
   t = normalize(t);
   Vec3f b = cross(n, t);
   if (!(m.flags & kNormalMapCross) && dot(b, dpdv) < 0.f) b = -b;  // mirrored UVs
-  RGB c = texture_lookup(s.textures[m.tex_normal], sh.uv).rgb();
-  Vec3f ts((2.f * c.x - 1.f) * m.normal_scale, (2.f * c.y - 1.f) * m.normal_scale, 2.f * c.z - 1.f);
+  RGB c = texture_lookup(s.textures[tex], sh.uv).rgb();
+  Vec3f ts((2.f * c.x - 1.f) * scale, (2.f * c.y - 1.f) * scale, 2.f * c.z - 1.f);
   Vec3f nn = t * ts.x + b * ts.y + n * ts.z;
-  if (!(length_sq(nn) > 0.f)) return;
+  if (!(length_sq(nn) > 0.f)) return false;
   nn = normalize(nn);
-  if (dot(nn, sh.ng) * dot(n, sh.ng) <= 0.f) return;  // would cross the geometric surface
-  sh.ns = nn;
+  if (dot(nn, sh.ng) * dot(n, sh.ng) <= 0.f) return false;  // would cross the geometric surface
+  out = nn;
+  return true;
+}
+
+CHD void apply_normal_map(const SceneView& s, const Material& m, SurfaceHit& sh) {
+  Vec3f n;
+  if (normal_map_normal(s, m, sh, m.tex_normal, m.normal_scale, n)) sh.ns = n;
 }
 
 // Bump mapping with height h = bump_scale x (the texture's luminance) along the shading normal n, as
@@ -248,8 +258,19 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
     float dx = 2.f * a.r - 1.f, dy = 2.f * a.g - 1.f;
     if (dx != 0.f || dy != 0.f) m.aniso_rotation += std::atan2(dy, dx);
   }
+  // The coat's normal (KHR_materials_clearcoat): the surface's before the base's maps, or its own map's.
+  Vec3f coat_n = sh.ns;
+  const bool coat_own = m.type == MaterialType::kMetallicRoughness && m.clearcoat > 0.f &&
+                        (m.tex_clearcoat_normal >= 0 || m.tex_normal >= 0 || m.tex_bump >= 0);
+  if (coat_own && m.tex_clearcoat_normal >= 0)
+    normal_map_normal(s, m, sh, m.tex_clearcoat_normal, m.clearcoat_normal_scale, coat_n);
   if (m.tex_normal >= 0) apply_normal_map(s, m, sh);
   else if (m.tex_bump >= 0) apply_bump_map(s, m, sh);
+  if (coat_own) {
+    // In the shading frame, on its upper side (a map may tilt either normal past the other's horizon).
+    const Vec3f c = shading_frame(s, sh, m).to_local(coat_n);
+    m.coat_normal = c.z > 1e-4f ? c : Vec3f(0.f, 0.f, 1.f);
+  }
   return m;
 }
 

@@ -1123,7 +1123,8 @@ int Converter::material(size_t i) {
   std::string cp, sp;
   if (const json* clearcoat = extension("KHR_materials_clearcoat", cp)) {
     // A GGX coat of IOR 1.5 (material/metallic_roughness.h): clearcoatFactor times the clearcoatTexture's R,
-    // roughness clearcoatRoughnessFactor times the clearcoatRoughnessTexture's G (alpha = roughness^2).
+    // roughness clearcoatRoughnessFactor times the clearcoatRoughnessTexture's G (alpha = roughness^2), its
+    // normal the surface's (not the normalTexture's) or clearcoatNormalTexture's.
     const json& t = *clearcoat;
     mat.clearcoat = unit_interval(c_, t, "clearcoatFactor", cp, 0.f);
     const float rough = unit_interval(c_, t, "clearcoatRoughnessFactor", cp, 0.f);
@@ -1132,9 +1133,10 @@ int Converter::material(size_t i) {
       if (const json* tx = member(t, "clearcoatTexture")) mat.tex_clearcoat = texture(*tx, P(cp, "clearcoatTexture"), false);
       if (const json* tx = member(t, "clearcoatRoughnessTexture"))
         mat.tex_clearcoat_roughness = texture(*tx, P(cp, "clearcoatRoughnessTexture"), false);
-      if (member(t, "clearcoatNormalTexture"))
-        warn_once("KHR_materials_clearcoat's clearcoatNormalTexture is not supported; the coat uses the base's "
-                  "shading normal");
+      if (const json* tx = member(t, "clearcoatNormalTexture")) {  // a normal map for the coat alone
+        mat.tex_clearcoat_normal = texture(*tx, P(cp, "clearcoatNormalTexture"), false);
+        mat.clearcoat_normal_scale = float(number_or(c_, *tx, "scale", P(cp, "clearcoatNormalTexture"), 1.0));
+      }
     }
   }
   if (const json* tr = extension("KHR_materials_transmission", sp)) {  // transmissionTexture: its red channel

@@ -444,7 +444,7 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
   } else if (type == "metallic_roughness") {
     check_keys(c, j, path, {"type", "base_color", "metallic", "roughness", "alpha", "distribution", "anisotropy_rotation", "anisotropy_texture", "transmission",
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
-                            "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "specular", "specular_color",
+                            "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "clearcoat_normal_map", "specular", "specular_color",
                             "sheen_color", "sheen_roughness", "iridescence", "iridescence_eta",
                             "iridescence_thickness", "iridescence_thickness_min"});
     RGB base = get_ct("base_color", RGB(0.8f));
@@ -573,6 +573,13 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
   }
   m.tex_color = tex_color;
   m.tex_roughness = tex_rough;
+  if (j.contains("clearcoat_normal_map")) {  // metallic_roughness only (its check_keys)
+    const json& v = j["clearcoat_normal_map"];
+    std::string p = path + "/clearcoat_normal_map";
+    if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
+    m.tex_clearcoat_normal = parse_texture(c, v, p, false);
+    if (v.is_object() && v.contains("scale")) m.clearcoat_normal_scale = num(c, v["scale"], p + "/scale");
+  }
   if (j.contains("normal_map") && j.contains("bump_map")) c.fail(path + "/bump_map", "give normal_map or bump_map, not both");
   if (j.contains("normal_map")) {
     const json& v = j["normal_map"];
