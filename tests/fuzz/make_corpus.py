@@ -92,7 +92,7 @@ def main():
                       "clearcoat": 0.9, "clearcoat_roughness": 0.1, "specular": 0.5, "specular_color": [1, 0.8, 0.6],
                       "sheen_color": [0.7, 0.7, 0.9], "sheen_roughness": 0.3, "transmission": 0.2,
                       "iridescence": 0.5, "iridescence_eta": 1.4, "iridescence_thickness": {"texture": "checker.png", "scale": 500},
-                      "iridescence_thickness_min": 150},
+                      "iridescence_thickness_min": 150, "clearcoat_normal_map": {"texture": "checker.png", "scale": 0.8}},
         },
         "shapes": [
             {"type": "rectangle", "material": "white", "transform": {"scale": 10, "rotate": {"axis": [1, 0, 0], "angle": -90}}},
@@ -174,7 +174,8 @@ def main():
                 {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.2, "roughnessFactor": 0.5},
                  "doubleSided": True,
                  "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
-                                                            "clearcoatTexture": {"index": 0}},
+                                                            "clearcoatTexture": {"index": 0},
+                                                            "clearcoatNormalTexture": {"index": 0, "scale": 0.5}},
                                 "KHR_materials_specular": {"specularFactor": 0.6, "specularColorFactor": [1.2, 1, 0.5],
                                                            "specularTexture": {"index": 0}},
                                 "KHR_materials_sheen": {"sheenColorFactor": [0.8, 0.5, 0.6], "sheenRoughnessFactor": 0.4,
