@@ -73,6 +73,8 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
   EXPECT_TRUE(same(a.clearcoat_alpha, b.clearcoat_alpha)) << w << ".clearcoat_alpha";
   EXPECT_EQ(a.tex_clearcoat, b.tex_clearcoat) << w;
   EXPECT_EQ(a.tex_clearcoat_roughness, b.tex_clearcoat_roughness) << w;
+  EXPECT_EQ(a.tex_clearcoat_normal, b.tex_clearcoat_normal) << w;
+  EXPECT_TRUE(same(a.clearcoat_normal_scale, b.clearcoat_normal_scale)) << w << ".clearcoat_normal_scale";
   EXPECT_TRUE(same(a.specular_weight, b.specular_weight)) << w << ".specular_weight";
   EXPECT_EQ(a.tex_specular, b.tex_specular) << w;
   EXPECT_EQ(a.tex_specular_color, b.tex_specular_color) << w;
@@ -386,6 +388,8 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   paint_tex.clearcoat_alpha = 0.f;
   paint_tex.tex_clearcoat = 1;
   paint_tex.tex_clearcoat_roughness = -1;
+  paint_tex.tex_clearcoat_normal = 0;
+  paint_tex.clearcoat_normal_scale = 0.75f;
   d.add_material("clear coat texture", paint_tex);
   Material spec = make_metallic_roughness(RGB(0.2f, 0.4f, 0.1f), 0.f, 0.35f);
   spec.specular_weight = 0.4f;
