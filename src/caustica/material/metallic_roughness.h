@@ -299,22 +299,40 @@ CHD float mr_sheen_scaling(const Material& m, Vec3f wo, Vec3f wi) {
 // The clear coat (KHR_materials_clearcoat; see the top of this file).
 constexpr float kCoatEta = 1.5f;
 CHD bool mr_coat_smooth(const Material& m) { return m.clearcoat_alpha < kSmoothAlpha; }
+CHD Microfacet mr_coat_microfacet(const Material& m) { return Microfacet{m.clearcoat_alpha, m.clearcoat_alpha, false}; }
+// Whether the coat's normal is not the shading normal. Most coats' is, and the layered functions below are
+// templates on it (kTilted), chosen once per call, so that those coats never build the coat's frame. Measured
+// on bench/scenes/mr_coated.json (every material coated, none tilted): 2-3 % more instructions than before
+// coats had normals of their own, most of it GCC inlining less of the microfacet code into the larger
+// functions (callgrind); none on scenes without coats (bench/RESULTS.md).
+CHD bool mr_coat_tilted(const Material& m) { return m.coat_normal.z < 1.f; }
+// The coat's cosine of w.
+template <bool kTilted>
+CHD float mr_coat_cos(const Material& m, Vec3f w) { return kTilted ? dot(w, m.coat_normal) : w.z; }
+// wo and wi put in a tilted coat's frame (any tangent: the coat is isotropic).
+CHD void mr_coat_to_local(const Material& m, Vec3f& wo, Vec3f& wi) {
+  const Frame f(m.coat_normal);
+  wo = f.to_local(wo);
+  wi = f.to_local(wi);
+}
 // The share of the light the coat lets through towards w: 1 - c Fc(w.n_c), and 1 below the surface or the coat.
+template <bool kTilted>
 CHD float mr_coat_through(const Material& m, Vec3f w) {
-  const float c = dot(w, m.coat_normal);
+  const float c = mr_coat_cos<kTilted>(m, w);
   return w.z > 0.f && c > 0.f ? 1.f - m.clearcoat * fresnel_dielectric(c, kCoatEta) : 1.f;
 }
 // The coat's reflectance seen from wo, c Fc(wo.n_c): its lobe's selection probability.
+template <bool kTilted>
 CHD float mr_coat_prob(const Material& m, Vec3f wo) {
-  const float c = dot(wo, m.coat_normal);
+  const float c = mr_coat_cos<kTilted>(m, wo);
   return wo.z > 0.f && c > 0.f && m.clearcoat > 0.f ? m.clearcoat * fresnel_dielectric(c, kCoatEta) : 0.f;
 }
-CHD Microfacet mr_coat_microfacet(const Material& m) { return Microfacet{m.clearcoat_alpha, m.clearcoat_alpha, false}; }
-// The rough coat's lobe (without the cosine) and its sampling density given the coat is picked; zero unless wo
-// and wi are above both the surface and the coat.
+// The rough coat's lobe (without the cosine), and its sampling density times pc, the coat's probability; zero
+// unless wo and wi are above both the surface and the coat.
+template <bool kTilted>
 CHD RGB mr_coat_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
-  const Frame fc(m.coat_normal);
-  const Vec3f o = fc.to_local(wo), i = fc.to_local(wi);
+  Vec3f o = wo, i = wi;
+  if (kTilted) mr_coat_to_local(m, o, i);
   if (wo.z <= 0.f || wi.z <= 0.f || o.z <= 0.f || i.z <= 0.f) return RGB(0.f);
   const Vec3f wm = normalize(o + i);
   const Microfacet g = mr_coat_microfacet(m);
@@ -322,12 +340,13 @@ CHD RGB mr_coat_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) 
   return RGB(m.clearcoat * fresnel_dielectric(absdot(o, wm), kCoatEta) * g.D(wm) * g.G(o, i) /
              (4.f * cos_in_frame));
 }
-CHD float mr_coat_pdf(const Material& m, Vec3f wo, Vec3f wi) {
-  const Frame fc(m.coat_normal);
-  const Vec3f o = fc.to_local(wo), i = fc.to_local(wi);
+template <bool kTilted>
+CHD float mr_coat_pdf(const Material& m, float pc, Vec3f wo, Vec3f wi) {
+  Vec3f o = wo, i = wi;
+  if (kTilted) mr_coat_to_local(m, o, i);
   if (wi.z <= 0.f || i.z <= 0.f) return 0.f;
   const Vec3f wm = normalize(o + i);
-  return mr_coat_microfacet(m).pdf_wm(o, wm) / (4.f * absdot(o, wm));
+  return pc * mr_coat_microfacet(m).pdf_wm(o, wm) / (4.f * absdot(o, wm));
 }
 
 // A coat or a sheen over the base. Without one, eval, pdf and sample are the base's alone, and the layers'
@@ -336,25 +355,33 @@ CHD float mr_coat_pdf(const Material& m, Vec3f wo, Vec3f wi) {
 CHD bool mr_layered(const Material& m) { return m.clearcoat > 0.f || mr_has_sheen(m); }
 
 // Continuous parts of f (delta lobes evaluate to zero), without the cosine, with the layers.
-CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB mr_layered_eval(const Material& m, Vec3f wo, Vec3f wi,
-                                                                   TransportMode mode) {
+template <bool kTilted>
+CHD RGB mr_layered_eval_t(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
   RGB f = mr_base_eval(m, wo, wi, mode);
   if (mr_has_sheen(m))
     f = f * mr_sheen_scaling(m, wo, wi) + m.sheen_color * mr_sheen_eval(m, wo, wi);
   if (!(m.clearcoat > 0.f)) return f;
-  f = f * (mr_coat_through(m, wo) * mr_coat_through(m, wi));
-  return mr_coat_smooth(m) ? f : f + mr_coat_eval(m, wo, wi, mode);
+  f = f * (mr_coat_through<kTilted>(m, wo) * mr_coat_through<kTilted>(m, wi));
+  return mr_coat_smooth(m) ? f : f + mr_coat_eval<kTilted>(m, wo, wi, mode);
+}
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline RGB mr_layered_eval(const Material& m, Vec3f wo, Vec3f wi,
+                                                                   TransportMode mode) {
+  return mr_coat_tilted(m) ? mr_layered_eval_t<true>(m, wo, wi, mode) : mr_layered_eval_t<false>(m, wo, wi, mode);
 }
 
 // Density of the continuous parts of the sampling mixture, with the layers.
-CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline float mr_layered_pdf(const Material& m, Vec3f wo, Vec3f wi) {
+template <bool kTilted>
+CHD float mr_layered_pdf_t(const Material& m, Vec3f wo, Vec3f wi) {
   float pdf = mr_base_pdf(m, wo, wi);
   const float psh = mr_sheen_albedo(m, wo);  // the sheen is sampled with probability its albedo
   if (psh > 0.f) pdf = pdf * (1.f - psh) + (wi.z > 0.f ? psh * cosine_hemisphere_pdf(wi) : 0.f);
-  float pc = mr_coat_prob(m, wo);
+  float pc = mr_coat_prob<kTilted>(m, wo);
   if (!(pc > 0.f)) return pdf;
   pdf *= 1.f - pc;
-  return mr_coat_smooth(m) ? pdf : pdf + pc * mr_coat_pdf(m, wo, wi);
+  return mr_coat_smooth(m) ? pdf : pdf + mr_coat_pdf<kTilted>(m, pc, wo, wi);
+}
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline float mr_layered_pdf(const Material& m, Vec3f wo, Vec3f wi) {
+  return mr_coat_tilted(m) ? mr_layered_pdf_t<true>(m, wo, wi) : mr_layered_pdf_t<false>(m, wo, wi);
 }
 
 CHD RGB metallic_roughness_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) {
@@ -366,24 +393,28 @@ CHD float metallic_roughness_pdf(const Material& m, Vec3f wo, Vec3f wi) {
 
 // Sampling with the layers: the coat with probability c Fc(cos_o), else the sheen with probability its albedo,
 // else the base.
-CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool mr_layered_sample(const Material& m, Vec3f wo, float uc, Vec2f u,
-                                                                      TransportMode mode, BSDFSample& s) {
-  const float pc = mr_coat_prob(m, wo);
+template <bool kTilted>
+CHD bool mr_layered_sample_t(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode, BSDFSample& s) {
+  const float pc = mr_coat_prob<kTilted>(m, wo);
   if (uc < pc) {  // the coat
     s.eta = 1.f;
     const Vec3f nc = m.coat_normal;
     if (mr_coat_smooth(m)) {
-      s.wi = reflect(wo, nc);
+      s.wi = kTilted ? reflect(wo, nc) : Vec3f(-wo.x, -wo.y, wo.z);
       if (s.wi.z <= 0.f) return false;
       s.delta = true;
       s.pdf = pc;
       // The mirror's mass c Fc(wo.n_c) over its probability; the adjoint's carries |wi.z| / |wo.z| (see above).
-      s.weight = RGB(mode == TransportMode::kRadiance ? 1.f : s.wi.z / wo.z);
+      s.weight = RGB(kTilted && mode == TransportMode::kImportance ? s.wi.z / wo.z : 1.f);
       return true;
     }
-    const Frame fc(nc);
-    s.wi = reflect(wo, fc.to_world(mr_coat_microfacet(m).sample_wm(fc.to_local(wo), u)));
-    if (s.wi.z <= 0.f || dot(s.wi, nc) <= 0.f) return false;
+    if (kTilted) {
+      const Frame f(nc);
+      s.wi = reflect(wo, f.to_world(mr_coat_microfacet(m).sample_wm(f.to_local(wo), u)));
+    } else {
+      s.wi = reflect(wo, mr_coat_microfacet(m).sample_wm(wo, u));
+    }
+    if (s.wi.z <= 0.f || mr_coat_cos<kTilted>(m, s.wi) <= 0.f) return false;
   } else {
     if (pc > 0.f) uc = minf((uc - pc) / (1.f - pc), 0.99999994f);
     const float psh = mr_sheen_albedo(m, wo);
@@ -397,7 +428,7 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool mr_layered_sample(const Mater
       if (s.delta) {
         // The layers above pass the base's delta lobe the share they leave it.
         float share = 1.f, prob = 1.f;
-        if (m.clearcoat > 0.f) share *= mr_coat_through(m, wo) * mr_coat_through(m, s.wi), prob *= 1.f - pc;
+        if (m.clearcoat > 0.f) share *= mr_coat_through<kTilted>(m, wo) * mr_coat_through<kTilted>(m, s.wi), prob *= 1.f - pc;
         if (psh > 0.f) share *= mr_sheen_scaling(m, wo, s.wi), prob *= 1.f - psh;
         s.pdf *= prob;
         s.weight = s.weight * (share / prob);
@@ -406,10 +437,15 @@ CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool mr_layered_sample(const Mater
     }
   }
   s.delta = false;
-  s.pdf = mr_layered_pdf(m, wo, s.wi);
+  s.pdf = mr_layered_pdf_t<kTilted>(m, wo, s.wi);
   if (!(s.pdf > 0.f)) return false;
-  s.weight = mr_layered_eval(m, wo, s.wi, mode) * (abs_cos_theta(s.wi) / s.pdf);
+  s.weight = mr_layered_eval_t<kTilted>(m, wo, s.wi, mode) * (abs_cos_theta(s.wi) / s.pdf);
   return isfinite3(s.weight);
+}
+CAUSTICA_HOST_DEVICE CAUSTICA_NOINLINE inline bool mr_layered_sample(const Material& m, Vec3f wo, float uc, Vec2f u,
+                                                                      TransportMode mode, BSDFSample& s) {
+  return mr_coat_tilted(m) ? mr_layered_sample_t<true>(m, wo, uc, u, mode, s)
+                           : mr_layered_sample_t<false>(m, wo, uc, u, mode, s);
 }
 
 CHD bool metallic_roughness_sample(const Material& m, Vec3f wo, float uc, Vec2f u, TransportMode mode,
