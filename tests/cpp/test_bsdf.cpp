@@ -27,6 +27,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "caustica/base/rng.h"
@@ -1042,6 +1044,22 @@ TEST(ConductorFresnel, MatchesComplexFresnel) {
 
 // KHR_materials_clearcoat (material/metallic_roughness.h) ------------------------
 
+namespace {
+// Two evaluations of (f, pdf) that must agree on 1000 random direction pairs (seeded), to relative tolerance tol
+// (0: bit for bit).
+template <class A, class B>
+void expect_same_on_random_pairs(uint64_t seed, A&& a, B&& b, double tol) {
+  PCG32 rng(seed, 0x5eed);
+  for (int k = 0; k < 1000; ++k) {
+    const Vec3f wo = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
+    const Vec3f wi = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
+    const std::pair<RGB, float> x = a(wo, wi), y = b(wo, wi);
+    ASSERT_LE(rel_diff(x.first, y.first), tol) << "pair " << k;
+    ASSERT_LE(rel_diff(x.second, y.second), tol) << "pair " << k;
+  }
+}
+}  // namespace
+
 TEST(Clearcoat, MatchesTheLayerFormula) {
   // f = (1 - c Fc(cos_o)) (1 - c Fc(cos_i)) f_base + c Fc(|o.h|) D G2 / (4 cos_o cos_i), Fc the dielectric
   // Fresnel of IOR 1.5 (a direction below the surface passes no coat), against double-precision D, G2 and
@@ -1108,14 +1126,10 @@ TEST(Clearcoat, SmoothCoatMirrorsItsFresnelShare) {
   sheen_mirror.sheen_color = RGB(0.5f);  // a sheen is a continuous lobe over the mirror
   EXPECT_FALSE(material_is_delta(sheen_mirror));
   const Material zero = coated(plain, 0.f, 0.3f);
-  PCG32 rng(9, 0x5eed);
-  for (int k = 0; k < 1000; ++k) {
-    const Vec3f wo = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
-    const Vec3f wi = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
-    const RGB f0 = bsdf_eval(zero, wo, wi), f1 = bsdf_eval(plain, wo, wi);
-    ASSERT_TRUE(f0.x == f1.x && f0.y == f1.y && f0.z == f1.z);
-    ASSERT_EQ(bsdf_pdf(zero, wo, wi), bsdf_pdf(plain, wo, wi));
-  }
+  auto as = [](const Material& mat) {
+    return [&mat](Vec3f wo, Vec3f wi) { return std::make_pair(bsdf_eval(mat, wo, wi), bsdf_pdf(mat, wo, wi)); };
+  };
+  expect_same_on_random_pairs(9, as(zero), as(plain), 0.0);
 }
 
 TEST(Clearcoat, TiltedNormalIsTheLayerAboutItAndImportanceIsItsAdjoint) {
@@ -1168,15 +1182,34 @@ TEST(Clearcoat, TiltedNormalIsTheLayerAboutItAndImportanceIsItsAdjoint) {
   EXPECT_LE(skipped, 100);  // near-horizontal half vectors are rare (~1e-4 of pairs)
   EXPECT_EQ(bad, 0) << "worst relative error " << worst;
   EXPECT_EQ(bad_adj, 0) << "importance against the adjoint: worst relative difference " << worst_adj;
-  // Turned straight up, the coat is the untilted one, value for value.
-  const Material up = coat_tilted(coated(plain, float(c), float(r)), Vec3f(0.f, 0.f, 1.f)), flat = coated(plain, float(c), float(r));
-  PCG32 rng(10, 0x5eed);
-  for (int k = 0; k < 1000; ++k) {
-    const Vec3f wo = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
-    const Vec3f wi = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
-    const RGB f0 = bsdf_eval(up, wo, wi), f1 = bsdf_eval(flat, wo, wi);
-    ASSERT_TRUE(f0.x == f1.x && f0.y == f1.y && f0.z == f1.z);
-    ASSERT_EQ(bsdf_pdf(up, wo, wi), bsdf_pdf(flat, wo, wi));
+  // The tilted code (mr_layered_*_t<true>) with the normal straight up is the untilted code, in both modes
+  // (relative 1e-6: the coat's frame is then the identity, so a few ulps at most).
+  const Material flat = coated(plain, float(c), float(r));
+  for (TransportMode mode : {TransportMode::kRadiance, TransportMode::kImportance}) {
+    auto with = [&](auto tilted) {
+      return [&, tilted](Vec3f wo, Vec3f wi) {
+        constexpr bool kT = decltype(tilted)::value;
+        return std::make_pair(mr_layered_eval_t<kT>(flat, wo, wi, mode), mr_layered_pdf_t<kT>(flat, wo, wi));
+      };
+    };
+    expect_same_on_random_pairs(10, with(std::true_type{}), with(std::false_type{}), 1e-6);
+    // And so is its sampling, rough and smooth coats alike: the same direction, weight and density.
+    for (const Material& mat : {flat, coated(plain, float(c), 0.f)}) {
+      PCG32 rng(11, 0x5eed);
+      for (int k = 0; k < 1000; ++k) {
+        const Vec3f wo = square_to_uniform_sphere(Vec2f(rng.next_float(), rng.next_float()));
+        const float uc = rng.next_float();
+        const Vec2f u(rng.next_float(), rng.next_float());
+        BSDFSample st, su;
+        const bool ok_t = mr_layered_sample_t<true>(mat, wo, uc, u, mode, st);
+        ASSERT_EQ(ok_t, mr_layered_sample_t<false>(mat, wo, uc, u, mode, su)) << "sample " << k;
+        if (!ok_t) continue;
+        ASSERT_EQ(st.delta, su.delta);
+        ASSERT_LE(length(st.wi - su.wi), 1e-6f) << "sample " << k;
+        ASSERT_LE(rel_diff(st.weight, su.weight), 1e-6) << "sample " << k;
+        ASSERT_LE(rel_diff(st.pdf, su.pdf), 1e-6) << "sample " << k;
+      }
+    }
   }
 }
 
