@@ -573,20 +573,21 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
   }
   m.tex_color = tex_color;
   m.tex_roughness = tex_rough;
-  if (j.contains("clearcoat_normal_map")) {  // metallic_roughness only (its check_keys)
-    const json& v = j["clearcoat_normal_map"];
-    std::string p = path + "/clearcoat_normal_map";
+  // A tangent-space normal map (linear) with its optional `scale`; extra_key: one more key the caller reads.
+  auto normal_map = [&](const char* key, int32_t& tex, float& scale, const char* extra_key) {
+    const json& v = j[key];
+    const std::string p = path + "/" + key;
     if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
-    m.tex_clearcoat_normal = parse_texture(c, v, p, false);
-    if (v.is_object() && v.contains("scale")) m.clearcoat_normal_scale = num(c, v["scale"], p + "/scale");
-  }
+    tex = parse_texture(c, v, p, false, extra_key);
+    if (v.is_object() && v.contains("scale")) scale = num(c, v["scale"], p + "/scale");
+  };
+  if (j.contains("clearcoat_normal_map"))  // metallic_roughness only (its check_keys)
+    normal_map("clearcoat_normal_map", m.tex_clearcoat_normal, m.clearcoat_normal_scale, nullptr);
   if (j.contains("normal_map") && j.contains("bump_map")) c.fail(path + "/bump_map", "give normal_map or bump_map, not both");
   if (j.contains("normal_map")) {
+    normal_map("normal_map", m.tex_normal, m.normal_scale, "bitangent");
     const json& v = j["normal_map"];
-    std::string p = path + "/normal_map";
-    if (!is_texture_ref(v)) c.fail(p, "expected a texture (a file name or {\"texture\": file, \"scale\": s})");
-    m.tex_normal = parse_texture(c, v, p, false, "bitangent");
-    if (v.is_object() && v.contains("scale")) m.normal_scale = num(c, v["scale"], p + "/scale");
+    const std::string p = path + "/normal_map";
     if (v.is_object() && v.contains("bitangent")) {
       // "uv": the y axis along dp/dv (mirrored UVs mirror the map: MikkTSpace, glTF); "cross": n x dp/du
       // (Mitsuba 3, pbrt-v4).
