@@ -111,12 +111,32 @@ def _params(params: Optional[dict]) -> dict:
     return out
 
 
-def _camera(camera: Optional[str]) -> str:
-    if camera is None:
+def _name(what: str, v: Optional[str]) -> str:
+    if v is None:
         return ""
-    if not isinstance(camera, str) or not camera:
-        raise InputError(f"camera: expected a camera name, got {camera!r}")
-    return camera
+    if not isinstance(v, str) or not v:
+        raise InputError(f"{what}: expected a {what} name, got {v!r}")
+    return v
+
+
+def _camera(camera: Optional[str]) -> str:
+    return _name("camera", camera)
+
+
+def _variant(variant: Optional[str]) -> str:
+    return _name("variant", variant)
+
+
+def _check_loaded(camera, params, variant) -> None:
+    if camera is not None or params or variant is not None:
+        raise InputError("camera, params and variant apply when loading; this scene is already loaded")
+
+
+def _check_dict(params, variant) -> None:
+    if params:
+        raise InputError("params apply to Mitsuba XML files, not to a dict")
+    if variant is not None:
+        raise InputError("variant applies to glTF files (KHR_materials_variants), not to a dict")
 
 
 def _numpy_media(d: dict) -> dict:
@@ -184,12 +204,14 @@ def load_dict(d: dict, camera: Optional[str] = None, base_dir: Union[str, os.Pat
 
 def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Optional[int] = None,
                height: Optional[int] = None, filter: Optional[Union[str, dict]] = None, camera: Optional[str] = None,
-               params: Optional[dict] = None, crop: Optional[Sequence[int]] = None) -> "_native.Scene":
+               params: Optional[dict] = None, crop: Optional[Sequence[int]] = None,
+               variant: Optional[str] = None) -> "_native.Scene":
     """Loads a built-in scene by name, a scene file (.json, .obj, .ply, .gltf, .glb, .xml), or a
     scene given as a dict in caustica's JSON format, and returns a Scene for caustica.render.
 
     camera: a named camera of the file (glTF, XML, JSON "cameras"); params: Mitsuba XML
-    $name substitutions ({"spp": 64}). width/height/filter override the scene's (filter: a name, or a
+    $name substitutions ({"spp": 64}); variant: a glTF file's material variant by name
+    (KHR_materials_variants; scene.variants lists them, scene.variant is the one chosen). width/height/filter override the scene's (filter: a name, or a
     dict as the scene format's filter object, e.g. {"type": "mitchell", "B": 0, "C": 0.5}); width/height
     are the film's. crop=(x, y, w, h) renders only the film's pixels [x, x + w) x [y, y + h), into a w x h
     image that equals that part of the whole render (scene.crop, scene.film_size; (0, 0, 0, 0) removes a
@@ -198,15 +220,13 @@ def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Opt
     reported with warnings.warn (caustica.SceneWarning). scene.describe() gives counts, bounds, the
     camera's projection ("perspective", "thin lens", "orthographic") and its shutter (None unless it moves)."""
     if isinstance(scene, _native.Scene):
-        if camera is not None or params:
-            raise InputError("camera and params apply when loading; this scene is already loaded")
+        _check_loaded(camera, params, variant)
         s = scene
     elif isinstance(scene, dict):
-        if params:
-            raise InputError("params apply to Mitsuba XML files, not to a dict")
+        _check_dict(params, variant)
         return load_dict(scene, camera=camera, width=width, height=height, filter=filter, crop=crop)
     elif isinstance(scene, (str, os.PathLike)):
-        s = _native.load_scene(os.fspath(scene), _camera(camera), _params(params))
+        s = _native.load_scene(os.fspath(scene), _camera(camera), _params(params), _variant(variant))
         _warn(s)
     else:
         raise InputError(f"scene: expected a name, a path or a dict, got {type(scene).__name__}")
@@ -248,34 +268,36 @@ def _override(s, width, height, filter, crop=None):
 
 
 def load_scene_desc(scene: Union[str, os.PathLike, dict], camera: Optional[str] = None,
-                    params: Optional[dict] = None) -> "_native.SceneDesc":
+                    params: Optional[dict] = None, variant: Optional[str] = None) -> "_native.SceneDesc":
     """Loads a scene's description without building it (no BVH): .describe(), .warnings,
-    .cameras, .integrator_defaults, .write_json(path), .build() -> Scene."""
+    .cameras, .variants, .integrator_defaults, .write_json(path), .build() -> Scene."""
     if isinstance(scene, dict):
-        if params:
-            raise InputError("params apply to Mitsuba XML files, not to a dict")
+        _check_dict(params, variant)
         d = _native.load_json_desc(_dict_text(scene), "<dict>", "", _camera(camera))
     elif isinstance(scene, (str, os.PathLike)):
-        d = _native.load_scene_desc(os.fspath(scene), _camera(camera), _params(params))
+        d = _native.load_scene_desc(os.fspath(scene), _camera(camera), _params(params), _variant(variant))
     else:
         raise InputError(f"scene: expected a name, a path or a dict, got {type(scene).__name__}")
     _warn(d.warnings)
     return d
 
 
-def describe(scene, camera: Optional[str] = None, params: Optional[dict] = None) -> dict:
+def describe(scene, camera: Optional[str] = None, params: Optional[dict] = None,
+             variant: Optional[str] = None) -> dict:
     """Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures, media) and
     world-space bounds ((lo, hi)) of a scene (a name, a path, a dict or a loaded scene)."""
     if isinstance(scene, _native.Scene):
+        _check_loaded(camera, params, variant)
         return scene.describe()
-    return load_scene_desc(scene, camera=camera, params=params).describe()
+    return load_scene_desc(scene, camera=camera, params=params, variant=variant).describe()
 
 
 def export_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], path: Union[str, os.PathLike],
-                 camera: Optional[str] = None, params: Optional[dict] = None) -> None:
+                 camera: Optional[str] = None, params: Optional[dict] = None, variant: Optional[str] = None) -> None:
     """Writes a scene (a built-in name, a scene file, a dict or a loaded scene) as caustica JSON
     to `path`; textures go beside it as float EXR files (<stem>.tex<i>.exr). The file reads back
-    to the same scene description, so it renders the same image."""
+    to the same scene description, so it renders the same image (a glTF file's `variant`, when given, is
+    the one exported: the JSON has that variant's materials only)."""
     out = os.fspath(path)
     if not out.lower().endswith(".json"):
         raise InputError(f"cannot write '{out}': scenes are exported as .json")
@@ -283,15 +305,13 @@ def export_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], path: Un
     if not os.path.isdir(d):
         raise InputError(f"cannot write '{out}': directory '{d}' does not exist")
     if isinstance(scene, _native.Scene):
-        if camera is not None or params:
-            raise InputError("camera and params apply when loading; this scene is already loaded")
+        _check_loaded(camera, params, variant)
         scene.write_json(out)
     elif isinstance(scene, dict):
-        if params:
-            raise InputError("params apply to Mitsuba XML files, not to a dict")
+        _check_dict(params, variant)
         _warn(_native.export_scene_json(_dict_text(scene), "<dict>", "", out, _camera(camera)))
     elif isinstance(scene, (str, os.PathLike)):
-        _warn(_native.export_scene(os.fspath(scene), out, _camera(camera), _params(params)))
+        _warn(_native.export_scene(os.fspath(scene), out, _camera(camera), _params(params), _variant(variant)))
     else:
         raise InputError(f"scene: expected a name, a path or a dict, got {type(scene).__name__}")
 

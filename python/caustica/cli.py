@@ -7,8 +7,8 @@
     caustica --version
 
 SCENE is a built-in scene name or a scene file (.json, .obj, .ply, .gltf, .glb, .xml);
-render, info and export take --camera NAME and --param NAME=VALUE (repeatable; Mitsuba
-XML $NAME substitutions). Bad input (an unknown scene, integrator or option, a bad number,
+render, info and export take --camera NAME, --param NAME=VALUE (repeatable; Mitsuba
+XML $NAME substitutions) and --variant NAME (a glTF file's KHR_materials_variants variant). Bad input (an unknown scene, integrator or option, a bad number,
 an unknown output format, an unwritable output path, a broken scene file) prints one line
 to stderr and exits with status 2. Scene warnings are printed once each to stderr.
 """
@@ -80,6 +80,8 @@ def _scene_options(p, nargs="?"):
     p.add_argument("--camera", default=None, help="a named camera of the scene file (glTF, XML, JSON \"cameras\")")
     p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
                    help="Mitsuba XML $NAME substitution (repeatable)")
+    p.add_argument("--variant", default=None, metavar="NAME",
+                   help="a material variant of a glTF file (KHR_materials_variants; `caustica info` lists them)")
 
 
 _depth = _number("--max-depth", int, lambda v: v == -1 or v > 0, "a positive integer or -1 (unlimited)")
@@ -278,11 +280,11 @@ class _Progress:
 
 
 def _load(a, **kw):
-    """Loads a.scene with --camera/--param; each scene warning goes to stderr once."""
+    """Loads a.scene with --camera/--param/--variant; each scene warning goes to stderr once."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _api.SceneWarning)
         scene = _api.load_scene(a.scene or _api.default_scene_name(), camera=a.camera,
-                                params=dict(a.param) or None, **kw)
+                                params=dict(a.param) or None, variant=a.variant, **kw)
     _print_warnings(caught)
     return scene
 
@@ -428,14 +430,15 @@ def cmd_render(a) -> int:
 def cmd_info(a) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _api.SceneWarning)
-        scene = _api.load_scene_desc(a.scene, camera=a.camera, params=dict(a.param) or None)
+        scene = _api.load_scene_desc(a.scene, camera=a.camera, params=dict(a.param) or None, variant=a.variant)
     _print_warnings(caught)
     d = scene.describe()
     if a.json:
         clip = None if d["clip"] is None else [v if math.isfinite(v) else None for v in d["clip"]]
         d = dict(d, bounds=[list(d["bounds"][0]), list(d["bounds"][1])], width=scene.width, height=scene.height,
                  film_size=list(scene.film_size), crop=None if d["crop"] is None else list(d["crop"]), clip=clip,
-                 camera=scene.camera, cameras=list(scene.cameras), integrator=dict(scene.integrator_defaults))
+                 camera=scene.camera, cameras=list(scene.cameras), variant=scene.variant or None,
+                 variants=list(scene.variants), integrator=dict(scene.integrator_defaults))
         print(json.dumps(d, indent=2))
         return 0
     lo, hi = d["bounds"]
@@ -448,6 +451,9 @@ def cmd_info(a) -> int:
           + (f", camera '{scene.camera}'" if scene.camera else ""))
     if scene.cameras:
         print(f"cameras:     {', '.join(scene.cameras)}")
+    if scene.variants:
+        print(f"variants:    {', '.join(scene.variants)}"
+              + (f" (rendering '{scene.variant}')" if scene.variant else " (none chosen: --variant NAME)"))
     print(f"projection:  {d['projection']}" + ("" if d["shutter"] is None else
           f", moving camera (motion blur, shutter {d['shutter'][0]:g} to {d['shutter'][1]:g})")
           + ("" if d["clip"] is None else f", clipped to depths {d['clip'][0]:g} to {d['clip'][1]:g}"))
@@ -464,7 +470,7 @@ def cmd_info(a) -> int:
 def cmd_export(a) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", _api.SceneWarning)
-        _api.export_scene(a.scene, a.output, camera=a.camera, params=dict(a.param) or None)
+        _api.export_scene(a.scene, a.output, camera=a.camera, params=dict(a.param) or None, variant=a.variant)
     _print_warnings(caught)
     print(f"{a.scene} -> {a.output}", file=sys.stderr)
     return 0

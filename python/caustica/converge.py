@@ -91,12 +91,12 @@ def _scene_label(scene) -> str:
     return getattr(scene, "name", "<scene>")
 
 
-def _load(scene, width, height, camera, params) -> "_native.Scene":
+def _load(scene, width, height, camera, params, variant) -> "_native.Scene":
     if isinstance(scene, _native.Scene):
         if width is not None or height is not None:
             return _api.load_scene(scene, width=width, height=height)
         return scene
-    return _api.load_scene(scene, width=width, height=height, camera=camera, params=params)
+    return _api.load_scene(scene, width=width, height=height, camera=camera, params=params, variant=variant)
 
 
 def _utc_now() -> str:
@@ -106,7 +106,7 @@ def _utc_now() -> str:
 def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path", time: Optional[float] = None,
                    spp: Optional[int] = None, seed: int = REFERENCE_SEED, width: Optional[int] = None,
                    height: Optional[int] = None, camera: Optional[str] = None, params: Optional[dict] = None,
-                   progress: Optional[Callable[[dict], Any]] = None, **render_options) -> dict:
+                   variant: Optional[str] = None, progress: Optional[Callable[[dict], Any]] = None, **render_options) -> dict:
     """Renders a reference image of `scene` to `path` (.exr or .pfm) for `time` seconds or `spp`
     samples (passes), and writes its metadata beside it (path + ".json": integrator, spp,
     samples, seed, seconds, scene, size, options, caustica version, date). Returns the metadata.
@@ -122,7 +122,7 @@ def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path
     if time is None and spp is None:
         raise InputError("make_reference: give a time budget (seconds) or spp")
     _check_options(render_options)
-    s = _load(scene, width, height, camera, params)
+    s = _load(scene, width, height, camera, params, variant)
     res = _api.render_job(s, integrator=integrator, spp=spp, time=time, seed=seed, progress=progress,
                           **render_options)
     if res.interrupted:
@@ -295,7 +295,7 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
              reference=None, metrics: Union[str, Sequence[str]] = ("relmse", "flip"), checkpoints=None,
              seed: int = 0, out_dir: Union[str, os.PathLike, None] = None, width: Optional[int] = None,
              height: Optional[int] = None, camera: Optional[str] = None, params: Optional[dict] = None,
-             crop: Optional[Sequence[int]] = None, progress: Optional[Callable[[dict], Any]] = None,
+             variant: Optional[str] = None, crop: Optional[Sequence[int]] = None, progress: Optional[Callable[[dict], Any]] = None,
              as_frame: Optional[bool] = None, **render_options):
     """Renders `scene` with each integrator for `time` seconds of wall clock and measures the
     error against `reference` (a path to an .exr/.pfm, with its .json sidecar when present,
@@ -322,7 +322,7 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
     else:
         ref_path = os.fspath(reference)
         ref, ref_meta = load_reference(ref_path)
-    s = _load(scene, width, height, camera, params)
+    s = _load(scene, width, height, camera, params, variant)
     if ref.shape[:2] != (s.height, s.width):
         raise InputError(f"reference{' ' + repr(ref_path) if ref_path else ''} is {ref.shape[1]}x{ref.shape[0]} "
                          f"but the scene renders {s.width}x{s.height} (set width/height to match)")

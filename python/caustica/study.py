@@ -188,7 +188,8 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
              max_spp: int = DEFAULT_MAX_SPP, seeds: int = DEFAULT_SEEDS, ref_spp: int = DEFAULT_REF_SPP,
              ref_integrator: str = "path", out: Union[str, os.PathLike, None] = None, flip_mode: str = "ldr",
              threads: int = 0, max_depth: Optional[int] = None, sampler: Optional[str] = None,
-             camera: Optional[str] = None, params: Optional[dict] = None, fresh_ref: bool = False,
+             camera: Optional[str] = None, params: Optional[dict] = None, variant: Optional[str] = None,
+             fresh_ref: bool = False,
              device: str = "cpu", throughput_at: Optional[str] = None, throughput_spp: int = DEFAULT_THROUGHPUT_SPP,
              log: Optional[Callable[[str], None]] = None, command: Optional[str] = None) -> dict:
     """The real-time noise study of `scene` (a built-in name or a scene file).
@@ -242,7 +243,7 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
                         if d["name"] == ("cuda:0" if device == "cuda" else device)), device)
     say = log or (lambda msg: None)
 
-    base = _api.load_scene(scene, camera=camera, params=params)
+    base = _api.load_scene(scene, camera=camera, params=params, variant=variant)
     w, h = size if size is not None else default_size(base.width, base.height)
     sc = _api.load_scene(base, width=w, height=h)
     pixels = w * h
@@ -255,6 +256,8 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
     ref_key = {"scene": sid, "camera": camera, "params": params, "size": [w, h], "integrator": ref_integrator,
                "spp": ref_spp, "seed": REF_SEED, "max_depth": max_depth, "sampler": sampler,
                "version": _api.__version__}
+    if variant is not None:  # absent otherwise: references cached before variants existed keep their keys
+        ref_key["variant"] = variant
     digest = hashlib.sha1(json.dumps(ref_key, sort_keys=True, default=str).encode()).hexdigest()[:10]
     name = os.path.splitext(os.path.basename(sid.get("file", sid.get("builtin", "scene"))))[0]
     ref_meta = None
@@ -364,7 +367,7 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
                         "frame_ms": FRAME_MS, "max_spp": max_spp, "levels": levels, "seeds": seeds,
                         "ref_spp": ref_spp, "ref_integrator": ref_integrator, "flip_mode": flip_mode,
                         "flip_ppd": 67.0, "threads": threads, "max_depth": max_depth, "sampler": sampler,
-                        "camera": camera, "params": params, "device": device, "throughput_at": throughput_at,
+                        "camera": camera, "params": params, "variant": variant, "device": device, "throughput_at": throughput_at,
                         "throughput_size": [tw, th] if throughput_at == "1080p" else [w, h],
                         "throughput_spp": throughput_spp if throughput_at == "1080p" else None},
            "command": command, "report": None}

@@ -596,6 +596,41 @@ TEST(GltfLoader, TexturesSamplersAndTransforms) {
   EXPECT_FLOAT_EQ(t.uv_rotation, 0.f);
 }
 
+TEST(GltfLoader, MaterialVariantsReachTheMeshes) {
+  // KHR_materials_variants: the chosen variant's material is the primitive's everywhere the loader reads it, the
+  // mesh included: only a normal-mapped material gets the primitive tangents (generated here, there being no
+  // TANGENT attribute). Materials of variants not chosen are not loaded.
+  Builder b;
+  std::vector<unsigned char> img = png(1, 1, {128, 128, 255});
+  b.push("images", {{"uri", "data:image/png;base64," + base64(img)}});
+  b.push("textures", {{"source", 0}});
+  b.push("materials", {{"name", "plain"}});
+  b.push("materials", {{"name", "bumpy"}, {"normalTexture", {{"index", 0}}}});
+  b.push("materials", {{"name", "rough"}, {"pbrMetallicRoughness", {{"roughnessFactor", 0.25}}}});
+  int q = b.quad(0);
+  b.j["meshes"][q]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"] =
+      json::array({{{"material", 1}, {"variants", {0}}}, {{"material", 2}, {"variants", {1}}}});
+  b.j["extensions"]["KHR_materials_variants"]["variants"] = json::array({{{"name", "a"}}, {{"name", "b"}}});
+  b.scene({b.push("nodes", {{"mesh", q}})});
+  const std::string path = b.write("variants");
+  struct Case {
+    const char* variant;
+    const char* material;
+    bool tangents;
+  };
+  for (const Case& c : {Case{"", "plain", false}, Case{"a", "bumpy", true}, Case{"b", "rough", false}}) {
+    SCOPED_TRACE(c.variant);
+    SceneDesc d = load_gltf_scene(path, c.variant);
+    EXPECT_EQ(d.variants, (std::vector<std::string>{"a", "b"}));
+    EXPECT_EQ(d.variant, c.variant);
+    ASSERT_EQ(d.shapes.size(), 1u);
+    ASSERT_EQ(d.materials.size(), 1u);
+    EXPECT_EQ(d.material_names[size_t(d.shapes[0].material)], c.material);
+    EXPECT_EQ(d.meshes[size_t(d.shapes[0].mesh)].tangents.empty(), !c.tangents);
+  }
+  EXPECT_THROW(load_gltf_scene(path, "c"), InputError);
+}
+
 TEST(GltfLoader, TextureTransformRotationMatchesGltf) {
   // The stored transform in caustica's uv equals F o T_gltf o F with F(u, v) = (u, 1 - v).
   Builder b;
@@ -998,7 +1033,8 @@ TEST(GltfLoader, MalformedInputMessages) {
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_texture_basisu' is required but not supported "
                              "(supported: EXT_mesh_gpu_instancing, EXT_meshopt_compression, EXT_texture_webp, KHR_draco_mesh_compression, KHR_lights_punctual, KHR_materials_anisotropy, "
                              "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_iridescence, "
-                             "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_unlit, KHR_materials_volume, KHR_mesh_quantization, "
+                             "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_unlit, KHR_materials_variants, KHR_materials_volume, "
+                       "KHR_mesh_quantization, "
                              "KHR_texture_transform)");
   // A missing buffer file names both files.
   p = write_text("nobuf.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "missing.bin", "byteLength": 4}]})");

@@ -156,7 +156,8 @@ def main():
         return {
             "asset": {"version": "2.0"},
             "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat",
-                               "KHR_materials_specular", "KHR_materials_sheen", "KHR_materials_iridescence"],
+                               "KHR_materials_specular", "KHR_materials_sheen", "KHR_materials_iridescence",
+                               "KHR_materials_variants"],
             "scene": 0,
             "scenes": [{"nodes": [0, 3, 4]}],
             "nodes": [
@@ -167,7 +168,9 @@ def main():
                 {"camera": 0, "translation": [0, 1, 8], "extensions": {"KHR_lights_punctual": {"light": 0}}},
             ],
             "meshes": [
-                {"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]},
+                {"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0,
+                                 "extensions": {"KHR_materials_variants": {"mappings": [
+                                     {"material": 1, "variants": [0]}]}}}]},
                 {"primitives": [{"attributes": {"POSITION": 3}, "material": 1}]},
             ],
             "materials": [
@@ -189,7 +192,8 @@ def main():
             "samplers": [{"magFilter": 9728, "wrapS": 33071, "wrapT": 10497}],
             "images": [image],
             "cameras": [{"type": "perspective", "perspective": {"yfov": 0.7, "aspectRatio": 1.5, "znear": 0.1, "zfar": 100}}],
-            "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 20, "color": [1, 1, 1]}]}},
+            "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 20, "color": [1, 1, 1]}]},
+                           "KHR_materials_variants": {"variants": [{"name": "emissive"}]}},
             "buffers": [dict({"byteLength": len(buffer_uri[1])}, **({"uri": buffer_uri[0]} if buffer_uri[0] else {}))],
             "bufferViews": [
                 {"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},

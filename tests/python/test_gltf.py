@@ -534,3 +534,140 @@ def test_cli_camera_by_name(tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert "no camera named 'nope' (cameras: front, far)" in r.stderr
+
+
+# ------------------------------------------------------ KHR_materials_variants ---
+
+def variants_scene(tmp_path, name="variants.gltf", **mv):
+    """An emissive quad filling the view: red by default; variant "Green" maps it to green and "Blue and
+    white" to blue, while "Plain" maps only the second quad (behind the camera), so the first keeps red."""
+    g = Gltf()
+    red, green, blue, white = (g.add("materials", {"emissiveFactor": c})
+                               for c in ([1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]))
+    front = g.quad(red)
+    g.doc["meshes"][front]["primitives"][0]["extensions"] = {"KHR_materials_variants": {"mappings": [
+        {"material": green, "variants": [0]}, {"material": blue, "variants": [1]}]}}
+    back = g.quad(red, z=5.0)
+    g.doc["meshes"][back]["primitives"][0]["extensions"] = {"KHR_materials_variants": {"mappings": [
+        {"material": white, "variants": [1, 2]}]}}
+    g.scene([g.add("nodes", {"mesh": front}), g.add("nodes", {"mesh": back}), g.camera(3.0, FILL_FOV)])
+    g.doc["extensionsUsed"] = ["KHR_materials_variants"]
+    g.doc["extensions"] = {"KHR_materials_variants": {"variants": [{"name": "Green"}, {"name": "Blue and white"},
+                                                                   {"name": "Plain"}]}}
+    for k, v in mv.items():
+        g.doc["extensions"]["KHR_materials_variants"][k] = v
+    return g.write(tmp_path / name)
+
+
+def test_variants_choose_each_primitives_material(tmp_path):
+    """KHR_materials_variants: a variant gives each primitive that maps it that material; one that does not map
+    it (or no variant) keeps the primitive's own, as the extension says. Emissive colours, seen directly: the
+    pixels are exactly the chosen material's."""
+    path = variants_scene(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the extension is supported: no "not supported" warning
+        d = caustica.load_scene_desc(path)
+    assert list(d.variants) == ["Green", "Blue and white", "Plain"] and d.variant == ""
+    expect = {None: [1, 0, 0], "Green": [0, 1, 0], "Blue and white": [0, 0, 1], "Plain": [1, 0, 0]}
+    for variant, rgb in expect.items():
+        s = caustica.load_scene(path, width=8, height=8, variant=variant)
+        assert s.variant == (variant or "")
+        np.testing.assert_array_equal(caustica.render(s, spp=1), np.broadcast_to(np.float32(rgb), (8, 8, 3)))
+    # The second quad (behind the camera) is white in "Blue and white" and "Plain": the JSON export of a variant
+    # has its materials only and renders the same.
+    out = tmp_path / "plain.json"
+    caustica.export_scene(path, out, variant="Plain")
+    exported = json.loads(out.read_text())
+    emissions = [np.broadcast_to(s.get("emission", 0), 3).tolist() for s in exported["shapes"]]  # 1: grey 1
+    assert emissions == [[1, 0, 0], [1, 1, 1]] and len(exported["materials"]) == 2
+    np.testing.assert_array_equal(render(out, size=8, spp=1), render(path, size=8, spp=1))
+
+
+def test_variant_errors(tmp_path):
+    path = variants_scene(tmp_path)
+    with pytest.raises(caustica.SceneError) as e:
+        caustica.load_scene(path, variant="Red")
+    assert str(e.value) == f"{path}: no material variant named 'Red' (variants: Green, Blue and white, Plain)"
+    g = Gltf()
+    g.scene([g.add("nodes", {"mesh": g.quad()}), g.camera(3.0, FILL_FOV)])
+    plain = g.write(tmp_path / "plain.gltf")
+    with pytest.raises(caustica.SceneError) as e:
+        caustica.load_scene_desc(plain, variant="Green")
+    assert str(e.value) == f"{plain}: no material variant named 'Green' (the file has no KHR_materials_variants)"
+    for scene in ("cornell", str(tmp_path / "missing.json")):
+        with pytest.raises(caustica.InputError) as e:
+            caustica.load_scene(scene, variant="Green")
+        assert str(e.value) == (f"{scene}: has no material variants (--variant 'Green'): they come from glTF files "
+                                "(KHR_materials_variants)")
+    with pytest.raises(caustica.InputError, match="variant applies to glTF files"):
+        caustica.load_scene({"shapes": {}}, variant="Green")
+    s = caustica.load_scene(path)
+    with pytest.raises(caustica.InputError, match="this scene is already loaded"):
+        caustica.load_scene(s, variant="Green")
+    with pytest.raises(caustica.InputError, match="variant: expected a variant name"):
+        caustica.load_scene(path, variant="")
+    # The extension's structure: a variant mapped twice on a primitive, an index past the variants, a variant
+    # without a name, the root without its variants.
+    doc = json.loads(open(path).read())
+    maps = doc["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"]
+    mp = "/meshes/0/primitives/0/extensions/KHR_materials_variants/mappings"
+    cases = [
+        (lambda d: maps[1]["variants"].append(0), f"{mp}/1/variants/1: variant 0 has a material already (each "
+                                                  "variant is mapped once per primitive)"),
+        (lambda d: maps[1]["variants"].append(3), f"{mp}/1/variants/1: index 3 out of range "
+                                                  "(/extensions/KHR_materials_variants/variants has 3 entries)"),
+        (lambda d: maps[0].pop("material"), f"{mp}/0/material: missing (an index into /materials)"),
+        (lambda d: d["extensions"]["KHR_materials_variants"]["variants"][2].pop("name"),
+         "/extensions/KHR_materials_variants/variants/2/name: missing (the variant's name)"),
+        (lambda d: d["extensions"]["KHR_materials_variants"].pop("variants"),
+         "/extensions/KHR_materials_variants/variants: missing (an array of variants, each with a name)"),
+    ]
+    for i, (change, message) in enumerate(cases):
+        bad = json.loads(json.dumps(doc))
+        maps = bad["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"]
+        change(bad)
+        p = tmp_path / f"bad{i}.gltf"
+        p.write_text(json.dumps(bad))
+        with pytest.raises(caustica.SceneError) as e:
+            caustica.load_scene_desc(p)
+        assert str(e.value) == f"{p}: {message}"
+
+
+def test_variant_names_repeating_warn_and_pick_the_first(tmp_path):
+    path = variants_scene(tmp_path, variants=[{"name": "Green"}, {"name": "Green"}, {"name": "Plain"}])
+    with pytest.warns(caustica.SceneWarning) as rec:
+        s = caustica.load_scene(path, width=4, height=4, variant="Green")
+    assert [str(w.message) for w in rec] == [
+        f"{path}: /extensions/KHR_materials_variants/variants: the name 'Green' is given to more than one variant; "
+        "the first of them is used by that name"]
+    np.testing.assert_array_equal(caustica.render(s, spp=1)[0, 0], [0, 1, 0])
+
+
+def test_cli_variant(tmp_path):
+    path = variants_scene(tmp_path)
+    o = tmp_path / "blue.pfm"
+    r = subprocess.run([BIN, "render", path, "--variant", "Blue and white", "--spp", "1", "--width", "4",
+                        "--height", "4", "-o", str(o), "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(caustica.read_image(o)[2, 2], [0, 0, 1])
+    r = subprocess.run([BIN, "info", path], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "variants:    Green, Blue and white, Plain (none chosen: --variant NAME)" in r.stdout
+    r = subprocess.run([BIN, "info", path, "--variant", "Plain", "--json"], capture_output=True, text=True)
+    info = json.loads(r.stdout)
+    assert info["variants"] == ["Green", "Blue and white", "Plain"] and info["variant"] == "Plain"
+    r = subprocess.run([BIN, "render", path, "--variant", "Red", "-o", str(tmp_path / "n.pfm"), "--quiet"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.strip() == (f"caustica: error: {path}: no material variant named 'Red' "
+                                "(variants: Green, Blue and white, Plain)")
+    out = tmp_path / "green.json"
+    r = subprocess.run([BIN, "export", path, "--variant", "Green", "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(render(out, size=4, spp=1)[1, 1], [0, 1, 0])
+    # converge takes it too: a reference of the green variant.
+    ref = tmp_path / "ref.pfm"
+    r = subprocess.run([BIN, "converge", path, "--variant", "Green", "--make-reference", "--spp", "1", "--width", "4",
+                        "--height", "4", "-o", str(ref), "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(caustica.read_image(ref)[1, 1], [0, 1, 0])

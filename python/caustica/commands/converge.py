@@ -63,6 +63,7 @@ def add_parser(sub):
     p.add_argument("--width", type=_pos_int("--width"), default=None)
     p.add_argument("--height", type=_pos_int("--height"), default=None)
     p.add_argument("--camera", default=None, help="a named camera of the scene file")
+    p.add_argument("--variant", default=None, metavar="NAME", help="a material variant of a glTF file")
     p.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
                    help="Mitsuba XML $NAME substitution (repeatable)")
     p.add_argument("--checkpoints", type=_pos_int("--checkpoints"), default=None,
@@ -96,7 +97,8 @@ def run(a) -> int:
     cv = importlib.import_module("caustica.converge")  # the module (the package attribute is the function)
     opts = {k: v for k, v in (("threads", a.threads), ("max_depth", a.max_depth), ("sampler", a.sampler),
                               ("photons", a.photons)) if v is not None}
-    scene_kw = dict(width=a.width, height=a.height, camera=a.camera, params=dict(a.param) or None)
+    scene_kw = dict(width=a.width, height=a.height, camera=a.camera, params=dict(a.param) or None,
+                    variant=a.variant)
     if a.make_reference:
         if a.output is None:
             raise _api.InputError("--make-reference needs -o REF.exr")

@@ -79,6 +79,7 @@ def add_parser(sub):
     r.add_argument("--sampler", default=None, help="sobol or independent (default: the scene's)")
     r.add_argument("--threads", type=_type("--threads", int, lambda v: v >= 0, "a non-negative integer"), default=0)
     r.add_argument("--camera", default=None, help="a named camera of the scene file")
+    r.add_argument("--variant", default=None, metavar="NAME", help="a material variant of a glTF file")
     r.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
                    help="Mitsuba XML $NAME substitution (repeatable)")
     r.add_argument("--device", default="cpu",
@@ -106,7 +107,8 @@ def run(a) -> int:
         res = S.realtime(a.scene, integrators=a.integrators, thresholds=a.thresholds, size=a.size,
                          max_spp=a.max_spp, seeds=a.seeds, ref_spp=a.ref_spp, ref_integrator=a.ref_integrator,
                          out=out, flip_mode=a.flip_mode, threads=a.threads, max_depth=a.max_depth,
-                         sampler=a.sampler, camera=a.camera, params=dict(a.param) or None, fresh_ref=a.fresh_ref,
+                         sampler=a.sampler, camera=a.camera, params=dict(a.param) or None, variant=a.variant,
+                         fresh_ref=a.fresh_ref,
                          device=a.device, throughput_at=a.throughput_at, throughput_spp=a.throughput_spp,
                          log=log, command=command)
     seen = set()

@@ -50,10 +50,11 @@ auto scene_call(F&& f) -> decltype(f()) {
 }
 
 SceneDesc load_desc(const std::string& name_or_path, const std::string& camera,
-                    const std::map<std::string, std::string>& params) {
+                    const std::map<std::string, std::string>& params, const std::string& variant) {
   LoadOptions o;
   o.camera = camera;
   o.params = params;
+  o.variant = variant;
   return scene_call([&] {
     SceneDesc d = load_scene_desc(name_or_path, o);
     // load_scene_desc picks cameras of files; a built-in scene has none to pick.
@@ -264,6 +265,8 @@ NB_MODULE(_native, m) {
       .def_prop_ro("warnings", [](const Scene& s) { return s.desc().warnings; })
       .def_prop_ro("cameras", [](const Scene& s) { return camera_names(s.desc()); })
       .def_prop_ro("camera", [](const Scene& s) { return s.desc().camera.name; })
+      .def_prop_ro("variants", [](const Scene& s) { return s.desc().variants; })
+      .def_prop_ro("variant", [](const Scene& s) { return s.desc().variant; })
       .def_prop_ro("integrator_defaults", [](const Scene& s) { return integrator_defaults(s.desc()); })
       .def("describe", [](const Scene& s) { return describe(s.desc()); },
            "Counts (shapes, meshes, triangles, spheres, materials, lights, area_lights, textures, media) and world bounds.")
@@ -289,6 +292,8 @@ NB_MODULE(_native, m) {
       .def_prop_ro("warnings", [](const SceneDesc& d) { return d.warnings; })
       .def_prop_ro("cameras", [](const SceneDesc& d) { return camera_names(d); })
       .def_prop_ro("camera", [](const SceneDesc& d) { return d.camera.name; })
+      .def_prop_ro("variants", [](const SceneDesc& d) { return d.variants; })
+      .def_prop_ro("variant", [](const SceneDesc& d) { return d.variant; })
       .def_prop_ro("integrator_defaults", [](const SceneDesc& d) { return integrator_defaults(d); })
       .def("describe", [](const SceneDesc& d) { return describe(d); })
       .def("to_json", [](const SceneDesc& d, const std::string& texture_stem) {
@@ -301,19 +306,23 @@ NB_MODULE(_native, m) {
            })
       .def("build", [](const SceneDesc& d) { return build_scene(d); }, nb::call_guard<nb::gil_scoped_release>());
   m.def("load_scene_desc",
-        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params) {
-          return load_desc(name_or_path, camera, params);
+        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params,
+           const std::string& variant) {
+          return load_desc(name_or_path, camera, params, variant);
         },
         nb::arg("name_or_path"), nb::arg("camera") = "", nb::arg("params") = std::map<std::string, std::string>(),
+        nb::arg("variant") = "",
         nb::call_guard<nb::gil_scoped_release>());
   m.def("load_json_desc", &load_json_desc, nb::arg("text"), nb::arg("source"), nb::arg("base_dir") = "",
         nb::arg("camera") = "", nb::call_guard<nb::gil_scoped_release>());
 
   m.def("load_scene",
-        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params) {
-          return build_scene(load_desc(name_or_path, camera, params));
+        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params,
+           const std::string& variant) {
+          return build_scene(load_desc(name_or_path, camera, params, variant));
         },
         nb::arg("name_or_path"), nb::arg("camera") = "", nb::arg("params") = std::map<std::string, std::string>(),
+        nb::arg("variant") = "",
         nb::call_guard<nb::gil_scoped_release>());
   m.def("load_scene_json",
         [](const std::string& text, const std::string& source, const std::string& base_dir, const std::string& camera) {
@@ -324,13 +333,14 @@ NB_MODULE(_native, m) {
   // Loading without building (no acceleration structures): for export and describe.
   m.def("export_scene",
         [](const std::string& name_or_path, const std::string& out, const std::string& camera,
-           const std::map<std::string, std::string>& params) {
-          SceneDesc d = load_desc(name_or_path, camera, params);
+           const std::map<std::string, std::string>& params, const std::string& variant) {
+          SceneDesc d = load_desc(name_or_path, camera, params, variant);
           scene_call([&] { write_scene_json(d, out); });
           return d.warnings;
         },
         nb::arg("name_or_path"), nb::arg("out"), nb::arg("camera") = "",
-        nb::arg("params") = std::map<std::string, std::string>(), nb::call_guard<nb::gil_scoped_release>());
+        nb::arg("params") = std::map<std::string, std::string>(), nb::arg("variant") = "",
+        nb::call_guard<nb::gil_scoped_release>());
   m.def("export_scene_json",
         [](const std::string& text, const std::string& source, const std::string& base_dir, const std::string& out,
            const std::string& camera) {
@@ -341,11 +351,13 @@ NB_MODULE(_native, m) {
         nb::arg("text"), nb::arg("source"), nb::arg("base_dir"), nb::arg("out"), nb::arg("camera") = "",
         nb::call_guard<nb::gil_scoped_release>());
   m.def("scene_to_json",
-        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params) {
-          SceneDesc d = load_desc(name_or_path, camera, params);
+        [](const std::string& name_or_path, const std::string& camera, const std::map<std::string, std::string>& params,
+           const std::string& variant) {
+          SceneDesc d = load_desc(name_or_path, camera, params, variant);
           return scene_call([&] { return scene_desc_to_json(d, d.name); });
         },
         nb::arg("name_or_path"), nb::arg("camera") = "", nb::arg("params") = std::map<std::string, std::string>(),
+        nb::arg("variant") = "",
         nb::call_guard<nb::gil_scoped_release>());
 
   nb::class_<RenderJob>(m, "RenderJob")

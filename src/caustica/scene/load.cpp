@@ -119,16 +119,20 @@ SceneStats scene_stats(const SceneDesc& d) {
 SceneDesc load_scene_desc(const std::string& name_or_path, const LoadOptions& opts) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (is_builtin_scene(name_or_path) && !fs::exists(name_or_path, ec)) return builtin_scene(name_or_path);
   fs::path p(name_or_path);
   std::string ext = p.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const bool gltf = ext == ".gltf" || ext == ".glb";
+  if (!opts.variant.empty() && !gltf)
+    throw InputError(name_or_path + ": has no material variants (--variant '" + opts.variant +
+                     "'): they come from glTF files (KHR_materials_variants)");
+  if (is_builtin_scene(name_or_path) && !fs::exists(name_or_path, ec)) return builtin_scene(name_or_path);
   if (fs::exists(p, ec)) {
     if (fs::is_directory(p, ec)) throw InputError(name_or_path + ": is a directory, not a scene file");
     SceneDesc d;
     if (ext == ".json") d = load_json_scene_file(name_or_path);
     else if (ext == ".obj" || ext == ".ply") d = load_mesh_file(name_or_path, ext);
-    else if (ext == ".gltf" || ext == ".glb") d = load_gltf_scene(name_or_path);
+    else if (gltf) d = load_gltf_scene(name_or_path, opts.variant);
     else if (ext == ".xml") d = load_mitsuba_scene(name_or_path, opts.params);
     else
       throw InputError(name_or_path + ": unsupported scene format '" + ext +

@@ -9,6 +9,7 @@ namespace caustica {
 struct LoadOptions {
   std::string camera;                         // glTF / XML: the camera to use by name ("" = the first)
   std::map<std::string, std::string> params;  // Mitsuba XML $name substitutions
+  std::string variant;                        // glTF: a KHR_materials_variants variant by name ("" = none)
 };
 
 // A path to an existing file is loaded by its extension (.json, .obj, .ply,

@@ -120,6 +120,10 @@ struct SceneDesc {
   std::string name;
   CameraDesc camera;               // the camera used
   std::vector<CameraDesc> cameras; // all named cameras of the file (glTF, XML); may be empty
+  // glTF KHR_materials_variants: the file's variant names, and the one whose materials the shapes have
+  // ("" = none chosen: every primitive has its own `material`). Chosen when loading (LoadOptions::variant).
+  std::vector<std::string> variants;
+  std::string variant;
   Filter filter;  // the pixel filter (film/filter.h; make_filter)
   std::vector<std::string> material_names;
   std::vector<Material> materials;

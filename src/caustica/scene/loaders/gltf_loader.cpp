@@ -45,13 +45,13 @@ const std::set<std::string>& supported_extensions() {
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression",
-      "EXT_meshopt_compression", "KHR_materials_unlit", "KHR_materials_iridescence"};
+      "EXT_meshopt_compression", "KHR_materials_unlit", "KHR_materials_iridescence", "KHR_materials_variants"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
 const std::set<std::string>& ignored_extensions() {
   static const std::set<std::string> s = {
-      "KHR_materials_dispersion", "KHR_materials_variants", "KHR_texture_basisu",
+      "KHR_materials_dispersion", "KHR_texture_basisu",
       "KHR_animation_pointer", "KHR_xmp_json_ld"};
   return s;
 }
@@ -109,6 +109,17 @@ const json& lights_array(const Ctx& c, const json& root) {
   const json* k = e ? member(*e, "KHR_lights_punctual") : nullptr;
   const json* l = k ? member(*k, "lights") : nullptr;
   return l ? array_at(c, *l, "/extensions/KHR_lights_punctual/lights") : empty_array();
+}
+// KHR_materials_variants: the root's array of variants (empty without the extension; the extension without
+// it is an error, the specification requiring it).
+const char* const kVariantsPath = "/extensions/KHR_materials_variants/variants";
+const json& variants_array(const Ctx& c, const json& root) {
+  const json* e = member(root, "extensions");
+  const json* k = e ? member(*e, "KHR_materials_variants") : nullptr;
+  if (!k) return empty_array();
+  const json* v = member(object_at(c, *k, "/extensions/KHR_materials_variants"), "variants");
+  if (!v) c.fail(kVariantsPath, "missing (an array of variants, each with a name)");
+  return array_at(c, *v, kVariantsPath);
 }
 
 // An index into `arr` (named `arr_path` in messages).
@@ -222,12 +233,18 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
   const json& cameras = top(c, root, "cameras");
   const json& skins = top(c, root, "skins");
   const json& lights = lights_array(c, root);
+  const json& variants = variants_array(c, root);
 
   auto req = [&](const json& o, const char* key, const std::string& path, const std::string& what) -> const json& {
     const json* m = member(o, key);
     if (!m) c.fail(P(path, key), "missing (" + what + ")");
     return *m;
   };
+  for (size_t i = 0; i < variants.size(); ++i) {  // KHR_materials_variants: --variant picks one by its name
+    const std::string p = P(kVariantsPath, i);
+    req(object_at(c, variants[i], p), "name", p, "the variant's name");
+    string_or(c, variants[i], "name", p, "");
+  }
 
   // Buffers: external files must exist and be large enough.
   std::vector<int64_t> buffer_len(buffers.size());
@@ -462,6 +479,27 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
           }
         }
       if (const json* mt = member(pr, "material")) index_into(c, *mt, P(pp, "material"), materials, "/materials");
+      // KHR_materials_variants: each mapping gives a material to some variants, each variant at most once.
+      if (const json* mv = member(pr, "extensions") ? member(pr["extensions"], "KHR_materials_variants") : nullptr) {
+        const std::string vp = P(P(pp, "extensions"), "KHR_materials_variants");
+        const json& maps = array_at(c, req(object_at(c, *mv, vp), "mappings", vp, "an array of material mappings"),
+                                    P(vp, "mappings"));
+        std::vector<bool> mapped(variants.size(), false);
+        for (size_t m = 0; m < maps.size(); ++m) {
+          const std::string mp = P(P(vp, "mappings"), m);
+          const json& mo = object_at(c, maps[m], mp);
+          index_into(c, req(mo, "material", mp, "an index into /materials"), P(mp, "material"), materials, "/materials");
+          const json& vs = array_at(c, req(mo, "variants", mp, "an array of indices into " + std::string(kVariantsPath)),
+                                    P(mp, "variants"));
+          for (size_t k = 0; k < vs.size(); ++k) {
+            const size_t v = index_into(c, vs[k], P(P(mp, "variants"), k), variants, kVariantsPath);
+            if (mapped[v])
+              c.fail(P(P(mp, "variants"), k), "variant " + std::to_string(v) +
+                                                  " has a material already (each variant is mapped once per primitive)");
+            mapped[v] = true;
+          }
+        }
+      }
       if (const json* md = member(pr, "mode")) {
         int64_t mode = integer(c, *md, P(pp, "mode"));
         if (mode < 0 || mode > 6) c.fail(P(pp, "mode"), "expected a primitive mode in [0, 6]");
@@ -654,8 +692,8 @@ struct TexKey {
 
 class Converter {
  public:
-  Converter(const Ctx& c, const json& root, tinygltf::Model& model, SceneDesc& d)
-      : c_(c), root_(root), model_(model), d_(d) {}
+  Converter(const Ctx& c, const json& root, tinygltf::Model& model, SceneDesc& d, int64_t variant)
+      : c_(c), root_(root), model_(model), d_(d), variant_(variant) {}
 
   void run();
 
@@ -664,6 +702,7 @@ class Converter {
   const json& root_;
   tinygltf::Model& model_;
   SceneDesc& d_;
+  const int64_t variant_;  // the KHR_materials_variants variant chosen (-1: none)
   std::map<size_t, int> material_of_;  // glTF material -> caustica material
   std::map<int, int> vertex_colored_;  // caustica material -> its copy with kVertexColor (primitives with COLOR_0)
   struct MatExtra {
@@ -711,6 +750,7 @@ class Converter {
   static void alpha_to_red(float* px) { px[0] = px[1] = px[2] = px[3], px[3] = 1.f; }
   static void green_to_red(float* px) { px[0] = px[2] = px[1], px[3] = 1.f; }
   int material(size_t i);
+  const json* primitive_material(const json& prim) const;
   int mesh(size_t mi, size_t pi);
   void visit(size_t node, const Mat4& parent_world);
   std::vector<std::pair<size_t, CameraDesc>> cams_;  // (camera index, camera) in traversal order
@@ -995,6 +1035,17 @@ float unit_interval(const Ctx& c, const json& o, const char* key, const std::str
   double v = number_or(c, o, key, path, def);
   if (v < 0.0 || v > 1.0) c.fail(P(path, key), "expected a number in [0, 1]");
   return float(v);
+}
+
+// A primitive's material: the chosen variant's where one of the primitive's KHR_materials_variants mappings
+// lists it, else the primitive's own `material` (the extension's fallback to plain glTF), or none.
+const json* Converter::primitive_material(const json& prim) const {
+  const json* ex = variant_ >= 0 ? member(prim, "extensions") : nullptr;
+  if (const json* mv = ex ? member(*ex, "KHR_materials_variants") : nullptr)
+    for (const json& m : mv->at("mappings"))
+      for (const json& v : m.at("variants"))
+        if (v.get<int64_t>() == variant_) return &m.at("material");
+  return member(prim, "material");
 }
 
 int Converter::material(size_t i) {
@@ -1345,7 +1396,7 @@ int Converter::mesh(size_t mi, size_t pi) {
   // generated from the normals and UVs (generate_tangents; the spec asks for MikkTSpace, whose angle
   // weighting it shares but not its splitting of vertices at tangent-space seams).
   bool wants_tangents = false, generate = false;
-  if (const json* mt = member(pr, "material")) {
+  if (const json* mt = primitive_material(pr)) {
     const Material& mat = d_.materials[size_t(material(mt->get<size_t>()))];
     wants_tangents = mat.tex_normal >= 0 || mat.alpha_x != mat.alpha_y;
   }
@@ -1521,7 +1572,7 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
       s.type = ShapeType::kMesh;
       s.mesh = id;
       s.to_world = worlds[wi].affine();
-      if (const json* mt = member(prims[k], "material")) {
+      if (const json* mt = primitive_material(prims[k])) {
         size_t gm = mt->get<size_t>();
         s.material = material(gm);
         const MatExtra& ex = mat_extra_[gm];
@@ -1699,7 +1750,7 @@ uint32_t le32(const unsigned char* p) { return uint32_t(p[0]) | uint32_t(p[1]) <
 
 }  // namespace
 
-SceneDesc load_gltf_scene(const std::string& path) {
+SceneDesc load_gltf_scene(const std::string& path, const std::string& variant) {
   std::vector<unsigned char> bytes = read_file(path);
   Ctx c{path, fs::path(path).parent_path()};
   bool glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
@@ -1735,6 +1786,25 @@ SceneDesc load_gltf_scene(const std::string& path) {
   SceneDesc d;
   d.name = fs::path(path).stem().string();
   check_structure(c, root, bin_chunk_len > 0, d.warnings);
+  // KHR_materials_variants: the variant to render, by name (the first of that name where names repeat).
+  for (const json& v : variants_array(c, root)) {
+    std::string name = v.at("name").get<std::string>();
+    if (std::find(d.variants.begin(), d.variants.end(), name) != d.variants.end())
+      d.warnings.push_back(path + ": " + kVariantsPath + ": the name '" + name +
+                           "' is given to more than one variant; the first of them is used by that name");
+    d.variants.push_back(std::move(name));
+  }
+  int64_t chosen = -1;
+  if (!variant.empty()) {
+    chosen = std::find(d.variants.begin(), d.variants.end(), variant) - d.variants.begin();
+    if (size_t(chosen) == d.variants.size()) {
+      std::string names;
+      for (const std::string& n : d.variants) names += (names.empty() ? "" : ", ") + n;
+      throw InputError(path + ": no material variant named '" + variant + "' (" +
+                       (names.empty() ? "the file has no KHR_materials_variants" : "variants: " + names) + ")");
+    }
+    d.variant = variant;
+  }
 
   // tinygltf reads what caustica takes from it, the buffers and the (still encoded) images, from a document of
   // those alone (and the GLB's BIN chunk): the rest, checked and converted here, stays out of its way (it
@@ -1774,7 +1844,7 @@ SceneDesc load_gltf_scene(const std::string& path) {
   if (model.buffers.size() != nbuf || model.images.size() != nimg)
     throw InputError(path + ": invalid glTF: tinygltf read " + std::to_string(model.buffers.size()) + " buffers and " +
                      std::to_string(model.images.size()) + " images");
-  Converter(c, root, model, d).run();
+  Converter(c, root, model, d, chosen).run();
   return d;
 }
 
