@@ -1034,7 +1034,7 @@ TEST(GltfLoader, MalformedInputMessages) {
                              "(supported: EXT_mesh_gpu_instancing, EXT_meshopt_compression, EXT_texture_webp, KHR_draco_mesh_compression, KHR_lights_punctual, KHR_materials_anisotropy, "
                              "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_iridescence, "
                              "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_unlit, KHR_materials_variants, KHR_materials_volume, "
-                       "KHR_mesh_quantization, "
+                       "KHR_mesh_quantization, KHR_node_visibility, "
                              "KHR_texture_transform)");
   // A missing buffer file names both files.
   p = write_text("nobuf.gltf", R"({"asset": {"version": "2.0"}, "buffers": [{"uri": "missing.bin", "byteLength": 4}]})");

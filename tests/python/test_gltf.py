@@ -671,3 +671,37 @@ def test_cli_variant(tmp_path):
                         "--height", "4", "-o", str(ref), "--quiet"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     np.testing.assert_array_equal(caustica.read_image(ref)[1, 1], [0, 1, 0])
+
+
+def test_node_visibility_hides_meshes_and_lights_below_not_cameras(tmp_path):
+    """KHR_node_visibility: a node with visible false hides its meshes and lights and those of every node below
+    it (a child's own visible true included); its cameras stay. The red quad in front is hidden, so the camera
+    (itself below the hidden node) sees the green one behind it."""
+    g = Gltf()
+    red = g.add("materials", {"emissiveFactor": [1, 0, 0]})
+    green = g.add("materials", {"emissiveFactor": [0, 1, 0]})
+    g.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 5}]}}
+    lamp = g.add("nodes", {"translation": [0, 0, 1], "extensions": {"KHR_lights_punctual": {"light": 0},
+                                                                     "KHR_node_visibility": {"visible": True}}})
+    cam = g.camera(3.0, FILL_FOV)
+    front = g.add("nodes", {"mesh": g.quad(red), "children": [lamp, cam],
+                            "extensions": {"KHR_node_visibility": {"visible": False}}})
+    back = g.add("nodes", {"mesh": g.quad(green, z=-1.0, half=2.0)})
+    g.scene([front, back])
+    g.doc["extensionsUsed"] = ["KHR_lights_punctual", "KHR_node_visibility"]
+    path = g.write(tmp_path / "hidden.gltf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # supported: no warning
+        d = caustica.describe(path)
+    assert (d["shapes"], d["area_lights"], d["lights"]) == (1, 1, 0)  # the green quad; no point light
+    np.testing.assert_array_equal(render(path, size=4, spp=1)[2, 2], [0, 1, 0])
+    g.doc["nodes"][front]["extensions"]["KHR_node_visibility"]["visible"] = True
+    path = g.write(tmp_path / "shown.gltf")
+    d = caustica.describe(path)
+    assert (d["shapes"], d["area_lights"], d["lights"]) == (2, 2, 1)
+    np.testing.assert_array_equal(render(path, size=4, spp=1)[2, 2], [1, 0, 0])
+    g.doc["nodes"][front]["extensions"]["KHR_node_visibility"]["visible"] = 0
+    path = g.write(tmp_path / "bad.gltf")
+    with pytest.raises(caustica.SceneError) as e:
+        caustica.describe(path)
+    assert str(e.value) == f"{path}: /nodes/{front}/extensions/KHR_node_visibility/visible: expected true or false, got number"

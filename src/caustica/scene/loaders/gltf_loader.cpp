@@ -45,7 +45,8 @@ const std::set<std::string>& supported_extensions() {
       "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression",
-      "EXT_meshopt_compression", "KHR_materials_unlit", "KHR_materials_iridescence", "KHR_materials_variants"};
+      "EXT_meshopt_compression", "KHR_materials_unlit", "KHR_materials_iridescence", "KHR_materials_variants",
+      "KHR_node_visibility"};
   return s;
 }
 // Known extensions that change only appearance details caustica does not model.
@@ -578,6 +579,11 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
         index_into(c, req(object_at(c, *lp, lpp), "light", lpp, "an index into the lights"), P(lpp, "light"), lights,
                    "/extensions/KHR_lights_punctual/lights");
       }
+      if (const json* nv = member(*e, "KHR_node_visibility")) {
+        const std::string vp = P(P(p, "extensions"), "KHR_node_visibility");
+        const json* v = member(object_at(c, *nv, vp), "visible");
+        if (v && !v->is_boolean()) c.fail(P(vp, "visible"), std::string("expected true or false, got ") + v->type_name());
+      }
     }
     if (const json* m = member(n, "matrix")) {
       numbers(c, *m, P(p, "matrix"), 16);
@@ -752,7 +758,9 @@ class Converter {
   int material(size_t i);
   const json* primitive_material(const json& prim) const;
   int mesh(size_t mi, size_t pi);
-  void visit(size_t node, const Mat4& parent_world);
+  // visible: KHR_node_visibility's, false below a hidden node (its meshes and lights are left out, its cameras
+  // are not).
+  void visit(size_t node, const Mat4& parent_world, bool visible);
   std::vector<std::pair<size_t, CameraDesc>> cams_;  // (camera index, camera) in traversal order
 };
 
@@ -1507,21 +1515,23 @@ int Converter::mesh(size_t mi, size_t pi) {
   return id;
 }
 
-void Converter::visit(size_t ni, const Mat4& parent_world) {
+void Converter::visit(size_t ni, const Mat4& parent_world, bool visible) {
   const json& n = root_["nodes"][ni];
   std::string p = P("/nodes", ni);
   Mat4 world = parent_world * local_matrix(n);
   Affine A = world.affine();
   std::string node_name = string_or(c_, n, "name", p, "");
-  if (member(n, "skin")) ++skinned_;
-  if (const json* mj = member(n, "mesh")) {
+  const json* node_ext = member(n, "extensions");
+  if (const json* nv = node_ext ? member(*node_ext, "KHR_node_visibility") : nullptr)
+    if (const json* v = member(*nv, "visible")) visible = visible && v->get<bool>();
+  if (visible && member(n, "skin")) ++skinned_;
+  if (const json* mj = visible ? member(n, "mesh") : nullptr) {
     size_t mi = mj->get<size_t>();
     const json& prims = root_["meshes"][mi]["primitives"];
     // EXT_mesh_gpu_instancing: the mesh once per instance, each at the node's world matrix times the instance's
     // T * R * S (accessors TRANSLATION, ROTATION, SCALE of one count; absent ones are identity). Meshes are
     // shared, not copied.
     std::vector<Mat4> worlds{world};
-    const json* node_ext = member(n, "extensions");
     const json* inst = node_ext ? member(*node_ext, "EXT_mesh_gpu_instancing") : nullptr;
     if (inst) {
       const std::string ip = P(P(p, "extensions"), "EXT_mesh_gpu_instancing");
@@ -1638,8 +1648,8 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
       cams_.emplace_back(ci, cd);
     }
   }
-  if (const json* e = member(n, "extensions")) {
-    if (const json* lp = member(*e, "KHR_lights_punctual")) {
+  if (node_ext && visible) {
+    if (const json* lp = member(*node_ext, "KHR_lights_punctual")) {
       size_t li = (*lp)["light"].get<size_t>();
       std::string lp_path = P("/extensions/KHR_lights_punctual/lights", li);
       const json& l = root_["extensions"]["KHR_lights_punctual"]["lights"][li];
@@ -1678,7 +1688,7 @@ void Converter::visit(size_t ni, const Mat4& parent_world) {
     }
   }
   if (const json* ch = member(n, "children"))
-    for (const json& k : *ch) visit(k.get<size_t>(), world);
+    for (const json& k : *ch) visit(k.get<size_t>(), world, visible);
 }
 
 void Converter::run() {
@@ -1697,7 +1707,7 @@ void Converter::run() {
     for (size_t i = 0; i < nodes.size(); ++i)
       if (!child[i]) roots.push_back(i);
   }
-  for (size_t r : roots) visit(r, Mat4());
+  for (size_t r : roots) visit(r, Mat4(), true);
   if (!top(c_, root_, "animations").empty()) warn_once("animations are not supported; the scene is loaded at rest");
   // Emissive instances whose world-space area is zero are not lights.
   for (ShapeDesc& s : d_.shapes) {
