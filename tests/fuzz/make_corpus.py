@@ -3,7 +3,9 @@
 per scene format, each using the features its loader parses (materials,
 textures, transforms, lights, cameras), so mutations reach deep code paths.
 Run it again after changing a seed (with the venv's Python, which has Pillow for the WebP seed:
-.venv/bin/python tests/fuzz/make_corpus.py); the files are committed."""
+.venv/bin/python tests/fuzz/make_corpus.py); the files are committed. The Draco and meshopt seeds are encoded by
+DracoPy and meshoptimizer's Python bindings (pip install DracoPy==2.2.0 meshoptimizer==0.2.30a0), which only
+this script needs."""
 import base64
 import json
 import struct
@@ -12,6 +14,96 @@ import zlib
 from pathlib import Path
 
 OUT = Path(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).parent / "corpus")
+
+
+def glb(doc, binary):
+    """A GLB file: the JSON chunk and the BIN chunk (both padded to 4 bytes)."""
+    js = json.dumps(doc).encode()
+    js += b" " * ((4 - len(js) % 4) % 4)
+    binary += b"\0" * ((4 - len(binary) % 4) % 4)
+    out = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(binary))
+    return out + struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(binary), 0x004E4942) + binary
+
+
+def compressed_seeds():
+    """A 4 x 4 vertex grid (positions, normals, UVs; 18 triangles) under an emissive material and a camera, as
+    a GLB whose primitive is Draco-compressed (KHR_draco_mesh_compression) and as one whose buffer views are
+    meshopt-compressed (EXT_meshopt_compression: attributes and triangle indices), so that mutations reach both
+    decoders and the loader's checks of what they return."""
+    try:
+        import DracoPy
+        import meshoptimizer
+        import numpy as np
+    except ImportError as e:
+        print(f"make_corpus.py: no {e.name}: draco.glb and meshopt.glb are left as they are (pip install "
+              "DracoPy==2.2.0 meshoptimizer==0.2.30a0 numpy to write them)", file=sys.stderr)
+        return
+    n = 4
+    ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    u, v = (jj.ravel() / (n - 1)).astype(np.float32), (ii.ravel() / (n - 1)).astype(np.float32)
+    pos = np.stack([2 * u - 1, 1 - 2 * v, 0.1 * np.sin(3 * u)], axis=1).astype(np.float32)
+    nor = np.tile(np.float32([0, 0, 1]), (n * n, 1))
+    uv = np.stack([u, v], axis=1).astype(np.float32)
+    tris = []
+    for i in range(n - 1):
+        for j in range(n - 1):
+            a, b, c, d = i * n + j, i * n + j + 1, (i + 1) * n + j, (i + 1) * n + j + 1
+            tris += [a, c, b, b, c, d]
+    tris = np.array(tris, np.uint32)
+
+    def doc(prim_ext, accessors, views, buffers, used):
+        return {
+            "asset": {"version": "2.0"}, "extensionsUsed": used, "extensionsRequired": used,
+            "scene": 0, "scenes": [{"nodes": [0, 1]}],
+            "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0, 0, 4]}],
+            "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}],
+            "materials": [{"emissiveFactor": [1, 0.5, 0.25]}],
+            "meshes": [{"primitives": [dict({"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2},
+                                             "indices": 3, "material": 0}, **prim_ext)]}],
+            "accessors": accessors, "bufferViews": views, "buffers": buffers,
+        }
+
+    def accessor(view, ctype, count, type_, **kw):
+        a = dict({"componentType": ctype, "count": count, "type": type_}, **kw)
+        if view is not None:
+            a["bufferView"] = view
+        return a
+
+    bounds = {"min": pos.min(axis=0).tolist(), "max": pos.max(axis=0).tolist()}
+    # Draco: the accessors give types and counts only; the attribute ids are those DracoPy 2.2.0's encoder gives
+    # (texture coordinates 0, normals 1, positions 2: found by loading each assignment).
+    draco = DracoPy.encode(pos, tris.reshape(-1, 3), quantization_bits=14, tex_coord=uv.astype(float),
+                           normals=nor.astype(float), preserve_order=True)
+    d = doc({"extensions": {"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {
+                "POSITION": 2, "TEXCOORD_0": 0, "NORMAL": 1}}}},
+            [accessor(None, 5126, n * n, "VEC3", **bounds), accessor(None, 5126, n * n, "VEC3"),
+             accessor(None, 5126, n * n, "VEC2"), accessor(None, 5125, len(tris), "SCALAR")],
+            [{"buffer": 0, "byteOffset": 0, "byteLength": len(draco)}], [{"byteLength": len(draco)}],
+            ["KHR_draco_mesh_compression"])
+    (OUT / "draco.glb").write_bytes(glb(d, draco))
+    # meshopt: buffer 0 (the BIN chunk) holds the compressed views, buffer 1 is the fallback (no data).
+    meshoptimizer.encode_vertex_version(0)  # the version EXT_meshopt_compression specifies (and Debian's decoder reads)
+    parts, views, off = [], [], 0
+    for data, stride, count, mode in ((pos, 12, n * n, "ATTRIBUTES"), (nor, 12, n * n, "ATTRIBUTES"),
+                                      (uv, 8, n * n, "ATTRIBUTES"), (tris, 4, len(tris), "TRIANGLES")):
+        enc = (meshoptimizer.encode_index_buffer(tris, len(tris), n * n) if mode == "TRIANGLES"
+               else meshoptimizer.encode_vertex_buffer(np.ascontiguousarray(data), count, stride))
+        views.append({"buffer": 1, "byteLength": stride * count, "byteStride": stride,
+                      "extensions": {"EXT_meshopt_compression": {"buffer": 0, "byteOffset": off, "byteLength": len(enc),
+                                                                 "byteStride": stride, "count": count, "mode": mode}}})
+        if mode == "TRIANGLES":
+            del views[-1]["byteStride"]
+        enc += b"\0" * ((4 - len(enc) % 4) % 4)  # the next view aligned; byteLength is the data's exact size
+        parts.append(enc)
+        off += len(enc)
+    binary = b"".join(parts)
+    d = doc({}, [accessor(0, 5126, n * n, "VEC3", **bounds), accessor(1, 5126, n * n, "VEC3"),
+                 accessor(2, 5126, n * n, "VEC2"), accessor(3, 5125, len(tris), "SCALAR")],
+            views, [{"byteLength": len(binary)},
+                    {"byteLength": max(v["byteLength"] for v in views),
+                     "extensions": {"EXT_meshopt_compression": {"fallback": True}}}],
+            ["EXT_meshopt_compression"])
+    (OUT / "meshopt.glb").write_bytes(glb(d, binary))
 
 
 def png(w, h, rgb):
@@ -157,13 +249,14 @@ def main():
             "asset": {"version": "2.0"},
             "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_clearcoat",
                                "KHR_materials_specular", "KHR_materials_sheen", "KHR_materials_iridescence",
-                               "KHR_materials_variants"],
+                               "KHR_materials_variants", "KHR_node_visibility"],
             "scene": 0,
             "scenes": [{"nodes": [0, 3, 4]}],
             "nodes": [
                 {"children": [1, 2], "translation": [0, 1, 0], "rotation": [0, 0.3826834, 0, 0.9238795], "scale": [2, 2, 2]},
                 {"mesh": 0},
-                {"mesh": 0, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 3, 0, 0, 1]},
+                {"mesh": 0, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 3, 0, 0, 1],
+                 "extensions": {"KHR_node_visibility": {"visible": True}}},
                 {"mesh": 1},
                 {"camera": 0, "translation": [0, 1, 8], "extensions": {"KHR_lights_punctual": {"light": 0}}},
             ],
@@ -216,11 +309,7 @@ def main():
     glb_bin += b"\0" * ((4 - len(glb_bin) % 4) % 4)
     doc = gltf((None, glb_bin), {"bufferView": 4, "mimeType": "image/png"})
     doc["bufferViews"][4]["byteOffset"] = len(buf) + (4 - len(buf) % 4) % 4
-    js = json.dumps(doc).encode()
-    js += b" " * ((4 - len(js) % 4) % 4)
-    glb = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(glb_bin))
-    glb += struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(glb_bin), 0x004E4942) + glb_bin
-    (OUT / "scene.glb").write_bytes(glb)
+    (OUT / "scene.glb").write_bytes(glb(doc, glb_bin))
 
     # A GLB whose quad's texture is an embedded lossless WebP (EXT_texture_webp, no PNG fallback), so that
     # mutations reach the WebP decoder and the image's size checks.
@@ -249,11 +338,7 @@ def main():
             {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
             {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
     }
-    js = json.dumps(wdoc).encode()
-    js += b" " * ((4 - len(js) % 4) % 4)
-    glb = struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(wbin))
-    glb += struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(wbin), 0x004E4942) + wbin
-    (OUT / "webp.glb").write_bytes(glb)
+    (OUT / "webp.glb").write_bytes(glb(wdoc, wbin))
 
     # Mitsuba 3 XML: defaults and $params, ref, twosided, shapes of each kind, emitters, sensor.
     (OUT / "scene.xml").write_text("""<scene version="3.0.0">
@@ -324,6 +409,8 @@ def main():
   </emitter>
 </scene>
 """)
+
+    compressed_seeds()
 
 
 if __name__ == "__main__":
