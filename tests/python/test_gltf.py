@@ -152,6 +152,44 @@ def test_emission_texture_texels_render_exactly(tmp_path, mode):
         np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c] / 255.0), rtol=1e-4, atol=1e-5)
 
 
+def test_texture_coordinate_sets(tmp_path):
+    """A material whose textures read TEXCOORD_1 (texCoord 1, or KHR_texture_transform's texCoord override) gives
+    its primitives that set as their UVs: here the set mirrored left to right, so each quadrant shows the texel
+    of the other column. Textures reading different sets take the lowest, with a warning."""
+    def scene(name, emissive_info, base_info=None):
+        g = Gltf()
+        g.image_data_uri(png_bytes(TEXELS))
+        g.add("samplers", {"magFilter": 9728, "minFilter": 9728})
+        g.add("textures", {"source": 0, "sampler": 0})
+        pbr = {"baseColorFactor": [0, 0, 0, 1]}
+        if base_info:
+            pbr["baseColorTexture"] = base_info
+        mat = g.add("materials", {"emissiveFactor": [1, 1, 1], "emissiveTexture": emissive_info,
+                                  "pbrMetallicRoughness": pbr})
+        mesh = g.quad(mat)
+        g.doc["meshes"][mesh]["primitives"][0]["attributes"]["TEXCOORD_1"] = g.accessor(
+            [1, 1, 0, 1, 0, 0, 1, 0], "VEC2")
+        g.scene([g.add("nodes", {"mesh": mesh}), g.camera(3.0, FILL_FOV)])
+        return g.write(tmp_path / name)
+
+    expect = {(r, c): srgb_to_linear(TEXELS[r, 1 - c] / 255.0) for r in (0, 1) for c in (0, 1)}
+    for name, info in (("set1.gltf", {"index": 0, "texCoord": 1}),
+                       ("override.gltf", {"index": 0, "extensions": {"KHR_texture_transform": {"texCoord": 1}}})):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            out = render(scene(name, info))
+        for rc, px in quadrant_centres(out).items():
+            np.testing.assert_allclose(px, expect[rc], rtol=1e-4, atol=1e-5)
+    path = scene("mixed.gltf", {"index": 0, "texCoord": 1}, base_info={"index": 0})
+    with pytest.warns(caustica.SceneWarning) as rec:
+        out = render(path)
+    assert [str(w.message) for w in rec] == [
+        f"{path}: /materials/0: its textures read texture coordinate sets 0, 1; one set per material is "
+        "supported: all read TEXCOORD_0"]
+    for (r, c), px in quadrant_centres(out).items():
+        np.testing.assert_allclose(px, srgb_to_linear(TEXELS[r, c] / 255.0), rtol=1e-4, atol=1e-5)
+
+
 def test_base_color_texture_on_a_mirror_metal(tmp_path):
     """A smooth metal (metallic 1, roughness 0) reflects the default white environment
     (radiance 1) with reflectance F0 = base colour at normal incidence, so each quadrant

@@ -718,6 +718,10 @@ class Converter {
     bool unlit = false;  // KHR_materials_unlit: the emission is the base colour
   };
   std::map<size_t, MatExtra> mat_extra_;
+  // Texture coordinate sets: those the textures of the material being converted read (texCoord, or its
+  // KHR_texture_transform override), and the one each converted glTF material's primitives take as their UVs.
+  std::set<int64_t> uv_sets_;
+  std::map<size_t, int64_t> uv_set_of_;
   std::map<std::pair<size_t, size_t>, int> mesh_of_;  // (mesh, primitive) -> meshes index (-1: skipped)
   std::map<std::pair<bool, size_t>, int> image_tex_;  // (srgb, image) -> decoded texture
   std::map<TexKey, int> tex_of_;
@@ -942,8 +946,14 @@ std::vector<float> Converter::draco_floats(const draco::Mesh& mesh, const json& 
 int Converter::texture(const json& info, const std::string& path, bool srgb) {
   size_t ti = info["index"].get<size_t>();
   const json& t = root_["textures"][ti];
-  if (const json* tc = member(info, "texCoord"))
-    if (tc->get<int64_t>() != 0) warn_once("texture coordinate sets other than TEXCOORD_0 are not supported; TEXCOORD_0 is used");
+  int64_t uv_set = member(info, "texCoord") ? info["texCoord"].get<int64_t>() : 0;
+  if (const json* ex = member(info, "extensions"))
+    if (const json* tt = member(*ex, "KHR_texture_transform"))
+      if (const json* tc = tt->is_object() ? member(*tt, "texCoord") : nullptr) {
+        const std::string tp = P(P(P(path, "extensions"), "KHR_texture_transform"), "texCoord");
+        uv_set = integer(c_, *tc, tp);
+        if (uv_set < 0) c_.fail(tp, "expected a non-negative integer");
+      }
   // EXT_texture_webp: its WebP image in place of `source` (a PNG or JPEG fallback, if there is one).
   const json* src = member(t, "source");
   if (const json* ex = member(t, "extensions"))
@@ -952,6 +962,7 @@ int Converter::texture(const json& info, const std::string& path, bool srgb) {
     warn_once(P("/textures", ti) + ": no image source; the texture is ignored");
     return -1;
   }
+  uv_sets_.insert(uv_set);
   size_t ii = src->get<size_t>();
   // Decode the image once per colour space.
   auto key = std::make_pair(srgb, ii);
@@ -1000,8 +1011,6 @@ int Converter::texture(const json& info, const std::string& path, bool srgb) {
       std::vector<double> off = member(*tt, "offset") ? numbers(c_, (*tt)["offset"], P(tp, "offset"), 2) : std::vector<double>{0, 0};
       std::vector<double> sc = member(*tt, "scale") ? numbers(c_, (*tt)["scale"], P(tp, "scale"), 2) : std::vector<double>{1, 1};
       double rot = number_or(c_, *tt, "rotation", tp, 0.0);
-      if (member(*tt, "texCoord") && (*tt)["texCoord"] != 0)
-        warn_once("KHR_texture_transform texCoord overrides are not supported; TEXCOORD_0 is used");
       // glTF applies uv' = T R(rot) S uv with v pointing down the image; caustica's v'
       // = 1 - v points up. Conjugating with F(u, v) = (u, 1 - v) gives the same
       // form in caustica's uv: rotation -rot, the same scale, and the offset below.
@@ -1059,6 +1068,7 @@ const json* Converter::primitive_material(const json& prim) const {
 int Converter::material(size_t i) {
   auto hit = material_of_.find(i);
   if (hit != material_of_.end()) return hit->second;
+  uv_sets_.clear();
   std::string p = P("/materials", i);
   const json& m = root_["materials"][i];
   const json empty = json::object();
@@ -1330,6 +1340,15 @@ int Converter::material(size_t i) {
   int idx = d_.add_material(name.empty() ? "material" + std::to_string(i) : name, mat);
   material_of_[i] = idx;
   mat_extra_[i] = ex;
+  // A primitive has one set of UVs here: that of its material's textures; where they read different sets, the
+  // lowest of them, with a warning.
+  uv_set_of_[i] = uv_sets_.empty() ? 0 : *uv_sets_.begin();
+  if (uv_sets_.size() > 1) {
+    std::string sets;
+    for (int64_t k : uv_sets_) sets += (sets.empty() ? "" : ", ") + std::to_string(k);
+    d_.warnings.push_back(c_.file + ": " + p + ": its textures read texture coordinate sets " + sets +
+                          "; one set per material is supported: all read TEXCOORD_" + std::to_string(uv_set_of_[i]));
+  }
   return idx;
 }
 
@@ -1363,6 +1382,14 @@ int Converter::mesh(size_t mi, size_t pi) {
   size_t n;
   int nc;
   std::vector<float> pos = floats("POSITION", {"VEC3"}, n, nc);
+  // The UVs: the texture coordinate set the material's textures read (TEXCOORD_0 without a material).
+  const json* prim_mat = primitive_material(pr);
+  int64_t uv_set = 0;
+  if (prim_mat) {
+    material(prim_mat->get<size_t>());  // converted first: its textures decide the set
+    uv_set = uv_set_of_[prim_mat->get<size_t>()];
+  }
+  const std::string uv_name = "TEXCOORD_" + std::to_string(uv_set);
   MeshDesc md;
   md.name = string_or(c_, root_["meshes"][mi], "name", P("/meshes", mi), "mesh" + std::to_string(mi));
   md.positions.resize(n);
@@ -1384,10 +1411,10 @@ int Converter::mesh(size_t mi, size_t pi) {
       d_.warnings.push_back(c_.file + ": " + p + ": zero or non-finite normals; using geometric normals");
     }
   }
-  if (member(attrs, "TEXCOORD_0")) {
+  if (member(attrs, uv_name.c_str())) {
     size_t nt;
-    std::vector<float> uv = floats("TEXCOORD_0", {"VEC2"}, nt, nc);
-    if (nt != n) c_.fail(P(P(p, "attributes"), "TEXCOORD_0"), "has " + std::to_string(nt) + " elements, POSITION has " + std::to_string(n));
+    std::vector<float> uv = floats(uv_name.c_str(), {"VEC2"}, nt, nc);
+    if (nt != n) c_.fail(P(P(p, "attributes"), uv_name), "has " + std::to_string(nt) + " elements, POSITION has " + std::to_string(n));
     md.uvs.resize(n);
     bool ok = true;
     for (size_t i = 0; i < n; ++i) {
@@ -1404,8 +1431,8 @@ int Converter::mesh(size_t mi, size_t pi) {
   // generated from the normals and UVs (generate_tangents; the spec asks for MikkTSpace, whose angle
   // weighting it shares but not its splitting of vertices at tangent-space seams).
   bool wants_tangents = false, generate = false;
-  if (const json* mt = primitive_material(pr)) {
-    const Material& mat = d_.materials[size_t(material(mt->get<size_t>()))];
+  if (prim_mat) {
+    const Material& mat = d_.materials[size_t(material(prim_mat->get<size_t>()))];
     wants_tangents = mat.tex_normal >= 0 || mat.alpha_x != mat.alpha_y;
   }
   if (wants_tangents && !md.normals.empty() && !md.uvs.empty()) {
