@@ -668,6 +668,8 @@ TEST(ObjLoader, MtlErrorsAndMissingFilesNameBothFiles) {
       {"Kd 1 1 1\n", "line 1: 'Kd' before any 'newmtl'"},
       {"newmtl a\nKd spectral x.rfl\n", "line 2: 'Kd spectral' colours are not supported (expected Kd r g b)"},
       {"newmtl a\nmap_Kd\n", "line 2: expected a file name after 'map_Kd'"},
+      {"newmtl a\nPr 1.5\n", "line 2: expected one number in [0, 1] after 'Pr', got 'Pr 1.5'"},
+      {"newmtl a\nPm\n", "line 2: expected one number in [0, 1] after 'Pm', got 'Pm'"},
   };
   int k = 0;
   for (const Case& c : cases) {
@@ -681,6 +683,73 @@ TEST(ObjLoader, MtlErrorsAndMissingFilesNameBothFiles) {
               append_obj(d, "/nonexistent/x.obj", Affine(), -1, "scene.json");
             }),
             "scene.json: mesh file '/nonexistent/x.obj' does not exist");
+}
+
+// The MTL PBR extension: Pr, Pm, Pc, Pcr make glTF's metallic-roughness material (alpha = Pr^2, the coat's
+// alpha Pcr^2); Ks, Ns and illum 2 beside them are not read; the glass rules still come first. map_Pr and map_Pm
+// replace their values and become one texture, roughness in G and metallic in B (each image's luminance), two
+// images of different sizes meeting at the roughness map's texels.
+TEST(ObjLoader, PbrExtension) {
+  auto pfm = [](int w, int h, const std::vector<float>& rgb) {
+    std::string s = "PF\n" + std::to_string(w) + " " + std::to_string(h) + "\n-1.0\n";
+    for (float v : rgb) put<float>(s, v, false);
+    return s;
+  };
+  write("pbr/r.pfm", pfm(2, 2, {0.1f, 0.1f, 0.1f, 0.2f, 0.2f, 0.2f, 0.3f, 0.3f, 0.3f, 0.4f, 0.4f, 0.4f}));
+  write("pbr/m.pfm", pfm(1, 1, {0.5f, 0.25f, 1.f}));
+  write("pbr/mats.mtl",
+        "newmtl gold\nKd 1 0.8 0.3\nKs 0.5 0.5 0.5\nNs 200\nillum 2\nPr 0.3\nPm 1\nPc 0.5\nPcr 0.2\n"
+        "newmtl paint\nKd 0.2 0.3 0.4\nPr 0.6\n"
+        "newmtl mapped\nKd 0.5 0.5 0.5\nPr 0.9\nPm 0\nmap_Pr r.pfm\nmap_Pm m.pfm\n"
+        "newmtl rough_only\nmap_Pr r.pfm\n"
+        "newmtl glassy\nPr 0.1\nNi 1.4\nillum 7\n");
+  std::string obj = "mtllib mats.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n";
+  for (const char* n : {"gold", "paint", "mapped", "rough_only", "glassy"})
+    obj += std::string("usemtl ") + n + "\nf 1/1 2/2 3/3\n";
+  SceneDesc d = load_obj(write("pbr/pbr.obj", obj));
+  auto mat = [&](const std::string& n) -> const Material& {
+    int i = d.material_index("pbr/" + n);
+    EXPECT_GE(i, 0) << n;
+    return d.materials[size_t(std::max(i, 0))];
+  };
+  const Material& gold = mat("gold");
+  EXPECT_EQ(gold.type, MaterialType::kMetallicRoughness);
+  EXPECT_EQ(gold.diffuse.y, 0.8f);
+  EXPECT_EQ(gold.metallic, 1.f);
+  EXPECT_FLOAT_EQ(gold.alpha_x, 0.09f);
+  EXPECT_EQ(gold.clearcoat, 0.5f);
+  EXPECT_FLOAT_EQ(gold.clearcoat_alpha, 0.04f);
+  EXPECT_EQ(gold.tex_roughness, -1);
+  EXPECT_EQ(mat("paint").type, MaterialType::kMetallicRoughness);
+  EXPECT_EQ(mat("paint").metallic, 0.f);
+  EXPECT_FLOAT_EQ(mat("paint").alpha_y, 0.36f);
+  EXPECT_EQ(mat("paint").clearcoat, 0.f);
+  EXPECT_EQ(mat("glassy").type, MaterialType::kDielectric);
+  const Material& mapped = mat("mapped");
+  EXPECT_EQ(mapped.metallic, 1.f);  // the maps replace Pm and Pr
+  EXPECT_EQ(mapped.alpha_x, 1.f);
+  ASSERT_GE(mapped.tex_roughness, 0);
+  const TextureDesc& rm = d.textures[size_t(mapped.tex_roughness)];
+  EXPECT_FALSE(rm.srgb);
+  ASSERT_EQ(rm.width, 2);
+  ASSERT_EQ(rm.height, 2);
+  const float metal = luminance(RGB(0.5f, 0.25f, 1.f));
+  std::vector<float> rough;
+  for (const TextureDesc& t : d.textures)
+    if (t.name == (test_dir() / "pbr/r.pfm").string())
+      for (int i = 0; i < 4; ++i) rough.push_back(t.rgba[4 * size_t(i) + 1]);
+  ASSERT_EQ(rough.size(), 4u);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_FLOAT_EQ(rm.rgba[4 * size_t(i) + 1], rough[size_t(i)]);  // grey: the luminance is the value
+    EXPECT_FLOAT_EQ(rm.rgba[4 * size_t(i) + 2], metal);
+  }
+  const Material& ro = mat("rough_only");
+  EXPECT_EQ(ro.metallic, 0.f);
+  ASSERT_GE(ro.tex_roughness, 0);
+  EXPECT_NE(ro.tex_roughness, mapped.tex_roughness);
+  EXPECT_EQ(d.textures[size_t(ro.tex_roughness)].rgba[2], 1.f);  // no metallic map: its factor alone
+  EXPECT_TRUE(d.warnings.empty()) << d.warnings[0];
+  Scene::build(d);
 }
 
 TEST(ObjLoader, SameQuadAsPlyBuildsTheSameGeometry) {

@@ -1,6 +1,7 @@
 """OBJ + MTL and PLY files through the Python API and the command line: they load and render, the same
 quad from OBJ and from PLY renders to the same image, MTL lights and textures take effect, and broken files
 give one line on stderr and exit status 2. Files are written into pytest's temporary folder."""
+import json
 import struct
 import subprocess
 
@@ -59,6 +60,28 @@ def test_mtl_light_and_texture(tmp_path):
     # Lit by the lamp only (no default environment): the floor's white half is bright, its black half dark.
     left, right = img[26:36, 18:22].mean(), img[26:36, 26:30].mean()
     assert right > 0.02 and left < 0.1 * right, (left, right)
+
+
+def test_mtl_pbr_extension_is_gltfs_metallic_roughness(tmp_path):
+    """The MTL PBR extension (Pr, Pm, Pc, Pcr beside Kd; the Ks, Ns and illum exporters write with them are not
+    read) gives the material a glTF file with the same values gets: their JSON exports are the same material,
+    and the quad renders the same under the default camera and environment."""
+    from test_gltf import Gltf
+    (tmp_path / "gold.mtl").write_text("newmtl gold\nKd 1 0.8 0.3\nKs 0.5 0.5 0.5\nNs 300\nillum 2\n"
+                                       "Pr 0.3\nPm 0.75\nPc 0.5\nPcr 0.2\n")
+    (tmp_path / "gold.obj").write_text("mtllib gold.mtl\nusemtl gold\n" + QUAD_OBJ)
+    g = Gltf()
+    mat = g.add("materials", {"name": "gold", "pbrMetallicRoughness": {
+        "baseColorFactor": [1, 0.8, 0.3, 1], "metallicFactor": 0.75, "roughnessFactor": 0.3},
+        "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.5, "clearcoatRoughnessFactor": 0.2}}})
+    g.scene([g.add("nodes", {"mesh": g.quad(mat)})])
+    gltf = g.write(tmp_path / "gold.gltf")
+    with pytest.warns(caustica.SceneWarning):  # no camera, no lights: the defaults, with warnings
+        from_obj, from_gltf = (json.loads(caustica.load_scene_desc(p).to_json()) for p in (tmp_path / "gold.obj", gltf))
+    assert list(from_obj["materials"].values()) == list(from_gltf["materials"].values())
+    with pytest.warns(caustica.SceneWarning):
+        a, b = render(tmp_path / "gold.obj"), render(gltf)
+    np.testing.assert_array_equal(a, b)
 
 
 def test_cli_renders_obj_and_ply(caustica_bin, tmp_path):

@@ -99,6 +99,12 @@ struct MtlInfo {
   bool has_kd = false, has_ks = false, has_ke = false, has_tf = false, has_ni = false, has_d = false;
   int map_kd_line = 0, map_ke_line = 0, map_d_line = 0;  // lines of map_Kd / map_Ke / map_d (0: none)
   int bump_line = 0, norm_line = 0;  // lines of bump / map_Bump / map_bump and of norm (0: none)
+  // The PBR extension (Exocortex's, as Blender's exporter writes it): roughness Pr, metallic Pm, clearcoat Pc
+  // and its roughness Pcr, each in [0, 1]; map_Pr and map_Pm (lines, 0: none).
+  float pr = 1.f, pm = 0.f, pc = 0.f, pcr = 0.f;
+  bool has_pr = false, has_pm = false;
+  int map_pr_line = 0, map_pm_line = 0;
+  bool pbr() const { return has_pr || has_pm || map_pr_line || map_pm_line; }
 };
 
 struct MtlLib {
@@ -122,6 +128,37 @@ bool looks_like_normal_map(const TextureDesc& t) {
   }
   r /= double(n), g /= double(n), b /= double(n);
   return b > 0.7 && std::fabs(r - 0.5) < 0.25 && std::fabs(g - 0.5) < 0.25 && blue * 10 >= n * 9;
+}
+
+// map_Pr and map_Pm as the one texture the metallic-roughness material reads them from (roughness times G,
+// metallic times B; material/material.h): each image's luminance (a grey map's value), 1 in the channel of a map
+// not given (its factor alone). Two images of different sizes meet at the roughness map's texels (the metallic
+// map's nearest texel). The result is linear, named after its images; `made` keeps one per pair.
+int roughness_metallic_texture(SceneDesc& desc, int rough, int metal, std::map<std::pair<int, int>, int>& made) {
+  auto hit = made.find({rough, metal});
+  if (hit != made.end()) return hit->second;
+  const TextureDesc& a = desc.textures[size_t(rough >= 0 ? rough : metal)];
+  TextureDesc t;
+  t.name = (rough >= 0 ? desc.textures[size_t(rough)].name : std::string()) + "#Pr|" +
+           (metal >= 0 ? desc.textures[size_t(metal)].name : std::string()) + "#Pm";
+  t.width = a.width, t.height = a.height;
+  t.rgba.assign(size_t(t.width) * size_t(t.height) * 4, 1.f);
+  auto lum = [](const TextureDesc& s, int x, int y) {
+    const float* px = &s.rgba[4 * (size_t(y) * size_t(s.width) + size_t(x))];
+    return luminance(RGB(px[0], px[1], px[2]));
+  };
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x) {
+      float* px = &t.rgba[4 * (size_t(y) * size_t(t.width) + size_t(x))];
+      px[0] = 0.f;
+      if (rough >= 0) px[1] = lum(desc.textures[size_t(rough)], x, y);
+      if (metal >= 0) {
+        const TextureDesc& m = desc.textures[size_t(metal)];
+        px[2] = lum(m, std::min(m.width - 1, x * m.width / t.width), std::min(m.height - 1, y * m.height / t.height));
+      }
+    }
+  desc.textures.push_back(std::move(t));
+  return made[{rough, metal}] = int(desc.textures.size()) - 1;
 }
 
 // Checks one MTL file and records its materials.
@@ -169,6 +206,17 @@ void scan_mtl(const std::string& path, const std::string& text, MtlLib& lib) {
       else if (kw == "Tf") cur->tf = c, cur->has_tf = true;
       return;
     }
+    if (kw == "Pr" || kw == "Pm" || kw == "Pc" || kw == "Pcr") {
+      need_material();
+      double v;
+      if (tk.t.size() != 2 || !to_double(tk.t[1], v) || !(v >= 0 && v <= 1))
+        fail("expected one number in [0, 1] after '" + kw + "', got '" + line_text + "'");
+      if (kw == "Pr") cur->pr = float(v), cur->has_pr = true;
+      else if (kw == "Pm") cur->pm = float(v), cur->has_pm = true;
+      else if (kw == "Pc") cur->pc = float(v);
+      else cur->pcr = float(v);
+      return;
+    }
     if (kw == "Ns" || kw == "Ni" || kw == "d" || kw == "Tr" || kw == "illum" || kw == "sharpness") {
       need_material();
       size_t i = 1;
@@ -200,11 +248,13 @@ void scan_mtl(const std::string& path, const std::string& text, MtlLib& lib) {
       else if (kw == "map_d") cur->map_d_line = ln;
       else if (kw == "bump" || kw == "map_Bump" || kw == "map_bump") cur->bump_line = ln;
       else if (kw == "norm") cur->norm_line = ln;
+      else if (kw == "map_Pr") cur->map_pr_line = ln;
+      else if (kw == "map_Pm") cur->map_pm_line = ln;
       else if (std::find(lib.ignored.begin(), lib.ignored.end(), kw) == lib.ignored.end()) lib.ignored.push_back(kw);
       return;
     }
-    // Vendor extensions (PBR: Pr Pm Ps Pc Pcr aniso anisor) and anything else:
-    // not part of the mapping; reported once per keyword.
+    // The rest of the PBR extension (Ps, aniso, anisor, ...) and anything else: not part of the mapping;
+    // reported once per keyword.
     if (std::find(lib.ignored.begin(), lib.ignored.end(), kw) == lib.ignored.end()) lib.ignored.push_back(kw);
   });
 }
@@ -602,6 +652,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
     int tex = -1;
   };
   std::map<int, Emit> emission;
+  std::map<std::pair<int, int>, int> rough_metal;  // (map_Pr, map_Pm) -> the texture made of them
   auto material_for = [&](int id) -> int {
     if (!use_mtl) return material_override;
     auto it = converted.find(id);
@@ -653,6 +704,22 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
       m = make_thin_dielectric(eta);
       m.transmission = tint;
       uses_kd = false;
+    } else if (mi->pbr()) {
+      // The PBR extension: glTF's metallic-roughness material (materials.md) with base colour Kd (or map_Kd),
+      // metallic Pm, roughness Pr (GGX alpha Pr^2) and a coat of weight Pc and roughness Pcr. Ks, Ns and illum,
+      // which exporters write beside them as a Phong stand-in for the same surface, are not read.
+      m = make_metallic_roughness(kd, mi->has_pm ? mi->pm : 0.f, mi->pr);
+      m.clearcoat = mi->pc;
+      m.clearcoat_alpha = mi->pcr * mi->pcr;
+      const int tr =
+          mi->map_pr_line && !tm.roughness_texname.empty() ? texture(tm.roughness_texname, mi->map_pr_line, false) : -1;
+      const int tmet =
+          mi->map_pm_line && !tm.metallic_texname.empty() ? texture(tm.metallic_texname, mi->map_pm_line, false) : -1;
+      if (tr >= 0 || tmet >= 0) {  // a map replaces its value, as map_Kd replaces Kd (and Blender's importer does)
+        if (tr >= 0) m.alpha_x = m.alpha_y = 1.f;
+        if (tmet >= 0) m.metallic = 1.f;
+        m.tex_roughness = roughness_metallic_texture(desc, tr, tmet, rough_metal);
+      }
     } else if (il == 3 || il == 5 || il == 8) {
       RGB spec = mi->has_ks ? ks : RGB(1.f);
       spec = Vec3f(std::min(spec.x, 1.f), std::min(spec.y, 1.f), std::min(spec.z, 1.f));
