@@ -22,9 +22,11 @@ of each integrator's final image and its error map), <integrator>.exr and
 """
 from __future__ import annotations
 
+import contextlib as _contextlib
 import datetime as _dt
 import json
 import math
+import operator
 import os
 import tempfile
 import time as _time
@@ -106,10 +108,14 @@ def _utc_now() -> str:
 def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path", time: Optional[float] = None,
                    spp: Optional[int] = None, seed: int = REFERENCE_SEED, width: Optional[int] = None,
                    height: Optional[int] = None, camera: Optional[str] = None, params: Optional[dict] = None,
-                   variant: Optional[str] = None, progress: Optional[Callable[[dict], Any]] = None, **render_options) -> dict:
+                   variant: Optional[str] = None, region: Optional[Sequence[int]] = None,
+                   progress: Optional[Callable[[dict], Any]] = None, **render_options) -> dict:
     """Renders a reference image of `scene` to `path` (.exr or .pfm) for `time` seconds or `spp`
     samples (passes), and writes its metadata beside it (path + ".json": integrator, spp,
     samples, seed, seconds, scene, size, options, caustica version, date). Returns the metadata.
+
+    region=(x, y, w, h): only those pixels of the film are rendered (a w x h reference of that part, all the
+    time spent on it; the metadata keeps the region and the film's size, and converge renders the same part).
 
     The default seed differs from converge's, so the reference's noise is independent of the
     runs measured against it."""
@@ -123,17 +129,22 @@ def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path
         raise InputError("make_reference: give a time budget (seconds) or spp")
     _check_options(render_options)
     s = _load(scene, width, height, camera, params, variant)
-    res = _api.render_job(s, integrator=integrator, spp=spp, time=time, seed=seed, progress=progress,
-                          **render_options)
+    film = list(s.film_size)
+    with _in_region(s, region) as s:
+        res = _api.render_job(s, integrator=integrator, spp=spp, time=time, seed=seed, progress=progress,
+                              **render_options)
+        width, height = s.width, s.height
     if res.interrupted:
         raise KeyboardInterrupt
     _api.write_image(out, res.image)
     st = res.stats
     meta = dict(integrator=st["integrator"], spp=int(st["passes"]), samples=int(st["samples"]), seed=int(seed),
                 seconds=round(float(st["seconds"]), 3), time_budget=time, spp_budget=spp,
-                scene=_scene_label(scene), width=s.width, height=s.height,
+                scene=_scene_label(scene), width=width, height=height,
                 options={k: v for k, v in render_options.items() if v is not None},
                 caustica_version=_api.__version__, date=_utc_now())
+    if region is not None:
+        meta["region"], meta["film_size"] = [int(v) for v in region], film
     if st.get("photons"):
         meta["photons"] = int(st["photons"])
         meta["radius"] = float(st["radius"])
@@ -295,8 +306,9 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
              reference=None, metrics: Union[str, Sequence[str]] = ("relmse", "flip"), checkpoints=None,
              seed: int = 0, out_dir: Union[str, os.PathLike, None] = None, width: Optional[int] = None,
              height: Optional[int] = None, camera: Optional[str] = None, params: Optional[dict] = None,
-             variant: Optional[str] = None, crop: Optional[Sequence[int]] = None, progress: Optional[Callable[[dict], Any]] = None,
-             as_frame: Optional[bool] = None, **render_options):
+             variant: Optional[str] = None, crop: Optional[Sequence[int]] = None,
+             progress: Optional[Callable[[dict], Any]] = None, as_frame: Optional[bool] = None,
+             region: Optional[Sequence[int]] = None, **render_options):
     """Renders `scene` with each integrator for `time` seconds of wall clock and measures the
     error against `reference` (a path to an .exr/.pfm, with its .json sidecar when present,
     or an (H, W, 3) array) at checkpoint times (see checkpoint_times; the final image is the
@@ -308,7 +320,11 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
     seconds this thread spent on snapshots and live metrics while the render ran. A pandas DataFrame (header in .attrs["header"])
     when pandas is installed and as_frame is not False, else a ConvergenceLog (a list with
     .header). render_options: threads, max_depth, rr_depth, sampler, accel, photons, radius,
-    alpha, k, stochastic_hash, photon_sampling. progress(record) is called at each checkpoint."""
+    alpha, k, stochastic_hash, photon_sampling. progress(record) is called at each checkpoint.
+
+    region=(x, y, w, h) renders and measures only those pixels of the film (default: the reference's region,
+    make_reference(region=...), if it has one). The reference is then either that part (w x h) or the whole film,
+    of which the part is taken. crop is the equal-time grid's window within the rendered image."""
     if not isinstance(time, (int, float)) or isinstance(time, bool) or not time > 0 or not math.isfinite(time):
         raise InputError(f"time must be a positive number of seconds, got {time!r}")
     names = _integrator_names(integrators)
@@ -323,6 +339,42 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
         ref_path = os.fspath(reference)
         ref, ref_meta = load_reference(ref_path)
     s = _load(scene, width, height, camera, params, variant)
+    ref_region = (ref_meta or {}).get("region")
+    if region is None:
+        region = ref_region
+    elif ref_region is not None and [int(v) for v in region] != ref_region:
+        raise InputError(f"region {tuple(region)} differs from the reference's {tuple(ref_region)}")
+    with _in_region(s, region) as s:
+        return _converge(s, scene, names, mnames, times, time, ref, ref_meta, ref_path, region, crop, seed, out_dir,
+                         progress, as_frame, render_options)
+
+
+@_contextlib.contextmanager
+def _in_region(s, region):
+    """The scene with its crop window set to `region` (film pixels; None: as it is) while the block runs; a
+    loaded scene passed in by the caller gets its own window back afterwards."""
+    if region is None:
+        yield s
+        return
+    try:
+        x, y, w, h = (operator.index(v) for v in region)
+    except (TypeError, ValueError):
+        raise InputError(f"region: expected (x, y, width, height) in pixels of the film, got {region!r}") from None
+    if w <= 0 or h <= 0:
+        raise InputError(f"region: expected a positive width and height, got {tuple(region)}")
+    old = s.crop or (0, 0, 0, 0)
+    _api.load_scene(s, crop=(x, y, w, h))  # checked against the film
+    try:
+        yield s
+    finally:
+        s.set_crop(*old)
+
+
+def _converge(s, scene, names, mnames, times, time, ref, ref_meta, ref_path, region, crop, seed, out_dir, progress,
+              as_frame, render_options):
+    if region is not None and ref.shape[:2] == tuple(s.film_size[::-1]) != (s.height, s.width):
+        x, y, w, h = (int(v) for v in region)  # a reference of the whole film: its part
+        ref = np.ascontiguousarray(ref[y:y + h, x:x + w])
     if ref.shape[:2] != (s.height, s.width):
         raise InputError(f"reference{' ' + repr(ref_path) if ref_path else ''} is {ref.shape[1]}x{ref.shape[0]} "
                          f"but the scene renders {s.width}x{s.height} (set width/height to match)")
@@ -335,7 +387,7 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
     live = [m for m in mnames if m in LIVE_METRICS]
     later = [m for m in mnames if m not in LIVE_METRICS]
     header = dict(type="header", scene=_scene_label(scene), width=s.width, height=s.height,
-                  integrators=names, time=float(time), metrics=mnames, live_metrics=live, checkpoints=times,
+                  region=None if region is None else [int(v) for v in region], integrators=names, time=float(time), metrics=mnames, live_metrics=live, checkpoints=times,
                   seed=int(seed), options={k: v for k, v in render_options.items() if v is not None},
                   reference=dict(path=ref_path, metadata=ref_meta), caustica_version=_api.__version__,
                   date=_utc_now())

@@ -148,6 +148,44 @@ def test_restir_variants_are_compared_as_integrators(reference):
         caustica.converge("cornell", integrators="path+nohistory", time=1, reference=ref)
 
 
+def test_region_reference_and_runs(reference, tmp_path):
+    """region=(x, y, w, h): make_reference renders only that part of the film (the same samples as the whole
+    film's render with the same seed) and records it; converge then renders the same part, against that
+    reference or against a whole-film one, of which it takes the part; a loaded scene keeps its own crop."""
+    region = (8, 4, 16, 12)
+    part, whole = tmp_path / "part.pfm", tmp_path / "whole.pfm"
+    meta = make_reference("cornell", part, spp=16, width=SIZE, height=SIZE, region=region)
+    make_reference("cornell", whole, spp=16, width=SIZE, height=SIZE)
+    assert meta["region"] == list(region) and meta["film_size"] == [SIZE, SIZE]
+    assert (meta["width"], meta["height"]) == (16, 12)
+    # The same samples as the whole film's part (equal up to the rays' rounding, as tests/python/test_crop_clip.py
+    # shows for crops).
+    same = np.isclose(caustica.read_image(part), caustica.read_image(whole)[4:16, 8:24], rtol=1e-4, atol=1e-6)
+    assert same.all(axis=2).mean() > 0.99
+    scene = caustica.load_scene("cornell", width=SIZE, height=SIZE)
+    for ref, arg in ((part, None), (reference[0], region)):
+        log = caustica.converge(scene, integrators="path", time=0.3, reference=ref, metrics="relmse",
+                                checkpoints=[0.15], as_frame=False, region=arg)
+        assert log.header["region"] == list(region) and (log.header["width"], log.header["height"]) == (16, 12)
+        assert scene.crop is None and scene.width == SIZE  # given back as it was
+        cropped = caustica.load_scene("cornell", width=SIZE, height=SIZE, crop=region)
+        img = caustica.render(cropped, spp=log[-1]["passes"])
+        want = caustica.read_image(ref)
+        want = want if want.shape[:2] == (12, 16) else want[4:16, 8:24]
+        assert log[-1]["relmse"] == pytest.approx(caustica.metrics.relmse(img, want), rel=1e-5)
+    with pytest.raises(caustica.InputError, match=r"region \(0, 0, 16, 12\) differs from the reference's "
+                                                  r"\(8, 4, 16, 12\)"):
+        caustica.converge(scene, integrators="path", time=0.3, reference=part, region=(0, 0, 16, 12))
+    with pytest.raises(caustica.InputError, match="crop window"):
+        caustica.converge(scene, integrators="path", time=0.3, reference=reference[0], region=(30, 0, 16, 12))
+    assert scene.crop is None
+    r = subprocess.run([BIN, "converge", "cornell", "--make-reference", "--spp", "4", "--width", str(SIZE),
+                        "--height", str(SIZE), "--region", "8,4,16,12", "-o", str(tmp_path / "cli.pfm")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "16x12" in r.stderr and caustica.read_image(tmp_path / "cli.pfm").shape == (12, 16, 3)
+
+
 def test_python_api_dataframe(reference):
     pd = pytest.importorskip("pandas")
     df = caustica.converge("cornell", integrators=["path"], time=0.3, reference=caustica.read_image(reference[0]),

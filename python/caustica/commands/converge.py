@@ -3,7 +3,7 @@
     caustica converge SCENE --make-reference --time 3600 -o REF.exr [--integrator path] [--spp N]
     caustica converge SCENE --integrators path,sppm --time 60 --reference REF.exr
                       [--metrics relmse,flip] [--out DIR] [--seed K] [--width W --height H]
-                      [--checkpoints N | --at 1,2,5,10] [--crop X,Y,W,H]
+                      [--checkpoints N | --at 1,2,5,10] [--crop X,Y,W,H] [--region X,Y,W,H]
 
 Writes DIR/converge.jsonl, DIR/<metric>.png/.svg, DIR/grid.png and the final images and
 error maps (see caustica.converge and docs/convergence.md). Bad input: one line, exit 2.
@@ -73,6 +73,9 @@ def add_parser(sub):
                    help="checkpoint times in seconds instead (e.g. 1,2,5,10)")
     p.add_argument("--crop", type=_list("--crop", int, lambda v: v >= 0, "X,Y,W,H in pixels", n=4), default=None,
                    help="the equal-time grid's crop, X,Y,W,H (default: the whole image)")
+    p.add_argument("--region", type=_list("--region", int, lambda v: v >= 0, "X,Y,W,H in pixels", n=4), default=None,
+                   help="render and measure only these pixels of the film, X,Y,W,H (also --make-reference; "
+                        "default: the reference's region, if it has one)")
     p.add_argument("--threads", type=_num("--threads", int, lambda v: v >= 0, "a non-negative integer"),
                    default=None, help="0: all cores")
     p.add_argument("--max-depth", type=_num("--max-depth", int, lambda v: v == -1 or v > 0,
@@ -98,7 +101,7 @@ def run(a) -> int:
     opts = {k: v for k, v in (("threads", a.threads), ("max_depth", a.max_depth), ("sampler", a.sampler),
                               ("photons", a.photons)) if v is not None}
     scene_kw = dict(width=a.width, height=a.height, camera=a.camera, params=dict(a.param) or None,
-                    variant=a.variant)
+                    variant=a.variant, region=a.region)
     if a.make_reference:
         if a.output is None:
             raise _api.InputError("--make-reference needs -o REF.exr")
