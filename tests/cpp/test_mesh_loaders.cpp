@@ -685,7 +685,7 @@ TEST(ObjLoader, MtlErrorsAndMissingFilesNameBothFiles) {
             "scene.json: mesh file '/nonexistent/x.obj' does not exist");
 }
 
-// The MTL PBR extension: Pr, Pm, Pc, Pcr make glTF's metallic-roughness material (alpha = Pr^2, the coat's
+// The MTL PBR extension: Pr, Pm, Pc, Pcr (any of them) make glTF's metallic-roughness material (alpha = Pr^2, the coat's
 // alpha Pcr^2); Ks, Ns and illum 2 beside them are not read; the glass rules still come first. map_Pr and map_Pm
 // replace their values and become one texture, roughness in G and metallic in B (each image's luminance), two
 // images of different sizes meeting at the roughness map's texels.
@@ -702,9 +702,10 @@ TEST(ObjLoader, PbrExtension) {
         "newmtl paint\nKd 0.2 0.3 0.4\nPr 0.6\n"
         "newmtl mapped\nKd 0.5 0.5 0.5\nPr 0.9\nPm 0\nmap_Pr r.pfm\nmap_Pm m.pfm\n"
         "newmtl rough_only\nmap_Pr r.pfm\n"
-        "newmtl glassy\nPr 0.1\nNi 1.4\nillum 7\n");
+        "newmtl glassy\nPr 0.1\nNi 1.4\nillum 7\n"
+        "newmtl coated\nKd 0.1 0.2 0.3\nPc 1\n");
   std::string obj = "mtllib mats.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n";
-  for (const char* n : {"gold", "paint", "mapped", "rough_only", "glassy"})
+  for (const char* n : {"gold", "paint", "mapped", "rough_only", "glassy", "coated"})
     obj += std::string("usemtl ") + n + "\nf 1/1 2/2 3/3\n";
   SceneDesc d = load_obj(write("pbr/pbr.obj", obj));
   auto mat = [&](const std::string& n) -> const Material& {
@@ -725,6 +726,10 @@ TEST(ObjLoader, PbrExtension) {
   EXPECT_FLOAT_EQ(mat("paint").alpha_y, 0.36f);
   EXPECT_EQ(mat("paint").clearcoat, 0.f);
   EXPECT_EQ(mat("glassy").type, MaterialType::kDielectric);
+  EXPECT_EQ(mat("coated").type, MaterialType::kMetallicRoughness);  // a coat alone: Pr 1, Pm 0 beneath it
+  EXPECT_EQ(mat("coated").clearcoat, 1.f);
+  EXPECT_EQ(mat("coated").alpha_x, 1.f);
+  EXPECT_EQ(mat("coated").metallic, 0.f);
   const Material& mapped = mat("mapped");
   EXPECT_EQ(mapped.metallic, 1.f);  // the maps replace Pm and Pr
   EXPECT_EQ(mapped.alpha_x, 1.f);

@@ -102,9 +102,9 @@ struct MtlInfo {
   // The PBR extension (Exocortex's, as Blender's exporter writes it): roughness Pr, metallic Pm, clearcoat Pc
   // and its roughness Pcr, each in [0, 1]; map_Pr and map_Pm (lines, 0: none).
   float pr = 1.f, pm = 0.f, pc = 0.f, pcr = 0.f;
-  bool has_pr = false, has_pm = false;
+  bool has_pbr = false;  // any of them
   int map_pr_line = 0, map_pm_line = 0;
-  bool pbr() const { return has_pr || has_pm || map_pr_line || map_pm_line; }
+  bool pbr() const { return has_pbr || map_pr_line || map_pm_line; }
 };
 
 struct MtlLib {
@@ -211,10 +211,8 @@ void scan_mtl(const std::string& path, const std::string& text, MtlLib& lib) {
       double v;
       if (tk.t.size() != 2 || !to_double(tk.t[1], v) || !(v >= 0 && v <= 1))
         fail("expected one number in [0, 1] after '" + kw + "', got '" + line_text + "'");
-      if (kw == "Pr") cur->pr = float(v), cur->has_pr = true;
-      else if (kw == "Pm") cur->pm = float(v), cur->has_pm = true;
-      else if (kw == "Pc") cur->pc = float(v);
-      else cur->pcr = float(v);
+      (kw == "Pr" ? cur->pr : kw == "Pm" ? cur->pm : kw == "Pc" ? cur->pc : cur->pcr) = float(v);
+      cur->has_pbr = true;
       return;
     }
     if (kw == "Ns" || kw == "Ni" || kw == "d" || kw == "Tr" || kw == "illum" || kw == "sharpness") {
@@ -708,7 +706,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
       // The PBR extension: glTF's metallic-roughness material (materials.md) with base colour Kd (or map_Kd),
       // metallic Pm, roughness Pr (GGX alpha Pr^2) and a coat of weight Pc and roughness Pcr. Ks, Ns and illum,
       // which exporters write beside them as a Phong stand-in for the same surface, are not read.
-      m = make_metallic_roughness(kd, mi->has_pm ? mi->pm : 0.f, mi->pr);
+      m = make_metallic_roughness(kd, mi->pm, mi->pr);
       m.clearcoat = mi->pc;
       m.clearcoat_alpha = mi->pcr * mi->pcr;
       const int tr =
