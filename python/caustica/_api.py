@@ -211,7 +211,8 @@ def load_scene(scene: Union[str, os.PathLike, dict, "_native.Scene"], width: Opt
 
     camera: a named camera of the file (glTF, XML, JSON "cameras"); params: Mitsuba XML
     $name substitutions ({"spp": 64}); variant: a glTF file's material variant by name
-    (KHR_materials_variants; scene.variants lists them, scene.variant is the one chosen). width/height/filter override the scene's (filter: a name, or a
+    (KHR_materials_variants; scene.variants lists them, scene.variant is the one chosen).
+    width/height/filter override the scene's (filter: a name, or a
     dict as the scene format's filter object, e.g. {"type": "mitchell", "B": 0, "C": 0.5}); width/height
     are the film's. crop=(x, y, w, h) renders only the film's pixels [x, x + w) x [y, y + h), into a w x h
     image that equals that part of the whole render (scene.crop, scene.film_size; (0, 0, 0, 0) removes a

@@ -8,8 +8,9 @@
 
 SCENE is a built-in scene name or a scene file (.json, .obj, .ply, .gltf, .glb, .xml);
 render, info and export take --camera NAME, --param NAME=VALUE (repeatable; Mitsuba
-XML $NAME substitutions) and --variant NAME (a glTF file's KHR_materials_variants variant). Bad input (an unknown scene, integrator or option, a bad number,
-an unknown output format, an unwritable output path, a broken scene file) prints one line
+XML $NAME substitutions) and --variant NAME (a glTF file's KHR_materials_variants
+variant). Bad input (an unknown scene, integrator or option, a bad number, an unknown
+output format, an unwritable output path, a broken scene file) prints one line
 to stderr and exits with status 2. Scene warnings are printed once each to stderr.
 """
 from __future__ import annotations

@@ -128,6 +128,7 @@ def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path
     if time is None and spp is None:
         raise InputError("make_reference: give a time budget (seconds) or spp")
     _check_options(render_options)
+    region = _region(region)
     s = _load(scene, width, height, camera, params, variant)
     film = list(s.film_size)
     with _in_region(s, region) as s:
@@ -144,7 +145,7 @@ def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path
                 options={k: v for k, v in render_options.items() if v is not None},
                 caustica_version=_api.__version__, date=_utc_now())
     if region is not None:
-        meta["region"], meta["film_size"] = [int(v) for v in region], film
+        meta["region"], meta["film_size"] = list(region), film
     if st.get("photons"):
         meta["photons"] = int(st["photons"])
         meta["radius"] = float(st["radius"])
@@ -338,32 +339,41 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
     else:
         ref_path = os.fspath(reference)
         ref, ref_meta = load_reference(ref_path)
+    region = _region(region)
     s = _load(scene, width, height, camera, params, variant)
     ref_region = (ref_meta or {}).get("region")
     if region is None:
-        region = ref_region
-    elif ref_region is not None and [int(v) for v in region] != ref_region:
-        raise InputError(f"region {tuple(region)} differs from the reference's {tuple(ref_region)}")
+        region = _region(ref_region)
+    elif ref_region is not None and list(region) != ref_region:
+        raise InputError(f"region {region} differs from the reference's {tuple(ref_region)}")
     with _in_region(s, region) as s:
         return _converge(s, scene, names, mnames, times, time, ref, ref_meta, ref_path, region, crop, seed, out_dir,
                          progress, as_frame, render_options)
 
 
-@_contextlib.contextmanager
-def _in_region(s, region):
-    """The scene with its crop window set to `region` (film pixels; None: as it is) while the block runs; a
-    loaded scene passed in by the caller gets its own window back afterwards."""
+def _region(region) -> Optional[tuple]:
+    """A region as (x, y, w, h) integers with a positive size (None stays None); where it lies in the film is
+    checked when it is set (_in_region)."""
     if region is None:
-        yield s
-        return
+        return None
     try:
         x, y, w, h = (operator.index(v) for v in region)
     except (TypeError, ValueError):
         raise InputError(f"region: expected (x, y, width, height) in pixels of the film, got {region!r}") from None
     if w <= 0 or h <= 0:
-        raise InputError(f"region: expected a positive width and height, got {tuple(region)}")
+        raise InputError(f"region: expected a positive width and height, got {(x, y, w, h)}")
+    return x, y, w, h
+
+
+@_contextlib.contextmanager
+def _in_region(s, region):
+    """The scene with its crop window set to `region` (from _region; None: as it is) while the block runs; a
+    loaded scene passed in by the caller gets its own window back afterwards."""
+    if region is None:
+        yield s
+        return
     old = s.crop or (0, 0, 0, 0)
-    _api.load_scene(s, crop=(x, y, w, h))  # checked against the film
+    _api.load_scene(s, crop=region)  # checked against the film
     try:
         yield s
     finally:
@@ -373,7 +383,7 @@ def _in_region(s, region):
 def _converge(s, scene, names, mnames, times, time, ref, ref_meta, ref_path, region, crop, seed, out_dir, progress,
               as_frame, render_options):
     if region is not None and ref.shape[:2] == tuple(s.film_size[::-1]) != (s.height, s.width):
-        x, y, w, h = (int(v) for v in region)  # a reference of the whole film: its part
+        x, y, w, h = region  # a reference of the whole film: its part
         ref = np.ascontiguousarray(ref[y:y + h, x:x + w])
     if ref.shape[:2] != (s.height, s.width):
         raise InputError(f"reference{' ' + repr(ref_path) if ref_path else ''} is {ref.shape[1]}x{ref.shape[0]} "
@@ -387,7 +397,8 @@ def _converge(s, scene, names, mnames, times, time, ref, ref_meta, ref_path, reg
     live = [m for m in mnames if m in LIVE_METRICS]
     later = [m for m in mnames if m not in LIVE_METRICS]
     header = dict(type="header", scene=_scene_label(scene), width=s.width, height=s.height,
-                  region=None if region is None else [int(v) for v in region], integrators=names, time=float(time), metrics=mnames, live_metrics=live, checkpoints=times,
+                  region=None if region is None else list(region), integrators=names, time=float(time),
+                  metrics=mnames, live_metrics=live, checkpoints=times,
                   seed=int(seed), options={k: v for k, v in render_options.items() if v is not None},
                   reference=dict(path=ref_path, metadata=ref_meta), caustica_version=_api.__version__,
                   date=_utc_now())

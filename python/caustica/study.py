@@ -367,7 +367,8 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
                         "frame_ms": FRAME_MS, "max_spp": max_spp, "levels": levels, "seeds": seeds,
                         "ref_spp": ref_spp, "ref_integrator": ref_integrator, "flip_mode": flip_mode,
                         "flip_ppd": 67.0, "threads": threads, "max_depth": max_depth, "sampler": sampler,
-                        "camera": camera, "params": params, "variant": variant, "device": device, "throughput_at": throughput_at,
+                        "camera": camera, "params": params, "variant": variant, "device": device,
+                        "throughput_at": throughput_at,
                         "throughput_size": [tw, th] if throughput_at == "1080p" else [w, h],
                         "throughput_spp": throughput_spp if throughput_at == "1080p" else None},
            "command": command, "report": None}

@@ -108,8 +108,8 @@ def run(a) -> int:
                          max_spp=a.max_spp, seeds=a.seeds, ref_spp=a.ref_spp, ref_integrator=a.ref_integrator,
                          out=out, flip_mode=a.flip_mode, threads=a.threads, max_depth=a.max_depth,
                          sampler=a.sampler, camera=a.camera, params=dict(a.param) or None, variant=a.variant,
-                         fresh_ref=a.fresh_ref,
-                         device=a.device, throughput_at=a.throughput_at, throughput_spp=a.throughput_spp,
+                         fresh_ref=a.fresh_ref, device=a.device, throughput_at=a.throughput_at,
+                         throughput_spp=a.throughput_spp,
                          log=log, command=command)
     seen = set()
     for w in caught:
