@@ -605,7 +605,7 @@ TEST(ObjLoader, NanAndDegenerateTrianglesAreSkippedAndCounted) {
                             p + ": skipped 1 triangle with non-finite (NaN or infinite) vertex coordinates (1 such vertex)",
                             p + ": ignored 1 line/point statement ('l', 'p')",
                             p + ": line 14: usemtl 'nothing' is not in the material libraries; those faces use a grey "
-                                "diffuse material"}));
+                                "diffuse material (white times their vertex colours where they have them)"}));
   // Zero-area light: all its triangles degenerate.
   write("zl.mtl", "newmtl lamp\nKe 1 1 1\n");
   std::string q = write("zl.obj", "mtllib zl.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nusemtl lamp\nf 1 2 4\n");
@@ -784,4 +784,120 @@ TEST(ObjLoader, LoadSceneDescAddsCameraAndLight) {
   EXPECT_EQ(d.lights.size(), 1u);  // the default environment
   auto sc = Scene::build(d);
   EXPECT_EQ(sc->indices.size(), 36u);
+}
+
+// Vertex colours: `v x y z r g b` (sRGB, as Blender writes and reads them) and ZBrush's #MRGB lines (bytes, for the
+// vertices before them) become linear MeshDesc::colors; a shape of the default material whose vertices have
+// colours gets diffuse 1 times them (kVertexColor), an MTL material keeps its own colour.
+static bool same(RGB a, RGB b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+
+TEST(ObjLoader, VertexColours) {
+  auto srgb = [](float r, float g, float b) { return RGB(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b)); };
+  auto near = [](RGB a, RGB b) { return std::abs(a.x - b.x) + std::abs(a.y - b.y) + std::abs(a.z - b.z) < 1e-6f; };
+  {
+    std::string p = write("vc.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 0.5 0\nv 1 1 0 0 0 0.25\nv 0 1 0 1 1 1\nf 1 2 3 4\n");
+    SceneDesc d = load_obj(p);
+    ASSERT_EQ(d.meshes.size(), 1u);
+    const MeshDesc& m = d.meshes[0];
+    ASSERT_EQ(m.colors.size(), m.positions.size());
+    const RGB want[4] = {srgb(1, 0, 0), srgb(0, 0.5f, 0), srgb(0, 0, 0.25f), RGB(1.f)};
+    for (size_t i = 0; i < m.positions.size(); ++i) {
+      const Vec3f q = m.positions[i];
+      const int k = q.x == 0.f ? (q.y == 0.f ? 0 : 3) : (q.y == 0.f ? 1 : 2);
+      EXPECT_TRUE(near(m.colors[i], want[k])) << i;
+    }
+    EXPECT_NEAR(m.colors[0].y + m.colors[1].y + m.colors[2].y + m.colors[3].y, 1.f + 0.21404114f, 1e-5f);
+    const Material& mat = d.materials[size_t(d.shapes[0].material)];
+    EXPECT_EQ(d.material_names[size_t(d.shapes[0].material)], "vc/default+colors");
+    EXPECT_EQ(mat.type, MaterialType::kDiffuse);
+    EXPECT_TRUE(mat.flags & kVertexColor);
+    EXPECT_TRUE(same(mat.diffuse, RGB(1.f)));
+    EXPECT_TRUE(d.warnings.empty()) << d.warnings[0];
+  }
+  {  // x y z w is not a colour; a file without colours keeps the grey default and no colour array
+    SceneDesc d = load_obj(write("vw.obj", "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n"));
+    EXPECT_TRUE(d.meshes[0].colors.empty());
+    EXPECT_FALSE(d.materials[size_t(d.shapes[0].material)].flags & kVertexColor);
+    EXPECT_TRUE(same(d.materials[size_t(d.shapes[0].material)].diffuse, RGB(0.5f)));
+  }
+  {  // #MRGB runs colour the vertices before them, in order; a run may span lines; bad and missing colours
+    std::string p = write("mrgb.obj",
+                          "v 0 0 0\nv 1 0 0\nv 0 1 0\n#MRGB ff0000ff\n#MRGB ff00ff00\n"
+                          "v 5 5 5 -1 0 0\nv 6 5 5 nan 1 1\nv 5 6 5\n#MRGB ff00ffff00ff000000ff0000 00ff0000\n"
+                          "# a comment\nf 1 2 3\nf 4 5 6\n");
+    SceneDesc d = load_obj(p);
+    ASSERT_EQ(d.meshes.size(), 1u);
+    const MeshDesc& m = d.meshes[0];
+    ASSERT_EQ(m.colors.size(), 6u);
+    EXPECT_TRUE(same(m.colors[0], RGB(1.f)));          // no colour: white
+    EXPECT_TRUE(same(m.colors[1], RGB(0.f, 0.f, 1.f)));
+    // The second run gives 4 colours after 6 vertices: vertices 3..6 (1-based), so vertex 3 turns from green to
+    // cyan and the bad `v` colours of 4 and 5 are replaced by the run's red (the last word wins).
+    EXPECT_TRUE(same(m.colors[2], RGB(0.f, 1.f, 1.f)));
+    EXPECT_TRUE(same(m.colors[3], RGB(1.f, 0.f, 0.f)));
+    EXPECT_TRUE(same(m.colors[4], RGB(1.f, 0.f, 0.f)));
+    EXPECT_TRUE(same(m.colors[5], RGB(1.f, 0.f, 0.f)));
+    EXPECT_EQ(d.warnings, (std::vector<std::string>{p + ": 1 vertex has no colour (5 vertices have one); white there"}));
+  }
+  {  // negative and non-finite colours become white (counted); an #MRGB run longer than the vertices before it
+    std::string p = write("vbad.obj", "#MRGB ff0000ffff0000ff\nv 0 0 0 -1 0 0\nv 1 0 0 nan 1 1\nv 0 1 0 0 0 0\nf 1 2 3\n");
+    SceneDesc d = load_obj(p);
+    const MeshDesc& m = d.meshes[0];
+    EXPECT_TRUE(same(m.colors[0], RGB(1.f)));
+    EXPECT_TRUE(same(m.colors[1], RGB(1.f)));
+    EXPECT_TRUE(same(m.colors[2], RGB(0.f)));
+    EXPECT_EQ(d.warnings,
+              (std::vector<std::string>{p + ": 2 negative or non-finite vertex colours made white",
+                                        p + ": line 1: #MRGB gives colours for more vertices than precede it; the "
+                                            "extra colours are ignored"}));
+  }
+  {  // an MTL material keeps its colour (the mesh keeps the colours, for JSON/XML materials that ask); a group
+     // whose vertices have no colour gets the grey default and no colour array
+    write("vcm.mtl", "newmtl red\nKd 0.8 0.1 0.1\n");
+    std::string p = write("vcm.obj",
+                          "mtllib vcm.mtl\nv 0 0 0 0 1 0\nv 1 0 0 0 1 0\nv 0 1 0 0 1 0\nv 5 0 0\nv 6 0 0\nv 5 1 0\n"
+                          "g b\nf 4 5 6\ng a\nusemtl red\nf 1 2 3\n");
+    SceneDesc d = load_obj(p);
+    ASSERT_EQ(d.shapes.size(), 2u);
+    const Material& red = d.materials[size_t(d.shapes[1].material)];
+    EXPECT_FALSE(red.flags & kVertexColor);
+    EXPECT_TRUE(same(red.diffuse, RGB(0.8f, 0.1f, 0.1f)));
+    EXPECT_EQ(d.meshes[1].colors.size(), 3u);
+    EXPECT_TRUE(d.meshes[0].colors.empty());
+    EXPECT_EQ(d.material_names[size_t(d.shapes[0].material)], "vcm/default");
+  }
+  // Broken #MRGB lines are errors naming the line.
+  for (const char* text : {"v 0 0 0\n#MRGB ff00ff\n", "v 0 0 0\n#MRGB ff00ff0g\n", "v 0 0 0\n#MRGB -f00ff00\n"}) {
+    std::string p = write("mrgb_bad.obj", std::string(text) + "v 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    try {
+      load_obj(p);
+      ADD_FAILURE() << text;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(p + ": line 2: expected colours of 8 hexadecimal digits (MMRRGGBB) after "
+                                                "'#MRGB', got '",
+                                            0),
+                0u)
+          << e.what();
+    }
+  }
+}
+
+// A PLY file alone: the default material shows its vertex colours (diffuse 1 times them) and stays grey without.
+TEST(PlyLoader, AloneItsVertexColoursShow) {
+  std::string p = write("alone.ply",
+                        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                        "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+                        "property list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 0 255 0\n"
+                        "0 1 0 0 0 255\n3 0 1 2\n");
+  SceneDesc d = load_scene_desc(p);
+  const Material& m = d.materials[size_t(d.shapes[0].material)];
+  EXPECT_TRUE(m.flags & kVertexColor);
+  EXPECT_TRUE(same(m.diffuse, RGB(1.f)));
+  std::string q = write("alone_plain.ply",
+                        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+                        "3 0 1 2\n");
+  SceneDesc e = load_scene_desc(q);
+  EXPECT_FALSE(e.materials[size_t(e.shapes[0].material)].flags & kVertexColor);
+  EXPECT_TRUE(same(e.materials[size_t(e.shapes[0].material)].diffuse, RGB(0.5f)));
 }

@@ -202,7 +202,8 @@ def main():
     }
     (OUT / "scene.json").write_text(json.dumps(scene, indent=1))
 
-    # OBJ + MTL: two groups, a quad, textures, an emitter, normals and uvs, the PBR extension.
+    # OBJ + MTL: two groups, a quad, textures, an emitter, normals and uvs, the PBR extension, vertex colours
+    # (`v x y z r g b` and an #MRGB run).
     (OUT / "mesh.mtl").write_text(
         "newmtl red\nKd 0.8 0.1 0.1\nmap_Kd checker.png\n"
         "newmtl shiny\nKd 0.2 0.2 0.2\nKs 0.5 0.5 0.5\nNs 200\nillum 2\n"
@@ -211,7 +212,8 @@ def main():
         "newmtl metal\nKd 0.9 0.6 0.2\nPr 0.3\nPm 1\nPc 0.5\nPcr 0.1\nmap_Pr checker.png\nmap_Pm checker.png\n")
     (OUT / "mesh.obj").write_text(
         "mtllib mesh.mtl\n"
-        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 1 0\nv -0.2 2 -0.2\nv 0.2 2 -0.2\nv 0.2 2 0.2\nv -0.2 2 0.2\n"
+        "v -1 0 -1 1 0 0\nv 1 0 -1 0 1 0\nv 1 0 1 0 0 1\nv -1 0 1 1 1 1\nv 0 1 0\n"
+        "v -0.2 2 -0.2\nv 0.2 2 -0.2\nv 0.2 2 0.2\nv -0.2 2 0.2\n#MRGB ff808080ff404040\n"
         "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 1 0\n"
         "g floor\nusemtl red\nf 1/1/1 2/2/1 3/3/1 4/4/1\n"
         "g pyramid\nusemtl shiny\nf 1 2 5\nusemtl metal\nf 2 3 5\nusemtl glass\nf 3 4 5\nf 4 1 5\n"

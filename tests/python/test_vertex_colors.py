@@ -1,8 +1,9 @@
 """Vertex colours (material flag kVertexColor, docs/materials.md): the main colour times the triangle's interpolated
 vertex colour. A diffuse quad under a uniform sky of radiance 1 reflects its albedo, so each triangle's centroid
 shows the mean of its three vertex colours (times the material's colour); the colours come from JSON meshes, glTF's
-COLOR_0 (float, and normalized bytes with alpha), PLY (8- and 16-bit sRGB, float linear) and Mitsuba's
-mesh_attribute texture, and survive export to JSON. bench/compare_mitsuba_xml.py's scene `colored`
+COLOR_0 (float, and normalized bytes with alpha), PLY (8- and 16-bit sRGB, float linear), OBJ (`v x y z r g b` and
+#MRGB, sRGB) and Mitsuba's mesh_attribute texture, and survive export to JSON; a coloured OBJ or PLY file rendered
+alone shows them. bench/compare_mitsuba_xml.py's scene `colored`
 renders them against Mitsuba 3."""
 import base64
 import json
@@ -230,3 +231,69 @@ def test_mitsuba_mesh_attribute_errors(tmp_path, body, message):
     f.write_text(f'<scene version="3.0.0">{body}</scene>')
     with pytest.raises(caustica.InputError, match=message.replace("(", r"\(").replace(")", r"\)")):
         caustica.load_scene(str(f))
+
+
+def write_obj_colored(path, srgb, mrgb=False):
+    """The quad as OBJ with sRGB vertex colours: `v x y z r g b`, or ZBrush's #MRGB line after the vertices."""
+    if mrgb:
+        hexes = "".join("ff%02x%02x%02x" % tuple(int(round(255 * x)) for x in c) for c in srgb)
+        text = "".join("v %g %g %g\n" % tuple(p) for p in QUAD_P) + f"#MRGB {hexes}\n"
+    else:
+        text = "".join("v %g %g %g %g %g %g\n" % (*p, *c) for p, c in zip(QUAD_P, srgb))
+    path.write_text(text + "f 1 2 3\nf 1 3 4\n")
+
+
+@pytest.mark.parametrize("mrgb", [False, True])
+def test_obj_colours_are_srgb(tmp_path, mrgb):
+    """OBJ vertex colours are sRGB (Blender writes and reads them so), decoded to linear: through a JSON mesh file
+    and a material with vertex_colors, and through Mitsuba's mesh_attribute on an obj shape, the centroids show
+    the decoded colours."""
+    raw = [[1, 0, 0], [0, 128 / 255, 0], [0, 0, 64 / 255], [1, 1, 1]]
+    write_obj_colored(tmp_path / "q.obj", raw, mrgb)
+    want = srgb_to_linear(np.array(raw, np.float64)).tolist()
+    scene = quad_scene()
+    scene["shapes"] = [{"type": "mesh", "file": str(tmp_path / "q.obj"), "material": "m"}]
+    expect_centroids(render(scene, spp=64, seed=6), want, 0.5)
+    f = tmp_path / "m.xml"
+    f.write_text("""<scene version="3.0.0"><integrator type="path"><integer name="max_depth" value="2"/>
+      </integrator><sensor type="orthographic"><transform name="to_world"><lookat origin="0, 0, 3"
+      target="0, 0, 0" up="0, 1, 0"/></transform><film type="hdrfilm"><integer name="width" value="48"/>
+      <integer name="height" value="48"/><rfilter type="box"/></film></sensor>
+      <shape type="obj"><string name="filename" value="q.obj"/><bsdf type="diffuse">
+      <texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/>
+      <float name="scale" value="0.5"/></texture></bsdf></shape><emitter type="constant"/></scene>""")
+    expect_centroids(render(caustica.load_scene(str(f)), spp=64, seed=7), want, 0.5)
+
+
+@pytest.mark.parametrize("ext", ["obj", "ply"])
+def test_a_mesh_file_alone_shows_its_colours(tmp_path, ext):
+    """A coloured OBJ or PLY file rendered alone (default camera and sky): its default material is diffuse 1 times
+    the vertex colours, so a uniform colour c renders as the uncoloured file with a diffuse material of c (MTL Kd
+    for the OBJ, a JSON copy of the scene for the PLY), sample for sample."""
+    c = [0.8, 0.4, 0.2]  # sRGB in the OBJ file; 8-bit sRGB in the PLY file
+    if ext == "obj":
+        write_obj_colored(tmp_path / "q.obj", [c] * 4)
+        lin = srgb_to_linear(np.array(c)).tolist()
+        (tmp_path / "k.mtl").write_text("newmtl k\nKd %r %r %r\n" % tuple(lin))
+        (tmp_path / "k.obj").write_text("mtllib k.mtl\nusemtl k\n" + "".join("v %g %g %g\n" % tuple(p) for p in QUAD_P)
+                                        + "f 1 2 3\nf 1 3 4\n")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the default camera and light
+            colored, plain = caustica.load_scene(str(tmp_path / "q.obj")), caustica.load_scene(str(tmp_path / "k.obj"))
+    else:
+        b = [int(round(255 * x)) for x in c]
+        write_ply_colored(tmp_path / "q.ply", [b] * 4, "uchar")
+        lin = srgb_to_linear(np.array(b) / 255.0).tolist()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the default camera and light
+            caustica.export_scene(str(tmp_path / "q.ply"), str(tmp_path / "q.json"))
+        d = json.loads((tmp_path / "q.json").read_text())
+        (name, mat), = d["materials"].items()
+        assert mat["vertex_colors"] is True and mat["reflectance"] == 1, mat
+        d["materials"][name] = {"type": "diffuse", "reflectance": lin}
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            colored, plain = caustica.load_scene(str(tmp_path / "q.ply")), caustica.load_dict(d)
+    a, b = render(colored, spp=4, seed=8), render(plain, spp=4, seed=8)
+    assert a.mean() > 0.05
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)

@@ -26,8 +26,12 @@ SceneDesc load_mesh_file(const std::string& path, const std::string& ext) {
   SceneDesc d;
   d.name = std::filesystem::path(path).stem().string();
   if (ext == ".ply") {
-    d.add_material("default", make_diffuse(RGB(0.5f)));
     d.meshes.push_back(load_ply_mesh(path, &d.warnings));
+    // Grey diffuse; a mesh with vertex colours shows them (reflectance 1 times the colour, as an OBJ file's
+    // default material and glTF's do).
+    Material m = make_diffuse(RGB(d.meshes[0].colors.empty() ? 0.5f : 1.f));
+    if (!d.meshes[0].colors.empty()) m.flags |= kVertexColor;
+    d.add_material(d.meshes[0].colors.empty() ? "default" : "default+colors", m);
     ShapeDesc s;
     s.name = d.name;
     s.mesh = 0;

@@ -25,7 +25,8 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
 // shape (XML/JSON given a material); -1 converts the MTL materials (documented
 // in docs/formats-obj-ply.md) and adds them to desc (names prefixed with the file
 // stem to stay unique). Emissive MTL materials (Ke) make area lights. Returns
-// the indices of the shapes added. Warnings go to desc.warnings.
+// the indices of the shapes added. Vertex colours (`v x y z r g b`, #MRGB; sRGB in the file) become linear
+// MeshDesc::colors of the shapes whose vertices have them. Warnings go to desc.warnings.
 std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affine& to_world,
                             int material_override, const std::string& referrer);
 

@@ -290,6 +290,14 @@ struct ObjScan {
   size_t unknown_usemtl = 0;
   std::string first_unknown_usemtl;
   int first_unknown_usemtl_line = 0;
+  // Vertex colours as the file gives them (sRGB): `v x y z r g b` and ZBrush's `#MRGB` lines. Both vectors are
+  // empty when no vertex has a colour, else one entry per vertex (white where `colored` is 0).
+  std::vector<RGB> colors;
+  std::vector<uint8_t> colored;
+  size_t n_colored = 0;
+  std::vector<RGB> mrgb_run;   // the #MRGB colours since the last `v` line
+  size_t mrgb_dropped = 0;     // #MRGB colours for more vertices than preceded them
+  int first_mrgb_dropped_line = 0;
 };
 
 void scan_obj(const std::string& path, const std::string& text, bool load_mtl, MtlLib& lib, ObjScan& s) {
@@ -298,13 +306,46 @@ void scan_obj(const std::string& path, const std::string& text, bool load_mtl, M
                                    "bevel", "c_interp", "d_interp", "lod", "maplib", "usemap", "shadow_obj",
                                    "trace_obj", "ctech", "stech", "call", "csh"};
   const fs::path dir = fs::path(path).parent_path();
+  auto set_color = [&](size_t v, RGB c) {
+    if (s.colors.size() < s.nv) s.colors.resize(s.nv, RGB(1.f)), s.colored.resize(s.nv, 0);
+    s.n_colored += !s.colored[v];
+    s.colored[v] = 1;
+    s.colors[v] = c;
+  };
+  // ZBrush's #MRGB lines follow the vertices they colour: a run of them (up to the next `v` line) gives, in
+  // order, the colours of the run's length of vertices before it (Paul Bourke's OBJ colour notes; Blender's
+  // importer reads them so). Colours for more vertices than came before are dropped, the first ones.
+  int mrgb_line = 0;
+  auto end_mrgb_run = [&] {
+    const size_t n = s.mrgb_run.size(), k = std::min(n, s.nv);
+    if (k < n && s.mrgb_dropped++ == 0) s.first_mrgb_dropped_line = mrgb_line;
+    for (size_t i = 0; i < k; ++i) set_color(s.nv - k + i, s.mrgb_run[n - k + i]);
+    s.mrgb_run.clear();
+  };
   Tokens tk;
   for_each_line(text, [&](int ln, const char* b, const char* e) {
     tk.split(b, e);
-    if (tk.t.empty() || tk.t[0][0] == '#') return;
     auto fail = [&](const std::string& what) {
       throw InputError(path + ": line " + std::to_string(ln) + ": " + what);
     };
+    if (!tk.t.empty() && tk.t[0] == "#MRGB") {
+      mrgb_line = ln;
+      for (size_t i = 1; i < tk.t.size(); ++i) {
+        const std::string_view h = tk.t[i];
+        for (size_t j = 0; j < h.size(); j += 8) {
+          uint32_t v = 0;
+          const char* end = h.data() + std::min(j + 8, h.size());
+          auto r = std::from_chars(h.data() + j, end, v, 16);
+          if (end - (h.data() + j) != 8 || r.ec != std::errc() || r.ptr != end)
+            fail("expected colours of 8 hexadecimal digits (MMRRGGBB) after '#MRGB', got '" +
+                 std::string(h.substr(0, 40)) + "'");
+          s.mrgb_run.push_back(RGB(float((v >> 16) & 255u) / 255.f, float((v >> 8) & 255u) / 255.f,
+                                   float(v & 255u) / 255.f));
+        }
+      }
+      return;
+    }
+    if (tk.t.empty() || tk.t[0][0] == '#') return;
     const std::string_view kw = tk.t[0];
     std::string line_text(b, size_t(std::min<ptrdiff_t>(e - b, 60)));
     if (kw == "v" || kw == "vn" || kw == "vt") {
@@ -317,14 +358,24 @@ void scan_obj(const std::string& path, const std::string& text, bool load_mtl, M
         fail("expected " + want + " after '" + std::string(kw) + "', got '" + line_text + "'");
       }
       bool finite = true;
+      double rgb[3] = {1.0, 1.0, 1.0};
       for (size_t i = 1; i <= n; ++i) {
         double v;
         if (!to_double(tk.t[i], v)) fail("expected a number, got '" + std::string(tk.t[i]) + "'");
         if (i <= (kw == "vt" ? 2u : 3u)) finite &= std::isfinite(v);
+        else if (i <= 6) rgb[i - 4] = v;
       }
-      if (kw == "v") s.bad_v.push_back(!finite), s.n_bad_v += !finite, ++s.nv;
-      else if (kw == "vn") s.bad_vn.push_back(!finite), s.n_bad_vn += !finite, ++s.nvn;
-      else s.bad_vt.push_back(!finite), s.n_bad_vt += !finite, ++s.nvt;
+      if (kw == "v") {
+        if (!s.mrgb_run.empty()) end_mrgb_run();
+        s.bad_v.push_back(!finite), s.n_bad_v += !finite, ++s.nv;
+        // `v x y z r g b`: Blender's, MeshLab's and many scanners' vertex colours (tinyobjloader reads the same
+        // three numbers as colour); four numbers are x y z w.
+        if (n >= 6) set_color(s.nv - 1, RGB(float(rgb[0]), float(rgb[1]), float(rgb[2])));
+      } else if (kw == "vn") {
+        s.bad_vn.push_back(!finite), s.n_bad_vn += !finite, ++s.nvn;
+      } else {
+        s.bad_vt.push_back(!finite), s.n_bad_vt += !finite, ++s.nvt;
+      }
       return;
     }
     if (kw == "f") {
@@ -418,6 +469,8 @@ void scan_obj(const std::string& path, const std::string& text, bool load_mtl, M
     fail("unknown statement '" + std::string(kw.substr(0, 30)) +
          "' (expected v, vt, vn, f, l, p, g, o, s, usemtl, mtllib or a comment)");
   });
+  end_mrgb_run();
+  if (!s.colors.empty()) s.colors.resize(s.nv, RGB(1.f)), s.colored.resize(s.nv, 0);
 }
 
 // Hands tinyobjloader the MTL texts the first pass read.
@@ -548,7 +601,21 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
   for (size_t i = 0; i < nv; ++i)
     P[i] = Vec3f(float(attrib.vertices[3 * i]), float(attrib.vertices[3 * i + 1]), float(attrib.vertices[3 * i + 2]));
   std::vector<tinyobj::real_t>().swap(attrib.vertices);
-  std::vector<tinyobj::real_t>().swap(attrib.colors);
+  std::vector<tinyobj::real_t>().swap(attrib.colors);  // scan_obj read them, #MRGB lines too
+
+  // Vertex colours: sRGB in the file (Blender's exporter encodes them so and its importer decodes them so;
+  // MeshLab and ZBrush write display colours), linear here. Negative or non-finite ones become white.
+  std::vector<RGB>& C = scan.colors;
+  size_t bad_colors = 0;
+  for (size_t i = 0; i < C.size(); ++i) {
+    if (!scan.colored[i]) continue;
+    RGB& c = C[i];
+    if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x + c.y + c.z))) {
+      c = RGB(1.f), ++bad_colors;
+      continue;
+    }
+    c = RGB(srgb_to_linear(c.x), srgb_to_linear(c.y), srgb_to_linear(c.z));
+  }
 
   // Normals from the file: usable if finite and non-zero.
   std::vector<Vec3f> N(scan.nvn);
@@ -664,6 +731,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
       if (default_material < 0) default_material = desc.add_material(unique_name(stem + "/default"), make_diffuse(RGB(0.5f)));
       return converted[id] = default_material;
     }
+    // (A shape of the default material whose vertices have colours takes `colored_default` instead; below.)
     const tinyobj::material_t& tm = tmats[size_t(id)];
     const fs::path mdir = fs::path(mi->file).parent_path();
     auto texture = [&](const std::string& name, int line, bool srgb = true) {
@@ -792,9 +860,10 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
   std::vector<uint32_t> corner_vertex;
   std::vector<Vec3f> face_normal_tmp;
 
+  int colored_default = -1;  // diffuse, reflectance 1 times the vertex colours (as glTF's default material)
   for (const Bucket& bk : buckets) {
     MeshDesc mesh;
-    bool want_uv = false, want_n = false;
+    bool want_uv = false, want_n = false, any_colored = false;
     for (const Run& r : bk.runs) {
       const tinyobj::mesh_t& m = shapes[r.shape].mesh;
       size_t corner = r.first_corner;
@@ -848,6 +917,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
           }
           uint32_t id = uint32_t(mesh.positions.size());
           mesh.positions.push_back(P[v]);
+          if (!C.empty()) mesh.colors.push_back(C[v]), any_colored |= scan.colored[v] != 0;
           if (want_n) mesh.normals.push_back(nrm);
           if (want_uv) {
             Vec2f uv(0.f, 0.f);
@@ -880,6 +950,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
       dropped_lights += emissive;
       continue;
     }
+    if (!any_colored) std::vector<RGB>().swap(mesh.colors);
     std::string name = stem;
     if (!bk.group.empty()) name += "/" + bk.group;
     if (materials_per_group[bk.group] > 1)
@@ -892,6 +963,14 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
     sd.mesh = int(desc.meshes.size()) - 1;
     sd.to_world = to_world;
     sd.material = material_for(bk.material);
+    if (use_mtl && sd.material == default_material && !desc.meshes.back().colors.empty()) {
+      if (colored_default < 0) {
+        Material m = make_diffuse(RGB(1.f));
+        m.flags |= kVertexColor;
+        colored_default = desc.add_material(unique_name(stem + "/default+colors"), m);
+      }
+      sd.material = colored_default;
+    }
     sd.emission = em.L;
     sd.emission_texture = em.tex;
     desc.shapes.push_back(sd);
@@ -922,7 +1001,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
     W.push_back(path + ": line " + std::to_string(scan.first_unknown_usemtl_line) + ": usemtl '" + scan.first_unknown_usemtl +
                 "' is not in the material libraries" +
                 (scan.unknown_usemtl > 1 ? " (and " + std::to_string(scan.unknown_usemtl - 1) + " more)" : "") +
-                "; those faces use a grey diffuse material");
+                "; those faces use a grey diffuse material (white times their vertex colours where they have them)");
   if (!lib.ignored.empty() && use_mtl) {
     std::string l;
     for (const auto& k : lib.ignored) l += (l.empty() ? "" : ", ") + k;
@@ -930,6 +1009,16 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
     for (const auto& f : scan.mtl_files) files += (files.empty() ? "" : ", ") + f;
     W.push_back(files + ": ignored MTL statements without a mapping (" + l + ")");
   }
+  if (bad_colors)
+    W.push_back(path + ": " + plural(bad_colors, "negative or non-finite vertex colour", "negative or non-finite vertex colours") +
+                " made white");
+  if (scan.n_colored && scan.n_colored < nv)
+    W.push_back(path + ": " + plural(nv - scan.n_colored, "vertex has", "vertices have") + " no colour (" +
+                plural(scan.n_colored, "vertex has", "vertices have") + " one); white there");
+  if (scan.mrgb_dropped)
+    W.push_back(path + ": line " + std::to_string(scan.first_mrgb_dropped_line) +
+                ": #MRGB gives colours for more vertices than precede it; the extra colours are ignored" +
+                (scan.mrgb_dropped > 1 ? " (and in " + std::to_string(scan.mrgb_dropped - 1) + " more runs)" : ""));
   if (clamped_kd) W.push_back(path + ": " + plural(clamped_kd, "material's Kd was", "materials' Kd were") + " above 1 and clamped to 1");
   if (scaled_phong)
     W.push_back(path + ": " + plural(scaled_phong, "material has", "materials have") +
