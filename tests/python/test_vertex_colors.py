@@ -189,19 +189,25 @@ def test_ply_colours(tmp_path, kind):
     expect_centroids(img, want.tolist(), 0.5)
 
 
+def mitsuba_quad(folder, kind):
+    """A Mitsuba XML scene in `folder` of the mesh file q.<kind> under a diffuse BSDF whose reflectance is the
+    mesh_attribute texture of vertex_color with scale 0.5, seen as quad_scene sees the quad; returns its path."""
+    f = folder / "m.xml"
+    f.write_text(f"""<scene version="3.0.0"><integrator type="path"><integer name="max_depth" value="2"/>
+      </integrator><sensor type="orthographic"><transform name="to_world"><lookat origin="0, 0, 3"
+      target="0, 0, 0" up="0, 1, 0"/></transform><film type="hdrfilm"><integer name="width" value="48"/>
+      <integer name="height" value="48"/><rfilter type="box"/></film></sensor>
+      <shape type="{kind}"><string name="filename" value="q.{kind}"/><bsdf type="diffuse">
+      <texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/>
+      <float name="scale" value="0.5"/></texture></bsdf></shape><emitter type="constant"/></scene>""")
+    return str(f)
+
+
 def test_mitsuba_mesh_attribute_reads_ply_colours(tmp_path):
     """Mitsuba's mesh_attribute texture of vertex_color (times its scale) on a diffuse BSDF over a PLY with float
     colours: the same centroids as the JSON quad."""
     write_ply_colored(tmp_path / "q.ply", COLORS, "float")
-    f = tmp_path / "m.xml"
-    f.write_text("""<scene version="3.0.0"><integrator type="path"><integer name="max_depth" value="2"/>
-      </integrator><sensor type="orthographic"><transform name="to_world"><lookat origin="0, 0, 3"
-      target="0, 0, 0" up="0, 1, 0"/></transform><film type="hdrfilm"><integer name="width" value="48"/>
-      <integer name="height" value="48"/><rfilter type="box"/></film></sensor>
-      <shape type="ply"><string name="filename" value="q.ply"/><bsdf type="diffuse">
-      <texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/>
-      <float name="scale" value="0.5"/></texture></bsdf></shape><emitter type="constant"/></scene>""")
-    img = render(caustica.load_scene(str(f)), spp=64, seed=5)
+    img = render(caustica.load_scene(mitsuba_quad(tmp_path, "ply")), spp=64, seed=5)
     expect_centroids(img, COLORS, 0.5)
 
 
@@ -254,15 +260,7 @@ def test_obj_colours_are_srgb(tmp_path, mrgb):
     scene = quad_scene()
     scene["shapes"] = [{"type": "mesh", "file": str(tmp_path / "q.obj"), "material": "m"}]
     expect_centroids(render(scene, spp=64, seed=6), want, 0.5)
-    f = tmp_path / "m.xml"
-    f.write_text("""<scene version="3.0.0"><integrator type="path"><integer name="max_depth" value="2"/>
-      </integrator><sensor type="orthographic"><transform name="to_world"><lookat origin="0, 0, 3"
-      target="0, 0, 0" up="0, 1, 0"/></transform><film type="hdrfilm"><integer name="width" value="48"/>
-      <integer name="height" value="48"/><rfilter type="box"/></film></sensor>
-      <shape type="obj"><string name="filename" value="q.obj"/><bsdf type="diffuse">
-      <texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/>
-      <float name="scale" value="0.5"/></texture></bsdf></shape><emitter type="constant"/></scene>""")
-    expect_centroids(render(caustica.load_scene(str(f)), spp=64, seed=7), want, 0.5)
+    expect_centroids(render(caustica.load_scene(mitsuba_quad(tmp_path, "obj")), spp=64, seed=7), want, 0.5)
 
 
 @pytest.mark.parametrize("ext", ["obj", "ply"])
