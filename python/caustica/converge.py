@@ -93,12 +93,6 @@ def _scene_label(scene) -> str:
     return getattr(scene, "name", "<scene>")
 
 
-def _load(scene, width, height, camera, params, variant) -> "_native.Scene":
-    if isinstance(scene, _native.Scene):
-        if width is not None or height is not None:
-            return _api.load_scene(scene, width=width, height=height)
-        return scene
-    return _api.load_scene(scene, width=width, height=height, camera=camera, params=params, variant=variant)
 
 
 def _utc_now() -> str:
@@ -129,9 +123,8 @@ def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path
         raise InputError("make_reference: give a time budget (seconds) or spp")
     _check_options(render_options)
     region = _region(region)
-    s = _load(scene, width, height, camera, params, variant)
-    film = list(s.film_size)
-    with _in_region(s, region) as s:
+    with _framed(scene, width, height, camera, params, variant, region) as s:
+        film = list(s.film_size)
         res = _api.render_job(s, integrator=integrator, spp=spp, time=time, seed=seed, progress=progress,
                               **render_options)
         width, height = s.width, s.height
@@ -340,20 +333,19 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
         ref_path = os.fspath(reference)
         ref, ref_meta = load_reference(ref_path)
     region = _region(region)
-    s = _load(scene, width, height, camera, params, variant)
     ref_region = (ref_meta or {}).get("region")
     if region is None:
         region = _region(ref_region)
     elif ref_region is not None and list(region) != ref_region:
         raise InputError(f"region {region} differs from the reference's {tuple(ref_region)}")
-    with _in_region(s, region) as s:
+    with _framed(scene, width, height, camera, params, variant, region) as s:
         return _converge(s, scene, names, mnames, times, time, ref, ref_meta, ref_path, region, crop, seed, out_dir,
                          progress, as_frame, render_options)
 
 
 def _region(region) -> Optional[tuple]:
     """A region as (x, y, w, h) integers with a positive size (None stays None); where it lies in the film is
-    checked when it is set (_in_region)."""
+    checked when it is set (_framed)."""
     if region is None:
         return None
     try:
@@ -366,18 +358,20 @@ def _region(region) -> Optional[tuple]:
 
 
 @_contextlib.contextmanager
-def _in_region(s, region):
-    """The scene with its crop window set to `region` (from _region; None: as it is) while the block runs; a
-    loaded scene passed in by the caller gets its own window back afterwards."""
-    if region is None:
-        yield s
-        return
-    old = s.crop or (0, 0, 0, 0)
-    _api.load_scene(s, crop=region)  # checked against the film
+def _framed(scene, width, height, camera, params, variant, region):
+    """The scene (loaded, or a loaded Scene as it is) at width x height and with its crop window set to `region`
+    (from _region; None each: as it is) while the block runs; a loaded Scene passed in by the caller gets its own
+    film size and window back afterwards."""
+    s = _api.load_scene(scene, camera=camera, params=params, variant=variant)
+    size, window = tuple(s.film_size), s.crop or (0, 0, 0, 0)
+    _api.load_scene(s, width=width, height=height, crop=region)  # the region is checked against the film
     try:
         yield s
     finally:
-        s.set_crop(*old)
+        if (tuple(s.film_size), s.crop or (0, 0, 0, 0)) != (size, window):
+            s.set_crop(0, 0, 0, 0)
+            s.set_resolution(*size)
+            s.set_crop(*window)
 
 
 def _converge(s, scene, names, mnames, times, time, ref, ref_meta, ref_path, region, crop, seed, out_dir, progress,

@@ -186,6 +186,26 @@ def test_region_reference_and_runs(reference, tmp_path):
     assert "16x12" in r.stderr and caustica.read_image(tmp_path / "cli.pfm").shape == (12, 16, 3)
 
 
+def test_a_loaded_scene_keeps_its_size(reference, tmp_path):
+    """width/height on a loaded Scene render it at that size for the run only: make_reference and converge give
+    the caller's scene back at its own size (and crop); camera, params and variant, which apply when loading,
+    are errors for it."""
+    scene = caustica.load_scene("cornell", width=2 * SIZE, height=SIZE)
+    meta = make_reference(scene, tmp_path / "r.pfm", spp=2, width=SIZE, height=SIZE)
+    assert (meta["width"], meta["height"]) == (SIZE, SIZE)
+    assert scene.film_size == (2 * SIZE, SIZE) and scene.crop is None
+    log = caustica.converge(scene, integrators="path", time=0.2, reference=reference[0], metrics="relmse",
+                            checkpoints=[0.1], as_frame=False, width=SIZE, height=SIZE)
+    assert (log.header["width"], log.header["height"]) == (SIZE, SIZE)
+    assert scene.film_size == (2 * SIZE, SIZE) and scene.crop is None
+    scene.set_crop(2, 2, 8, 8)
+    caustica.converge(scene, integrators="path", time=0.2, reference=caustica.read_image(reference[0])[2:10, 2:10], metrics="relmse",
+                      checkpoints=[0.1], as_frame=False)
+    assert scene.crop == (2, 2, 8, 8) and scene.film_size == (2 * SIZE, SIZE)
+    with pytest.raises(caustica.InputError, match="apply when loading"):
+        caustica.converge(scene, integrators="path", time=0.2, reference=reference[0], camera="x")
+
+
 def test_python_api_dataframe(reference):
     pd = pytest.importorskip("pandas")
     df = caustica.converge("cornell", integrators=["path"], time=0.3, reference=caustica.read_image(reference[0]),
