@@ -245,9 +245,9 @@ def realtime(scene: Union[str, os.PathLike], integrators: Optional[Iterable[str]
 
     base = _api.load_scene(scene, camera=camera, params=params, variant=variant)
     w, h = size if size is not None else default_size(base.width, base.height)
-    sc = _api.load_scene(base, width=w, height=h)
+    tw, th = default_size(base.width, base.height, TARGET_PIXELS)  # the scene's aspect (before the next line)
+    sc = _api.load_scene(base, width=w, height=h)  # base itself, at w x h
     pixels = w * h
-    tw, th = default_size(base.width, base.height, TARGET_PIXELS)
     common = dict(threads=threads, max_depth=max_depth, sampler=sampler, device=device)
     started = _dt.datetime.now(_dt.timezone.utc)
     commit = _commit()

@@ -2,6 +2,7 @@
 plots; the spp needed grows as the threshold falls; bad input is one line and exit status 2."""
 import json
 import os
+import warnings
 
 import pytest
 
@@ -83,6 +84,21 @@ def test_realtime_throughput_measured_at_1080p(tmp_path):
     assert row["frame_ms"] == pytest.approx(1000 * row["spp_needed"] * 1920 * 1080 / row["samples_per_s"])
     report = (tmp_path / "rt" / "report.md").read_text()
     assert "measured at 1440x1440" in report and "samples/s at 1440x1440" in report
+
+
+def test_throughput_size_keeps_the_scenes_aspect(tmp_path):
+    """The 1080p throughput renders take the scene's aspect, not that of the curves' `size`: a 2:1 scene studied
+    at 24x24 measures at 2036x1018 (1018^2 * 2 ~ 1920*1080)."""
+    f = tmp_path / "wide.json"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        caustica.export_scene("cornell", str(f))
+    d = json.loads(f.read_text())
+    d["camera"]["width"], d["camera"]["height"] = 64, 32
+    f.write_text(json.dumps(d))
+    res = caustica.study.realtime(str(f), integrators=["path"], size=(24, 24), max_spp=1, seeds=1, ref_spp=16,
+                                  thresholds=[0.3], throughput_at="1080p", throughput_spp=1)
+    assert res["settings"]["size"] == [24, 24] and res["settings"]["throughput_size"] == [2036, 1018]
 
 
 def test_cuda_integrators_are_the_wavefront_ones():
