@@ -901,3 +901,72 @@ TEST(PlyLoader, AloneItsVertexColoursShow) {
   EXPECT_FALSE(e.materials[size_t(e.shapes[0].material)].flags & kVertexColor);
   EXPECT_TRUE(same(e.materials[size_t(e.shapes[0].material)].diffuse, RGB(0.5f)));
 }
+
+// PLY face colours (MeshLab's; Mitsuba's face_color): with no vertex colours, each face takes its colour (8-bit:
+// sRGB, decoded; float: linear), vertices are copied only where faces of different colours meet, and normals are
+// those of the shared vertices; with vertex colours, the face colours are ignored (a warning).
+TEST(PlyLoader, FaceColours) {
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 3\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\n"
+      "property uchar blue\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0.5\n";
+  // A quad (two triangles) of one colour, and a red triangle sharing the edge (1, 2) with it.
+  std::string p = write("fc.ply", head + "3 0 1 2 0 0 255\n3 0 2 3 0 0 255\n3 1 4 2 255 0 0\n");
+  bool face_colors = false;
+  std::vector<std::string> w;
+  MeshDesc m = load_ply_mesh(p, &w, &face_colors);
+  EXPECT_TRUE(face_colors);
+  EXPECT_TRUE(w.empty());
+  ASSERT_EQ(m.indices.size(), 9u);
+  ASSERT_EQ(m.positions.size(), 7u);  // 5 + copies of vertices 1 and 2 for the red face
+  ASSERT_EQ(m.colors.size(), 7u);
+  ASSERT_EQ(m.normals.size(), 7u);
+  MeshDesc plain = load_ply_mesh(write("fc_plain.ply", "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\n"
+                                                       "property float y\nproperty float z\nelement face 3\nproperty "
+                                                       "list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 "
+                                                       "1 0\n0 1 0\n2 0 0.5\n3 0 1 2\n3 0 2 3\n3 1 4 2\n"));
+  for (size_t t = 0; t < 3; ++t)
+    for (size_t k = 0; k < 3; ++k) {
+      const uint32_t v = m.indices[3 * t + k], o = plain.indices[3 * t + k];
+      EXPECT_TRUE(same(m.positions[v], plain.positions[o]));
+      EXPECT_TRUE(same(m.normals[v], plain.normals[o])) << "the smooth normals of the unsplit mesh";
+      EXPECT_TRUE(same(m.colors[v], t < 2 ? RGB(0.f, 0.f, 1.f) : RGB(1.f, 0.f, 0.f))) << t << " " << k;
+    }
+  // Float face colours are linear; bad ones become white (counted).
+  std::string f = head;
+  for (const char* ty : {"red", "green", "blue"})
+    f.replace(f.find(std::string("property uchar ") + ty), 14, "property float");
+  std::string q = write("fcf.ply", f + "3 0 1 2 0.25 0.5 1\n3 0 2 3 -1 0 0\n3 1 4 2 nan 0 0\n");
+  w.clear();
+  m = load_ply_mesh(q, &w, &face_colors);
+  EXPECT_TRUE(same(m.colors[m.indices[0]], RGB(0.25f, 0.5f, 1.f)));
+  EXPECT_TRUE(same(m.colors[m.indices[3]], RGB(1.f)));
+  EXPECT_TRUE(same(m.colors[m.indices[6]], RGB(1.f)));
+  EXPECT_EQ(w, (std::vector<std::string>{q + ": made 2 negative or non-finite face colours white"}));
+  // Vertex colours win.
+  std::string both = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                     "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+                     "property list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\n"
+                     "property uchar blue\nend_header\n0 0 0 255 255 255\n1 0 0 255 255 255\n0 1 0 255 255 255\n"
+                     "3 0 1 2 255 0 0\n";
+  std::string b = write("fcv.ply", both);
+  w.clear();
+  m = load_ply_mesh(b, &w, &face_colors);
+  EXPECT_FALSE(face_colors);
+  EXPECT_EQ(m.positions.size(), 3u);
+  EXPECT_TRUE(same(m.colors[0], RGB(1.f)));
+  EXPECT_EQ(w, (std::vector<std::string>{b + ": face colours ignored: the vertices have colours, which are used"}));
+  // Binary files read them too (the face records are no longer the index list alone).
+  std::string bin = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nproperty uchar red\n"
+                    "property uchar green\nproperty uchar blue\nend_header\n";
+  const float P[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  bin.append(reinterpret_cast<const char*>(P), sizeof P);
+  const int32_t I[3] = {0, 1, 2};
+  bin.push_back(char(3));
+  bin.append(reinterpret_cast<const char*>(I), sizeof I);
+  bin += std::string("\xff\x80\x00", 3);
+  m = load_ply_mesh(write("fcb.ply", bin), &w, &face_colors);
+  EXPECT_TRUE(face_colors);
+  EXPECT_TRUE(same(m.colors[0], RGB(1.f, srgb_to_linear(128.f / 255.f), 0.f)));
+}

@@ -236,6 +236,14 @@ def main():
     for f in faces:
         b += struct.pack("<B", len(f)) + struct.pack(f"<{len(f)}i", *f)
     (OUT / "mesh_binary.ply").write_bytes(b)
+    # Binary PLY with face colours (each face record then holds more than its index list).
+    b = header.format(fmt="binary_little_endian").replace(
+        "vertex_indices\n", "vertex_indices\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n").encode()
+    for v in verts:
+        b += struct.pack("<8f", *v)
+    for f, c in zip(faces, [(255, 128, 0), (0, 64, 255)]):
+        b += struct.pack("<B", len(f)) + struct.pack(f"<{len(f)}i", *f) + bytes(c)
+    (OUT / "mesh_faces.ply").write_bytes(b)
 
     # glTF: a textured quad instanced twice under a transformed parent, an
     # emissive triangle, a point light, a camera; .gltf with a data-URI buffer

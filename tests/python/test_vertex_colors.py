@@ -1,7 +1,7 @@
 """Vertex colours (material flag kVertexColor, docs/materials.md): the main colour times the triangle's interpolated
 vertex colour. A diffuse quad under a uniform sky of radiance 1 reflects its albedo, so each triangle's centroid
 shows the mean of its three vertex colours (times the material's colour); the colours come from JSON meshes, glTF's
-COLOR_0 (float, and normalized bytes with alpha), PLY (8- and 16-bit sRGB, float linear), OBJ (`v x y z r g b` and
+COLOR_0 (float, and normalized bytes with alpha), PLY (8- and 16-bit sRGB, float linear; vertex or face colours), OBJ (`v x y z r g b` and
 #MRGB, sRGB) and Mitsuba's mesh_attribute texture, and survive export to JSON; a coloured OBJ or PLY file rendered
 alone shows them. bench/compare_mitsuba_xml.py's scene `colored`
 renders them against Mitsuba 3."""
@@ -50,9 +50,10 @@ def centroid_pixels(img):
     return out
 
 
-def expect_centroids(img, colors, reflectance):
-    for tri, stats in zip(((0, 1, 2), (0, 2, 3)), centroid_pixels(img)):
-        want = reflectance * np.mean([colors[i] for i in tri], axis=0)
+def expect_centroids(img, colors, reflectance, per_face=False):
+    """colors: one per vertex (the centroid shows their mean), or with per_face one per triangle."""
+    for f, (tri, stats) in enumerate(zip(((0, 1, 2), (0, 2, 3)), centroid_pixels(img))):
+        want = reflectance * (np.asarray(colors[f]) if per_face else np.mean([colors[i] for i in tri], axis=0))
         for k, (m, se) in enumerate(stats):
             # 5 standard errors of the patch mean (its pixels' spread bounds the noise; the colour varies by
             # under 1% across the patch), plus 1e-3 for that variation.
@@ -221,8 +222,17 @@ def test_mitsuba_mesh_attribute_reads_ply_colours(tmp_path):
      '</bsdf></shape>',
      "the BSDF reads the mesh attribute 'vertex_color', which this shape does not have"),
     ('<shape type="rectangle"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance">'
-     '<string name="name" value="face_color"/></texture></bsdf></shape>',
-     "unsupported mesh attribute 'face_color' (supported: vertex_color)"),
+     '<string name="name" value="uv"/></texture></bsdf></shape>',
+     "unsupported mesh attribute 'uv' (supported: vertex_color, face_color)"),
+    # A serialized mesh's colours are per vertex (and read past); PLY face colours are Mitsuba's face_color.
+    ('<shape type="serialized"><string name="filename" value="c.serialized"/><bsdf type="diffuse">'
+     '<texture type="mesh_attribute" name="reflectance"><string name="name" value="face_color"/></texture>'
+     '</bsdf></shape>',
+     "the BSDF reads the mesh attribute 'face_color', which this shape does not have"),
+    ('<shape type="ply"><string name="filename" value="f.ply"/><bsdf type="diffuse">'
+     '<texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture>'
+     '</bsdf></shape>',
+     "the BSDF reads the mesh attribute 'vertex_color', which this shape does not have"),
     ('<shape type="rectangle"><bsdf type="roughconductor"><texture type="mesh_attribute" name="alpha">'
      '<string name="name" value="vertex_color"/></texture></bsdf></shape>',
      "a mesh_attribute texture is supported as a BSDF's colour only"),
@@ -233,10 +243,44 @@ def test_mitsuba_mesh_attribute_reads_ply_colours(tmp_path):
 def test_mitsuba_mesh_attribute_errors(tmp_path, body, message):
     write_serialized(tmp_path / "c.serialized", [dict(positions=QUAD_P, indices=np.reshape(QUAD_I, (-1, 3)),
                                                      colours=COLORS)])
+    write_ply_face_colored(tmp_path / "f.ply", COLORS[:2])
     f = tmp_path / "e.xml"
     f.write_text(f'<scene version="3.0.0">{body}</scene>')
     with pytest.raises(caustica.InputError, match=message.replace("(", r"\(").replace(")", r"\)")):
         caustica.load_scene(str(f))
+
+
+def write_ply_face_colored(path, colors, kind="float"):
+    """The quad as PLY with a colour per triangle (face element properties red green blue)."""
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                "element face 2\nproperty list uchar int vertex_indices\n"
+                f"property {kind} red\nproperty {kind} green\nproperty {kind} blue\nend_header\n")
+        for p in QUAD_P:
+            f.write(" ".join(str(v) for v in p) + "\n")
+        for t, c in zip(np.reshape(QUAD_I, (-1, 3)), colors):
+            f.write("3 " + " ".join(str(v) for v in t) + " " + " ".join(str(v) for v in c) + "\n")
+
+
+@pytest.mark.parametrize("kind", ["uchar", "float"])
+def test_ply_face_colours(tmp_path, kind):
+    """PLY face colours colour each face (8-bit sRGB decoded, float linear): through a JSON material with
+    vertex_colors and through Mitsuba's mesh_attribute of face_color, each triangle's centroid shows its face's
+    colour (the colour is constant over the face, so the patch shows it exactly)."""
+    raw = [[255, 0, 64], [0, 128, 255]] if kind == "uchar" else [[1, 0, 0.25], [0, 0.5, 1]]
+    write_ply_face_colored(tmp_path / "q.ply", raw, kind)
+    want = np.array(raw, np.float64)
+    if kind == "uchar":
+        want = srgb_to_linear(want / 255)
+    scene = quad_scene()
+    scene["shapes"] = [{"type": "mesh", "file": str(tmp_path / "q.ply"), "material": "m"}]
+    expect_centroids(render(scene, spp=64, seed=9), want, 0.5, per_face=True)
+    xml = mitsuba_quad(tmp_path, "ply")
+    with open(xml) as f:
+        text = f.read().replace('value="vertex_color"', 'value="face_color"')
+    with open(xml, "w") as f:
+        f.write(text)
+    expect_centroids(render(caustica.load_scene(xml), spp=64, seed=10), want, 0.5, per_face=True)
 
 
 def write_obj_colored(path, srgb, mrgb=False):

@@ -18,7 +18,10 @@ namespace caustica {
 MeshDesc load_ply_mesh(const std::string& path);
 // The same; what was skipped or repaired is appended to `warnings` (one line
 // each, counting the cases, e.g. "bunny.ply: skipped 12 degenerate triangles").
-MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnings);
+// Vertex colours (red green blue) become MeshDesc::colors; so do face colours of a file whose vertices have none,
+// constant over each face (vertices are copied where faces of different colours meet), and then *face_colors
+// (when given) is set true: Mitsuba's face_color attribute, where vertex colours are its vertex_color.
+MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnings, bool* face_colors = nullptr);
 
 // OBJ: appends one MeshDesc + ShapeDesc per (group or object, material) to
 // `desc`, with `to_world`. material_override >= 0 uses that material for every

@@ -728,18 +728,23 @@ class Loader {
     return idx;
   }
 
-  // <texture type="mesh_attribute"> of "vertex_color": the shape's vertex colours, times `scale`. Held as a 1 x 1
-  // texture of the scale in the colour slot plus the material flag kVertexColor (resolve_vertex_colors), which
-  // multiplies by the interpolated vertex colour; only a BSDF's colour slot takes it.
-  std::map<int, xml_node> vertex_color_textures_;
+  // <texture type="mesh_attribute"> of "vertex_color" or "face_color": the shape's vertex colours, or a PLY
+  // file's face colours (which the PLY loader turns into vertex colours constant over each face), times `scale`.
+  // Held as a 1 x 1 texture of the scale in the colour slot plus the material flag kVertexColor
+  // (resolve_vertex_colors), which multiplies by the interpolated vertex colour; only a BSDF's colour slot takes it.
+  struct MeshAttribute {
+    xml_node node;
+    std::string name;  // vertex_color or face_color
+  };
+  std::map<int, MeshAttribute> vertex_color_textures_;
   int mesh_attribute_texture(xml_node n, bool top_level) {
     Props p(*this, n);
     p.declare({"name", "scale"});
     xml_node nn = p.get("name");
-    if (!nn) fail(n, "missing <string name=\"name\"> (the mesh attribute: vertex_color)");
+    if (!nn) fail(n, "missing <string name=\"name\"> (the mesh attribute: vertex_color or face_color)");
     std::string attribute = p.get_string("name", "");
-    if (attribute != "vertex_color")
-      fail(nn, "unsupported mesh attribute '" + attribute + "' (supported: vertex_color)");
+    if (attribute != "vertex_color" && attribute != "face_color")
+      fail(nn, "unsupported mesh attribute '" + attribute + "' (supported: vertex_color, face_color)");
     float scale = p.get_float("scale", 1.f);
     if (!(scale >= 0.f)) fail(p.get("scale"), "expected a scale >= 0");
     p.finish();
@@ -749,7 +754,7 @@ class Loader {
     t.rgba = {scale, scale, scale, 1.f};
     d.textures.push_back(std::move(t));
     int idx = int(d.textures.size()) - 1;
-    vertex_color_textures_[idx] = n;
+    vertex_color_textures_[idx] = MeshAttribute{n, attribute};
     if (top_level) register_id(n, "texture", idx);
     return idx;
   }
@@ -761,7 +766,7 @@ class Loader {
     for (size_t i = 1; i < slots.size(); ++i) {
       auto it = vertex_color_textures_.find(slots[i]);
       if (it != vertex_color_textures_.end())
-        fail(it->second, "a mesh_attribute texture is supported as a BSDF's colour only (reflectance, "
+        fail(it->second.node, "a mesh_attribute texture is supported as a BSDF's colour only (reflectance, "
                          "diffuse_reflectance, base_color, specular_reflectance, specular_transmittance)");
     }
   }
@@ -1448,10 +1453,15 @@ class Loader {
       interface = true;
     }
     std::string shape_name = has_attr(n, "id") ? attr(n, "id") : type + "@" + where(n);
+    bool face_colors = false;  // the shape's PLY file gave its colours per face
     auto finish_shape = [&](ShapeDesc& s) {
-      if ((d.materials[size_t(material)].flags & kVertexColor) &&
-          (s.type != ShapeType::kMesh || d.meshes[size_t(s.mesh)].colors.empty()))
-        fail(n, "the BSDF reads the mesh attribute 'vertex_color', which this shape does not have");
+      if (d.materials[size_t(material)].flags & kVertexColor) {
+        auto it = vertex_color_textures_.find(d.materials[size_t(material)].tex_color);
+        const std::string attribute = it != vertex_color_textures_.end() ? it->second.name : "vertex_color";
+        if (s.type != ShapeType::kMesh || d.meshes[size_t(s.mesh)].colors.empty() ||
+            (attribute == "face_color") != face_colors)
+          fail(n, "the BSDF reads the mesh attribute '" + attribute + "', which this shape does not have");
+      }
       s.material = material;
       s.emission = emission;
       s.emission_texture = emission_tex;
@@ -1505,7 +1515,7 @@ class Loader {
         int index = type == "serialized" ? p.get_int("shape_index", 0) : 0;
         if (index < 0) fail(p.get("shape_index"), "expected a shape_index >= 0");
         try {
-          mesh = type == "ply" ? load_ply_mesh(path.string(), &d.warnings)
+          mesh = type == "ply" ? load_ply_mesh(path.string(), &d.warnings, &face_colors)
                                : load_serialized_mesh(path.string(), size_t(index), &d.warnings);
         } catch (const InputError& e) {
           throw InputError(where(fnode) + ": " + e.what());

@@ -15,9 +15,10 @@
 // char uchar short ushort int uint float double, or int8 uint8 int16 uint16
 // int32 uint32 float32 float64.
 //
-// Read: element "vertex" (x y z; nx ny nz; u v, s t or texture_u texture_v)
-// and element "face" (list "vertex_indices" or "vertex_index"); every other
-// element and property is skipped. Binary data is read from one buffer holding
+// Read: element "vertex" (x y z; nx ny nz; u v, s t or texture_u texture_v;
+// red green blue) and element "face" (list "vertex_indices" or "vertex_index";
+// red green blue, when the vertices have no colours); every other element and
+// property is skipped. Binary data is read from one buffer holding
 // the whole file.
 #include <algorithm>
 #include <array>
@@ -26,6 +27,8 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <map>
+#include <tuple>
 
 #include "../../base/error.h"
 #include "mesh_loaders.h"
@@ -260,6 +263,36 @@ std::vector<Vec3f> angle_weighted_normals(const std::vector<Vec3f>& p, const std
   return n;
 }
 
+// Per-face colours as vertex colours, constant over each face: a vertex keeps its index for the first colour a
+// triangle gives it and is copied (position, normal, UV) for each other colour, so faces of one colour still share
+// their vertices and only the borders between colours are split.
+static void face_colors_to_vertices(MeshDesc& m, const std::vector<RGB>& tri_colors) {
+  const size_t nv = m.positions.size();
+  m.colors.assign(nv, RGB(1.f));
+  std::vector<uint8_t> taken(nv, 0);
+  std::map<std::tuple<uint32_t, float, float, float>, uint32_t> copies;
+  for (size_t t = 0; t < tri_colors.size(); ++t) {
+    const RGB c = tri_colors[t];
+    for (size_t k = 0; k < 3; ++k) {
+      uint32_t& v = m.indices[3 * t + k];
+      if (!taken[v]) {
+        taken[v] = 1, m.colors[v] = c;
+        continue;
+      }
+      const RGB o = m.colors[v];
+      if (o.x == c.x && o.y == c.y && o.z == c.z) continue;
+      auto [it, fresh] = copies.try_emplace({v, c.x, c.y, c.z}, uint32_t(m.positions.size()));
+      if (fresh) {
+        m.positions.push_back(m.positions[v]);
+        if (!m.normals.empty()) m.normals.push_back(m.normals[v]);
+        if (!m.uvs.empty()) m.uvs.push_back(m.uvs[v]);
+        m.colors.push_back(c);
+      }
+      v = it->second;
+    }
+  }
+}
+
 void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r) {
   if (has_normals) {
     std::vector<Vec3f> computed;
@@ -301,7 +334,7 @@ void report_mesh_repairs(const std::string& path, const MeshRepairs& r, std::vec
 
 MeshDesc load_ply_mesh(const std::string& path) { return load_ply_mesh(path, nullptr); }
 
-MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnings) {
+MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnings, bool* face_colors) {
   const std::vector<unsigned char> buf = read_file(path);
 
   // ---- header ----
@@ -414,14 +447,24 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
   bool has_uv = puv[0] >= 0;
   // Vertex colours: red green blue (or r g b, diffuse_red ...); integer ones are 8- or 16-bit sRGB (as MeshLab and
   // Blender write them), float ones linear.
-  int pc[3] = {-1, -1, -1};
-  for (auto names : {std::array<const char*, 3>{"red", "green", "blue"}, std::array<const char*, 3>{"r", "g", "b"},
-                     std::array<const char*, 3>{"diffuse_red", "diffuse_green", "diffuse_blue"}})
-    if (pc[0] < 0 && vert->find(names[0]) >= 0 && vert->find(names[1]) >= 0 && vert->find(names[2]) >= 0)
-      for (int k = 0; k < 3; ++k) pc[k] = vert->find(names[k]);
-  bool has_c = pc[0] >= 0;
+  // Face colours, under the same names (MeshLab writes them; Mitsuba 3 calls them the attribute face_color), are
+  // read when the vertices have none: each face is that colour (see below).
+  auto find_color = [](const Element* e, int pc[3]) {
+    pc[0] = pc[1] = pc[2] = -1;
+    for (auto names : {std::array<const char*, 3>{"red", "green", "blue"}, std::array<const char*, 3>{"r", "g", "b"},
+                       std::array<const char*, 3>{"diffuse_red", "diffuse_green", "diffuse_blue"}})
+      if (pc[0] < 0 && e->find(names[0]) >= 0 && e->find(names[1]) >= 0 && e->find(names[2]) >= 0)
+        for (int k = 0; k < 3; ++k) pc[k] = e->find(names[k]);
+    return pc[0] >= 0;
+  };
+  int pc[3], pfc[3];
+  const bool has_c = find_color(vert, pc);
+  const bool file_has_fc = find_color(face, pfc), has_fc = file_has_fc && !has_c;
   for (int i : {pn[0], pn[1], pn[2], puv[0], puv[1], pc[0], pc[1], pc[2]})
     if (i >= 0 && vert->props[i].list) fail_at(vert->line, "vertex property '" + vert->props[i].name + "' must not be a list");
+  if (has_fc)
+    for (int i : pfc)
+      if (face->props[i].list) fail_at(face->line, "face property '" + face->props[i].name + "' must not be a list");
   int pidx = face->find("vertex_indices");
   if (pidx < 0) pidx = face->find("vertex_index");
   if (pidx < 0) fail_at(face->line, "element 'face' has no list property 'vertex_indices' (or 'vertex_index')");
@@ -438,6 +481,7 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
   std::vector<uint8_t> bad_vertex;
   size_t n_bad_vertices = 0;
   std::vector<uint32_t> poly;
+  std::vector<RGB> tri_colors;  // has_fc: each triangle's face colour
   size_t skipped_small = 0, skipped_nan = 0, skipped_degenerate = 0;
   std::vector<std::string> ignored;
 
@@ -519,6 +563,9 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
       const size_t nv = m.positions.size();
       const Prop& ip = e.props[pidx];
       const bool fast = rd.binary() && e.props.size() == 1;  // the common layout: the index list alone
+      std::vector<int> fslot(e.props.size(), -1);               // has_fc: 0..2 the colour's channels
+      if (has_fc) fslot[size_t(pfc[0])] = 0, fslot[size_t(pfc[1])] = 1, fslot[size_t(pfc[2])] = 2;
+      RGB fcol(1.f);
       const bool swap = rd.big_endian();
       const int csize = kSize[int(ip.count_type)], isize = kSize[int(ip.type)];
       for (size_t i = 0; i < e.count; ++i) {
@@ -544,7 +591,8 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
           for (size_t k = 0; k < e.props.size(); ++k) {
             const Prop& p = e.props[k];
             if (!p.list) {
-              rd.skip(p.type, 1, "face", i, p.name);
+              if (fslot[k] >= 0) fcol[fslot[k]] = float(rd.value(p.type, "face", i, p.name));
+              else rd.skip(p.type, 1, "face", i, p.name);
               continue;
             }
             rd.skip_space();
@@ -583,6 +631,7 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
           m.indices.push_back(a);
           m.indices.push_back(b);
           m.indices.push_back(d);
+          if (has_fc) tri_colors.push_back(fcol);
         };
         if (c == 3) {
           emit(poly[0], poly[1], poly[2]);
@@ -618,25 +667,39 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
   if (!rd.binary() && rd.ascii_trailing())
     fail(path, rd.where() + "unexpected data after the last element (the header's counts are too small?)");
 
-  if (has_c) {
-    // Integer colours: to [0, 1] by their type's largest value, then from sRGB; float colours are linear.
+  // Integer colours: to [0, 1] by their type's largest value, then from sRGB; float colours are linear.
+  auto decode = [](const Element* e, const int pc[3], std::vector<RGB>& colors) {
     for (int k = 0; k < 3; ++k) {
-      const PType t = vert->props[pc[k]].type;
+      const PType t = e->props[size_t(pc[k])].type;
       if (t == PType::kF32 || t == PType::kF64) continue;
       const float top = kSize[int(t)] == 1 ? 255.f : kSize[int(t)] == 2 ? 65535.f : 4294967295.f;
-      for (RGB& c : m.colors) c[k] = srgb_to_linear(std::min(std::max(c[k] / top, 0.f), 1.f));
+      for (RGB& c : colors) c[k] = srgb_to_linear(std::min(std::max(c[k] / top, 0.f), 1.f));
     }
-  }
+  };
+  if (has_c) decode(vert, pc, m.colors);
   MeshRepairs repairs;
   repairs.degenerate = skipped_degenerate;
   repairs.nan = skipped_nan;
   repairs.bad_vertices = n_bad_vertices;
-  finish_mesh_attributes(m, has_n, repairs);
+  finish_mesh_attributes(m, has_n, repairs);  // normals from the shared vertices, before faces split them
+  size_t bad_fc = 0;
+  if (has_fc) {
+    decode(face, pfc, tri_colors);
+    for (RGB& c : tri_colors)
+      if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x + c.y + c.z))) c = RGB(1.f), ++bad_fc;
+    face_colors_to_vertices(m, tri_colors);
+  }
+  if (face_colors) *face_colors = has_fc;
 
   if (warnings) {
     report_mesh_repairs(path, repairs, *warnings);
     if (skipped_small)
       warnings->push_back(path + ": skipped " + plural(skipped_small, "face", "faces") + " with fewer than 3 vertices");
+    if (bad_fc)
+      warnings->push_back(path + ": made " + plural(bad_fc, "negative or non-finite face colour", "negative or non-finite face colours") +
+                          " white");
+    if (file_has_fc && has_c)
+      warnings->push_back(path + ": face colours ignored: the vertices have colours, which are used");
     if (!ignored.empty()) {
       std::string list;
       for (const std::string& s : ignored) list += (list.empty() ? "'" : ", '") + s + "'";
