@@ -795,7 +795,9 @@ TEST(ObjLoader, VertexColours) {
   auto srgb = [](float r, float g, float b) { return RGB(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b)); };
   auto near = [](RGB a, RGB b) { return std::abs(a.x - b.x) + std::abs(a.y - b.y) + std::abs(a.z - b.z) < 1e-6f; };
   {
-    std::string p = write("vc.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 0.5 0\nv 1 1 0 0 0 0.25\nv 0 1 0 1 1 1\nf 1 2 3 4\n");
+    // (vt with three numbers beside them: u v w, not colours.)
+    std::string p = write("vc.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 0.5 0\nv 1 1 0 0 0 0.25\nv 0 1 0 1 1 1\nvt 0.5 0.5 0\n"
+                                    "f 1/1 2/1 3/1 4/1\n");
     SceneDesc d = load_obj(p);
     ASSERT_EQ(d.meshes.size(), 1u);
     const MeshDesc& m = d.meshes[0];

@@ -363,7 +363,7 @@ void scan_obj(const std::string& path, const std::string& text, bool load_mtl, M
         double v;
         if (!to_double(tk.t[i], v)) fail("expected a number, got '" + std::string(tk.t[i]) + "'");
         if (i <= (kw == "vt" ? 2u : 3u)) finite &= std::isfinite(v);
-        else if (i <= 6) rgb[i - 4] = v;
+        else if (kw == "v" && i <= 6) rgb[i - 4] = v;  // x y z r g b
       }
       if (kw == "v") {
         if (!s.mrgb_run.empty()) end_mrgb_run();
