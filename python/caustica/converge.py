@@ -112,7 +112,7 @@ def make_reference(scene, path: Union[str, os.PathLike], integrator: str = "path
     time spent on it; the metadata keeps the region and the film's size, and converge renders the same part).
 
     The default seed differs from converge's, so the reference's noise is independent of the
-    runs measured against it."""
+    runs measured against it. A loaded Scene passed in gets its own size and crop back afterwards."""
     out = os.fspath(path)
     if os.path.splitext(out)[1].lower() not in (".exr", ".pfm"):
         raise InputError(f"cannot write reference '{out}': expected a .exr or .pfm file")
@@ -318,7 +318,8 @@ def converge(scene, integrators: Union[str, Sequence[str]] = ("path", "sppm"), t
 
     region=(x, y, w, h) renders and measures only those pixels of the film (default: the reference's region,
     make_reference(region=...), if it has one). The reference is then either that part (w x h) or the whole film,
-    of which the part is taken. crop is the equal-time grid's window within the rendered image."""
+    of which the part is taken. crop is the equal-time grid's window within the rendered image. A loaded Scene
+    passed in is rendered at width/height and region for the run only: it gets its own size and crop back."""
     if not isinstance(time, (int, float)) or isinstance(time, bool) or not time > 0 or not math.isfinite(time):
         raise InputError(f"time must be a positive number of seconds, got {time!r}")
     names = _integrator_names(integrators)
