@@ -93,8 +93,6 @@ def _scene_label(scene) -> str:
     return getattr(scene, "name", "<scene>")
 
 
-
-
 def _utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
 

@@ -811,6 +811,7 @@ TEST(ObjLoader, VertexColours) {
     EXPECT_NEAR(m.colors[0].y + m.colors[1].y + m.colors[2].y + m.colors[3].y, 1.f + 0.21404114f, 1e-5f);
     const Material& mat = d.materials[size_t(d.shapes[0].material)];
     EXPECT_EQ(d.material_names[size_t(d.shapes[0].material)], "vc/default+colors");
+    EXPECT_EQ(d.materials.size(), 1u);  // no unused grey default beside it
     EXPECT_EQ(mat.type, MaterialType::kDiffuse);
     EXPECT_TRUE(mat.flags & kVertexColor);
     EXPECT_TRUE(same(mat.diffuse, RGB(1.f)));

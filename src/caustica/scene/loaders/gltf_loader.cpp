@@ -24,6 +24,7 @@
 #include "../../base/error.h"
 #include "../../material/fresnel.h"
 #include "json_text.h"
+#include "mesh_loaders.h"
 #include "../load.h"
 
 namespace caustica {
@@ -1469,8 +1470,7 @@ int Converter::mesh(size_t mi, size_t pi) {
     for (size_t i = 0; i < n; ++i) {
       const float* v = &col[size_t(comps) * i];
       RGB c(v[0], v[1], v[2]);
-      if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z)))
-        ++bad, c = RGB(1.f);
+      if (!usable_color(c)) ++bad, c = RGB(1.f);
       md.colors[i] = c;
       alpha |= comps == 4 && v[3] < 1.f;
     }

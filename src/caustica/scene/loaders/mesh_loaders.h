@@ -4,6 +4,7 @@
 // default camera and light, see load.h). The conventions (normals, material
 // mapping, what is skipped with a warning) are in docs/formats-obj-ply.md.
 #pragma once
+#include <cmath>
 #include <string>
 #include <vector>
 #include "../scene_desc.h"
@@ -49,6 +50,11 @@ bool angle_weighted_terms(Vec3f p0, Vec3f p1, Vec3f p2, Vec3f w[3]);
 // 3 does). Errors
 // throw InputError "<path>: what"; what was skipped or repaired goes to `warnings` (as load_ply_mesh).
 MeshDesc load_serialized_mesh(const std::string& path, size_t shape_index, std::vector<std::string>* warnings);
+
+// A colour a mesh file may hold: non-negative and finite (the loaders make other colours white and count them).
+inline bool usable_color(RGB c) {
+  return c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z);
+}
 
 // What a mesh loader skipped or repaired, counted for its warnings.
 struct MeshRepairs {

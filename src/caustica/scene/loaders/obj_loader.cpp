@@ -610,7 +610,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
   for (size_t i = 0; i < C.size(); ++i) {
     if (!scan.colored[i]) continue;
     RGB& c = C[i];
-    if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x + c.y + c.z))) {
+    if (!usable_color(c)) {
       c = RGB(1.f), ++bad_colors;
       continue;
     }
@@ -706,11 +706,24 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
   // ---- materials ----
   size_t clamped_kd = 0, scaled_phong = 0;
   std::map<int, int> converted;  // tinyobj id -> desc material
-  int default_material = -1;
   auto unique_name = [&](const std::string& base) {
     std::string n = base;
     for (int k = 2; desc.material_index(n) >= 0; ++k) n = base + "~" + std::to_string(k);
     return n;
+  };
+  // Faces with no MTL material: grey diffuse `<stem>/default`, or where the shape's vertices have colours
+  // `<stem>/default+colors`, reflectance 1 times them (as glTF's default material takes COLOR_0). Made when first
+  // used; material_for answers kDefault for them.
+  constexpr int kDefault = -2;
+  int default_material[2] = {-1, -1};  // [colored]
+  auto default_for = [&](bool colored) {
+    int& idx = default_material[colored];
+    if (idx < 0) {
+      Material m = make_diffuse(RGB(colored ? 1.f : 0.5f));
+      if (colored) m.flags |= kVertexColor;
+      idx = desc.add_material(unique_name(stem + (colored ? "/default+colors" : "/default")), m);
+    }
+    return idx;
   };
   struct Emit {
     RGB L{0.f};
@@ -727,11 +740,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
       auto f = lib.materials.find(tmats[size_t(id)].name);
       if (f != lib.materials.end()) mi = &f->second;
     }
-    if (!mi) {
-      if (default_material < 0) default_material = desc.add_material(unique_name(stem + "/default"), make_diffuse(RGB(0.5f)));
-      return converted[id] = default_material;
-    }
-    // (A shape of the default material whose vertices have colours takes `colored_default` instead; below.)
+    if (!mi) return converted[id] = kDefault;
     const tinyobj::material_t& tm = tmats[size_t(id)];
     const fs::path mdir = fs::path(mi->file).parent_path();
     auto texture = [&](const std::string& name, int line, bool srgb = true) {
@@ -860,7 +869,6 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
   std::vector<uint32_t> corner_vertex;
   std::vector<Vec3f> face_normal_tmp;
 
-  int colored_default = -1;  // diffuse, reflectance 1 times the vertex colours (as glTF's default material)
   for (const Bucket& bk : buckets) {
     MeshDesc mesh;
     bool want_uv = false, want_n = false, any_colored = false;
@@ -963,14 +971,7 @@ std::vector<int> append_obj(SceneDesc& desc, const std::string& path, const Affi
     sd.mesh = int(desc.meshes.size()) - 1;
     sd.to_world = to_world;
     sd.material = material_for(bk.material);
-    if (use_mtl && sd.material == default_material && !desc.meshes.back().colors.empty()) {
-      if (colored_default < 0) {
-        Material m = make_diffuse(RGB(1.f));
-        m.flags |= kVertexColor;
-        colored_default = desc.add_material(unique_name(stem + "/default+colors"), m);
-      }
-      sd.material = colored_default;
-    }
+    if (sd.material == kDefault) sd.material = default_for(!desc.meshes.back().colors.empty());
     sd.emission = em.L;
     sd.emission_texture = em.tex;
     desc.shapes.push_back(sd);

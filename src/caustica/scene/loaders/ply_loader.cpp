@@ -313,8 +313,7 @@ void finish_mesh_attributes(MeshDesc& m, bool has_normals, MeshRepairs& r) {
   for (Vec2f& t : m.uvs)
     if (!std::isfinite(t.x) || !std::isfinite(t.y)) t = Vec2f(0.f, 0.f);
   for (RGB& c : m.colors)
-    if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z)))
-      c = RGB(1.f), ++r.colors;
+    if (!usable_color(c)) c = RGB(1.f), ++r.colors;
 }
 
 void report_mesh_repairs(const std::string& path, const MeshRepairs& r, std::vector<std::string>& warnings) {
@@ -686,7 +685,7 @@ MeshDesc load_ply_mesh(const std::string& path, std::vector<std::string>* warnin
   if (has_fc) {
     decode(face, pfc, tri_colors);
     for (RGB& c : tri_colors)
-      if (!(c.x >= 0.f && c.y >= 0.f && c.z >= 0.f && std::isfinite(c.x + c.y + c.z))) c = RGB(1.f), ++bad_fc;
+      if (!usable_color(c)) c = RGB(1.f), ++bad_fc;
     face_colors_to_vertices(m, tri_colors);
   }
   if (face_colors) *face_colors = has_fc;
