@@ -306,8 +306,8 @@ CHD Microfacet mr_coat_microfacet(const Material& m) { return Microfacet{m.clear
 // coats had normals of their own, most of it GCC inlining less of the microfacet code into the larger
 // functions (callgrind); none on scenes without coats (bench/RESULTS.md).
 // On the GPU only the general (tilted) code is instantiated: it is exact for an untilted coat too (the frame of
-// (0, 0, 1) is the identity), and with both copies of the layered code cuda_render.cu took 32 min of CPU to
-// compile for sm_80 against 19.5 without the templates (nvcc 13.0 from PyPI, one run each, on this 2-core machine).
+// (0, 0, 1) is the identity), and with both copies of the layered code the CUDA backend (then one file,
+// cuda_render.cu) took 32 min of CPU to compile for sm_80 against 19.5 without the templates (nvcc 13.0 from PyPI, one run each, on this 2-core machine).
 #if defined(__CUDA_ARCH__)
 CHD bool mr_coat_tilted(const Material&) { return true; }
 #else
