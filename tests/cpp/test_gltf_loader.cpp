@@ -528,6 +528,48 @@ TEST(GltfLoader, Sheen) {
   EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_sheen/sheenColorFactor: expected colour values in [0, 1]");
 }
 
+TEST(GltfLoader, DiffuseTransmission) {
+  // KHR_materials_diffuse_transmission: the weight (its texture's alpha moved to a grey copy's red) and the
+  // colour (sRGB texture) in Material::diffuse_transmission and ::transmission; without the factor no textures;
+  // defaults 0 and white; a weight outside [0, 1] and colours above 1 are errors.
+  Builder b;
+  b.j["extensionsUsed"] = {"KHR_materials_diffuse_transmission"};
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(1, 1, {255, 128, 0, 102}, 4))}});
+  b.push("textures", {{"source", 0}});
+  b.push("materials", {{"extensions", {{"KHR_materials_diffuse_transmission",
+                                        {{"diffuseTransmissionFactor", 0.75}, {"diffuseTransmissionColorFactor", {0.9, 0.5, 0.2}},
+                                         {"diffuseTransmissionTexture", {{"index", 0}}},
+                                         {"diffuseTransmissionColorTexture", {{"index", 0}}}}}}}});
+  b.push("materials", {{"extensions", {{"KHR_materials_diffuse_transmission", {{"diffuseTransmissionTexture", {{"index", 0}}}}}}}});
+  int q0 = b.quad(0), q1 = b.quad(1);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}})});
+  SceneDesc d = load_gltf_scene(b.write("difftrans"));
+  ASSERT_EQ(d.materials.size(), 2u);
+  const Material& m = d.materials[0];
+  EXPECT_FLOAT_EQ(m.diffuse_transmission, 0.75f);
+  expect_near(m.transmission, RGB(0.9f, 0.5f, 0.2f));
+  ASSERT_GE(m.tex_diffuse_transmission, 0);
+  ASSERT_GE(m.tex_diffuse_transmission_color, 0);
+  EXPECT_FALSE(d.textures[size_t(m.tex_diffuse_transmission)].srgb);
+  EXPECT_NEAR(d.textures[size_t(m.tex_diffuse_transmission)].rgba[0], 0.4f, 1e-6f);  // alpha 102/255
+  EXPECT_TRUE(d.textures[size_t(m.tex_diffuse_transmission_color)].srgb);
+  EXPECT_TRUE(material_is_transmissive(m));
+  EXPECT_EQ(d.materials[1].diffuse_transmission, 0.f);
+  expect_near(d.materials[1].transmission, RGB(1.f));
+  EXPECT_EQ(d.materials[1].tex_diffuse_transmission, -1);
+  EXPECT_FALSE(material_is_transmissive(d.materials[1]));
+  const std::vector<std::tuple<std::string, json, std::string>> bad = {
+      {"diffuseTransmissionFactor", 1.5, "expected a number in [0, 1]"},
+      {"diffuseTransmissionColorFactor", json::array({1.5, 1.0, 1.0}), "expected colour values in [0, 1]"}};
+  for (const auto& [key, value, what] : bad) {
+    Builder e;
+    e.push("materials", {{"extensions", {{"KHR_materials_diffuse_transmission", {{key, value}}}}}});
+    e.scene({e.push("nodes", {{"mesh", e.quad(0)}})});
+    std::string p = e.write("baddifftrans");
+    EXPECT_EQ(error_of(p), p + ": /materials/0/extensions/KHR_materials_diffuse_transmission/" + key + ": " + what);
+  }
+}
+
 TEST(GltfLoader, TransmissionTexture) {
   // KHR_materials_transmission's transmissionTexture (linear, its red channel scales transmissionFactor);
   // with factor 0 there is nothing to scale.
@@ -1032,7 +1074,7 @@ TEST(GltfLoader, MalformedInputMessages) {
   p = write_text("req.gltf", R"({"asset": {"version": "2.0"}, "extensionsRequired": ["KHR_texture_basisu"]})");
   EXPECT_EQ(error_of(p), p + ": /extensionsRequired/0: extension 'KHR_texture_basisu' is required but not supported "
                              "(supported: EXT_mesh_gpu_instancing, EXT_meshopt_compression, EXT_texture_webp, KHR_draco_mesh_compression, KHR_lights_punctual, KHR_materials_anisotropy, "
-                             "KHR_materials_clearcoat, KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_iridescence, "
+                             "KHR_materials_clearcoat, KHR_materials_diffuse_transmission, KHR_materials_emissive_strength, KHR_materials_ior, KHR_materials_iridescence, "
                              "KHR_materials_pbrSpecularGlossiness, KHR_materials_sheen, KHR_materials_specular, KHR_materials_transmission, KHR_materials_unlit, KHR_materials_variants, KHR_materials_volume, "
                        "KHR_mesh_quantization, KHR_node_visibility, "
                              "KHR_texture_transform)");

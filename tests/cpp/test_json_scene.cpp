@@ -90,6 +90,9 @@ void expect_material_eq(const Material& a, const Material& b, const std::string&
     EXPECT_TRUE(same(a.iridescence_thickness_min, b.iridescence_thickness_min)) << w << ".iridescence_thickness_min";
   EXPECT_EQ(a.tex_iridescence, b.tex_iridescence) << w;
   EXPECT_EQ(a.tex_iridescence_thickness, b.tex_iridescence_thickness) << w;
+  EXPECT_TRUE(same(a.diffuse_transmission, b.diffuse_transmission)) << w << ".diffuse_transmission";
+  EXPECT_EQ(a.tex_diffuse_transmission, b.tex_diffuse_transmission) << w;
+  EXPECT_EQ(a.tex_diffuse_transmission_color, b.tex_diffuse_transmission_color) << w;
   EXPECT_TRUE(same(a.metallic, b.metallic)) << w << ".metallic";
   EXPECT_TRUE(same(a.transmission_weight, b.transmission_weight)) << w << ".transmission_weight";
   EXPECT_TRUE(same(a.spec_tint, b.spec_tint)) << w << ".spec_tint";
@@ -408,6 +411,12 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   velvet.tex_sheen_color = 0;
   velvet.tex_sheen_roughness = 1;
   d.add_material("sheen textures", velvet);
+  Material leaf = make_metallic_roughness(RGB(0.2f, 0.5f, 0.1f), 0.f, 0.6f);
+  leaf.diffuse_transmission = 0.4f;
+  leaf.transmission = RGB(0.6f, 0.9f, 0.2f);
+  d.add_material("diffuse transmission", leaf);
+  leaf.tex_diffuse_transmission = 1, leaf.tex_diffuse_transmission_color = 0;
+  d.add_material("diffuse transmission textures", leaf);
   Material film = make_metallic_roughness(RGB(0.2f, 0.3f, 0.9f), 0.6f, 0.25f);
   film.iridescence = 0.75f, film.iridescence_eta = 1.45f, film.iridescence_thickness = 520.f;
   d.add_material("iridescence", film);

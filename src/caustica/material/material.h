@@ -62,7 +62,9 @@ struct Material {
   uint32_t flags = 0;
   RGB diffuse{0.5f};        // Lambert / plastic base / Phong kd / diffuse reflectance r
   RGB specular{1.f};        // specular tint / Phong ks
-  RGB transmission{1.f};    // dielectric transmission tint / diffuse transmittance t
+  // Dielectric transmission tint / diffuse transmittance t; metallic-roughness: the colour of its diffuse
+  // transmission (KHR_materials_diffuse_transmission's diffuseTransmissionColorFactor).
+  RGB transmission{1.f};
   RGB eta_c{0.f}, k_c{0.f}; // conductor complex index of refraction
   float eta = 1.5f;         // dielectric / plastic: interior IOR over exterior IOR
   float alpha_x = 0.1f, alpha_y = 0.1f;  // GGX roughness (alpha_x along the anisotropy direction, scene/shading.h)
@@ -92,6 +94,10 @@ struct Material {
   // its weight iridescenceFactor (0: none), IOR, and thickness in nm, iridescence_thickness, or with
   // tex_iridescence_thickness, from iridescence_thickness_min (texel 0) to iridescence_thickness (texel 1).
   float iridescence = 0.f, iridescence_eta = 1.3f, iridescence_thickness = 400.f, iridescence_thickness_min = 0.f;
+  // Metallic-roughness: KHR_materials_diffuse_transmission's diffuseTransmissionFactor, the share of the
+  // dielectric's diffuse base that is Lambertian transmission (colour `transmission`) instead of reflection
+  // (material/metallic_roughness.h).
+  float diffuse_transmission = 0.f;
   // Textures (indices into SceneView::textures, -1 = none), applied at the hit:
   //   tex_color multiplies the main colour (diffuse/base colour; a tinted
   //     mirror's or conductor's `specular`; a dielectric's `transmission`);
@@ -118,6 +124,9 @@ struct Material {
   //     loader moves iridescenceThicknessTexture's green channel there).
   //   tex_clearcoat_normal: a tangent-space normal map for the coat alone (clearcoatNormalTexture; as tex_normal,
   //     on the surface's normal: the base's normal map does not move the coat).
+  //   tex_diffuse_transmission: its diffuse transmission weight times R (diffuseTransmissionTexture's alpha,
+  //     moved to red by the glTF loader); tex_diffuse_transmission_color: that transmission's colour times RGB
+  //     (diffuseTransmissionColorTexture).
   //   Principled: tex_clearcoat and tex_transmission as above (clearcoat, spec_trans times R), and
   //     tex_metallic, tex_spec_tint, tex_sheen, tex_sheen_tint, tex_flatness, tex_clearcoat_gloss: those weights
   //     times R (the Mitsuba loader gives them grey copies of its images: Mitsuba reads a float texture's
@@ -126,7 +135,8 @@ struct Material {
   int32_t tex_color = -1, tex_roughness = -1, tex_normal = -1, tex_bump = -1, tex_aniso = -1;
   int32_t tex_clearcoat = -1, tex_clearcoat_roughness = -1, tex_specular = -1, tex_specular_color = -1,
           tex_transmission = -1, tex_sheen_color = -1, tex_sheen_roughness = -1, tex_iridescence = -1,
-          tex_iridescence_thickness = -1, tex_clearcoat_normal = -1;
+          tex_iridescence_thickness = -1, tex_clearcoat_normal = -1, tex_diffuse_transmission = -1,
+          tex_diffuse_transmission_color = -1;
   int32_t tex_metallic = -1, tex_spec_tint = -1, tex_sheen = -1, tex_sheen_tint = -1, tex_flatness = -1,
           tex_clearcoat_gloss = -1;
   float normal_scale = 1.f, bump_scale = 1.f;
@@ -159,10 +169,11 @@ struct Material {
 
 // Every texture slot of a material (-1 where empty), for host code that visits them all (validation, the
 // writers' lists of used images); without `opacity` the opacity slot reads as empty.
-inline std::array<int32_t, 23> material_textures(const Material& m, bool opacity = true) {
+inline std::array<int32_t, 25> material_textures(const Material& m, bool opacity = true) {
   return {m.tex_color, m.tex_roughness, m.tex_normal, m.tex_bump, m.tex_aniso, m.tex_clearcoat,
           m.tex_clearcoat_roughness, m.tex_specular, m.tex_specular_color, m.tex_transmission,
           m.tex_sheen_color, m.tex_sheen_roughness, m.tex_iridescence, m.tex_iridescence_thickness, m.tex_clearcoat_normal,
+          m.tex_diffuse_transmission, m.tex_diffuse_transmission_color,
           m.tex_metallic, m.tex_spec_tint, m.tex_sheen,
           m.tex_sheen_tint, m.tex_flatness, m.tex_clearcoat_gloss, opacity ? m.tex_opacity : -1, m.tex_mix};
 }
@@ -195,11 +206,18 @@ CHD float material_table(const Material& m, float mu) {
 // How many blends inside blends resolve_material resolves (the loaders refuse cycles).
 constexpr uint32_t kMaxMixDepth = 8;
 
+// Metallic-roughness with diffuse transmission (KHR_materials_diffuse_transmission): a thin translucent
+// sheet, whose opaque parts are seen the same from both sides (material/metallic_roughness.h). With a weight
+// texture it is one wherever the texture lets light through, so the whole surface is.
+CHD bool mr_translucent(const Material& m) {
+  return m.type == MaterialType::kMetallicRoughness && (m.diffuse_transmission > 0.f || m.tex_diffuse_transmission >= 0);
+}
 CHD bool material_is_transmissive(const Material& m) {
   return m.type == MaterialType::kDielectric || m.type == MaterialType::kRoughDielectric ||
          m.type == MaterialType::kThinDielectric || m.type == MaterialType::kDiffuseTransmission ||
          ((m.type == MaterialType::kMetallicRoughness || m.type == MaterialType::kPrincipled) &&
-          m.transmission_weight > 0.f && (m.metallic < 1.f || m.tex_metallic >= 0));  // a texture may lower it
+          m.transmission_weight > 0.f && (m.metallic < 1.f || m.tex_metallic >= 0)) ||  // a texture may lower it
+         mr_translucent(m);
 }
 // True when every lobe is a Dirac delta (NEE is pointless there).
 CHD bool material_is_delta(const Material& m) {

@@ -21,6 +21,17 @@
 //                (Mitsuba's roughplastic; ~0.6 x as bright at base 0.5, eta 1.5).
 //                KHR_materials_specular scales and tints F (mr_dielectric_fresnel below)
 //                and the base takes 1 - max(F) on each side.
+// KHR_materials_diffuse_transmission (m.diffuse_transmission dt, m.transmission its colour t): the dielectric's
+// diffuse base becomes the extension's mix of a Lambertian BRDF and BTDF, (1 - dt) base/pi on the side of wo and
+// dt t/pi on the other, under the same specular layer: (1 - F(cos_o)) (1 - F(|cos_i|)) dt t/pi through the surface
+// (the glTF form; with kPlasticBase too), which is symmetric, and the albedo stays <= 1. The specular lobe,
+// the metal and the glass are unchanged (the extension: KHR_materials_transmission's glass takes its share
+// first). Such a surface is a thin translucent sheet (leaves, paper, lamp shades; with KHR_materials_volume the
+// boundary of a translucent solid): light must leave it on either side, so seen from behind (wo.z < 0) its
+// metal and dielectric are those seen from the front with both directions mirrored (mr_mirror_side), whether
+// or not the material is two-sided; the coat and the sheen lie on the front side only (as for the glass seen
+// from inside, a direction below the surface passes neither), which keeps the whole reciprocal. Sampling
+// splits the diffuse base's probability between its two sides by luminance, (1 - dt) lum(base) : dt lum(t).
 // GGX alpha = roughness^2 (the glTF convention); with kBeckmann (Mitsuba's roughplastic) the Beckmann
 // distribution instead (material/microfacet.h). Roughness alpha below
 // kSmoothAlpha makes the specular lobes Dirac deltas (a GGX lobe that narrow
@@ -130,9 +141,27 @@ CHD RGB mr_dielectric_fresnel(const Material& m, float c) {
 CHD float mr_dielectric_reflectance(const Material& m, float c) {
   return mr_plain_specular(m) ? fresnel_dielectric(c, m.eta) : max_component(mr_dielectric_fresnel(m, c));
 }
+// The diffuse base's luminance: reflection (1 - dt) base and transmission dt t (KHR_materials_diffuse_transmission).
+CHD float mr_diffuse_reflected(const Material& m) { return (1.f - m.diffuse_transmission) * luminance(m.diffuse); }
+CHD float mr_diffuse_transmitted(const Material& m) { return m.diffuse_transmission * luminance(m.transmission); }
 CHD float mr_specular_prob(const Material& m, float Fo) {
-  float ws = Fo, wd = (1.f - Fo) * luminance(m.diffuse);
+  const float d = m.diffuse_transmission > 0.f ? mr_diffuse_reflected(m) + mr_diffuse_transmitted(m) : luminance(m.diffuse);
+  float ws = Fo, wd = (1.f - Fo) * d;
   return ws + wd > 0.f ? ws / (ws + wd) : 1.f;
+}
+// Of the diffuse base's samples, the share reflected (the rest are transmitted), by luminance.
+CHD float mr_diffuse_reflect_prob(const Material& m) {
+  if (!(m.diffuse_transmission > 0.f)) return 1.f;
+  const float r = mr_diffuse_reflected(m), t = mr_diffuse_transmitted(m);
+  return t > 0.f ? r / (r + t) : 1.f;
+}
+// A translucent sheet seen from behind (mr_translucent, material.h): its opaque parts are evaluated and sampled
+// as if seen from the front, both directions mirrored; the glass keeps its sides. Returns the sign applied.
+CHD float mr_mirror_side(const Material& m, Vec3f& wo, Vec3f& wi) {
+  if (!(wo.z < 0.f) || !mr_translucent(m)) return 1.f;
+  wo.z = -wo.z;
+  wi.z = -wi.z;
+  return -1.f;
 }
 
 // The base mixture (metal, glass, dielectric) without the coat. Continuous parts of f (delta lobes evaluate to
@@ -142,7 +171,15 @@ CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) 
   RGB f(0.f);
   if (w.glass > 0.f && !mr_smooth(m))
     f += rough_dielectric_eval(mr_glass(m), material_microfacet(m), wo, wi, mode) * w.glass;
-  if (wo.z <= 0.f || wi.z <= 0.f) return f;
+  mr_mirror_side(m, wo, wi);
+  if (wo.z <= 0.f) return f;
+  if (wi.z <= 0.f) {  // through the surface: the diffuse transmission
+    if (w.dielectric > 0.f && m.diffuse_transmission > 0.f && wi.z < 0.f) {
+      float Fo = mr_dielectric_reflectance(m, wo.z), Fi = mr_dielectric_reflectance(m, -wi.z);
+      f += m.transmission * (m.diffuse_transmission * (1.f - Fo) * (1.f - Fi) * kInvPi * w.dielectric);
+    }
+    return f;
+  }
   if (!mr_smooth(m)) {
     Vec3f wm = normalize(wo + wi);
     Microfacet g = material_microfacet(m);
@@ -154,7 +191,7 @@ CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) 
   if (w.dielectric > 0.f) {
     float Fo = mr_dielectric_reflectance(m, wo.z), Fi = mr_dielectric_reflectance(m, wi.z);
     RGB base = (m.flags & kPlasticBase) ? plastic_diffuse_albedo(m) / (m.eta * m.eta) : m.diffuse;
-    f += base * ((1.f - Fo) * (1.f - Fi) * kInvPi * w.dielectric);
+    f += base * ((1.f - m.diffuse_transmission) * (1.f - Fo) * (1.f - Fi) * kInvPi * w.dielectric);
   }
   return f;
 }
@@ -163,19 +200,25 @@ CHD RGB mr_base_eval(const Material& m, Vec3f wo, Vec3f wi, TransportMode mode) 
 CHD float mr_base_pdf(const Material& m, Vec3f wo, Vec3f wi) {
   MRWeights w = mr_weights(m);
   float pdf = 0.f;
-  // Seen from behind only the glass is sampled (selection probability 1).
-  float sel_glass = wo.z <= 0.f ? 1.f : w.glass;
+  // Seen from behind only the glass is sampled (selection probability 1), unless the surface is translucent.
+  float sel_glass = wo.z <= 0.f && !mr_translucent(m) ? 1.f : w.glass;
   if (w.glass > 0.f && !mr_smooth(m))
     pdf += sel_glass * rough_dielectric_pdf(mr_glass(m), material_microfacet(m), wo, wi);
-  if (wo.z <= 0.f || wi.z <= 0.f) return pdf;
+  mr_mirror_side(m, wo, wi);
+  if (wo.z <= 0.f || wi.z == 0.f) return pdf;
   float ps = mr_specular_prob(m, mr_dielectric_reflectance(m, wo.z));
+  if (wi.z < 0.f) {  // the diffuse transmission
+    if (w.dielectric > 0.f && m.diffuse_transmission > 0.f)
+      pdf += w.dielectric * (1.f - ps) * (1.f - mr_diffuse_reflect_prob(m)) * cosine_hemisphere_pdf(Vec3f(wi.x, wi.y, -wi.z));
+    return pdf;
+  }
   if (!mr_smooth(m)) {
     Vec3f wm = normalize(wo + wi);
     Microfacet g = material_microfacet(m);
     float p_refl = g.pdf_wm(wo, wm) / (4.f * absdot(wo, wm));
     pdf += (w.metal + w.dielectric * ps) * p_refl;
   }
-  if (w.dielectric > 0.f) pdf += w.dielectric * (1.f - ps) * cosine_hemisphere_pdf(wi);
+  if (w.dielectric > 0.f) pdf += w.dielectric * (1.f - ps) * mr_diffuse_reflect_prob(m) * cosine_hemisphere_pdf(wi);
   return pdf;
 }
 
@@ -186,10 +229,11 @@ CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, Transpor
   bool smooth = mr_smooth(m);
   s.eta = 1.f;
   // Component choice; uc is rescaled so the chosen lobe can reuse it.
-  if (uc < w.glass || wo.z <= 0.f) {
-    if (w.glass == 0.f) return false;  // seen from behind: only the glass transmits
-    float sel = wo.z <= 0.f ? 1.f : w.glass;
-    float uc2 = wo.z <= 0.f ? uc : uc / w.glass;
+  const bool only_glass = wo.z <= 0.f && !mr_translucent(m);  // seen from behind only the glass transmits
+  if (uc < w.glass || only_glass) {
+    if (w.glass == 0.f) return false;
+    float sel = only_glass ? 1.f : w.glass;
+    float uc2 = only_glass ? uc : uc / w.glass;
     const DielectricParams g = mr_glass(m);
     if (smooth) {
       if (!dielectric_sample(g, wo, minf(uc2, 0.99999994f), mode, s)) return false;
@@ -199,31 +243,39 @@ CHD bool mr_base_sample(const Material& m, Vec3f wo, float uc, Vec2f u, Transpor
     }
     if (!rough_dielectric_sample(g, material_microfacet(m), wo, minf(uc2, 0.99999994f), u, mode, s)) return false;
   } else {
+    Vec3f o = wo, unused;
+    const float side = mr_mirror_side(m, o, unused);  // a translucent surface seen from behind
+    if (o.z <= 0.f) return false;
     uc = (uc - w.glass) / (1.f - w.glass);
-    float Fo = mr_dielectric_reflectance(m, wo.z);
+    float Fo = mr_dielectric_reflectance(m, o.z);
     float ps = mr_specular_prob(m, Fo);
     float p_metal = w.metal / (w.metal + w.dielectric);
     bool metal = uc < p_metal;
-    bool spec = metal || (uc - p_metal) / (1.f - p_metal) < ps;
+    const float ud = metal ? 0.f : (uc - p_metal) / (1.f - p_metal);
+    bool spec = metal || ud < ps;
     if (spec && smooth) {
       s.wi = Vec3f(-wo.x, -wo.y, wo.z);
       s.delta = true;
       if (metal) {
         s.pdf = w.metal;
-        s.weight = mr_metal_fresnel(m, wo.z);
+        s.weight = mr_metal_fresnel(m, o.z);
       } else {
         s.pdf = w.dielectric * ps;
-        s.weight = mr_plain_specular(m) ? RGB(Fo / ps) : mr_dielectric_fresnel(m, wo.z) / ps;
+        s.weight = mr_plain_specular(m) ? RGB(Fo / ps) : mr_dielectric_fresnel(m, o.z) / ps;
       }
       return true;
     }
     if (spec) {
       Microfacet g = material_microfacet(m);
-      s.wi = reflect(wo, g.sample_wm(wo, u));
+      s.wi = reflect(o, g.sample_wm(o, u));
+      if (s.wi.z <= 0.f) return false;
     } else {
       s.wi = square_to_cosine_hemisphere(u);
+      if (s.wi.z <= 0.f) return false;
+      // The diffuse transmission (KHR_materials_diffuse_transmission): the same cosine lobe on the other side.
+      if (m.diffuse_transmission > 0.f && (ud - ps) / (1.f - ps) >= mr_diffuse_reflect_prob(m)) s.wi.z = -s.wi.z;
     }
-    if (s.wi.z <= 0.f) return false;
+    s.wi.z *= side;
     s.eta = 1.f;
   }
   s.delta = false;

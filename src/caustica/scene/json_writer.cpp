@@ -363,6 +363,11 @@ struct Writer {
           o.set("sheen_color", color_slot(m.sheen_color, m.tex_sheen_color));
           o.set("sheen_roughness", m.tex_sheen_roughness >= 0 ? texture(m.tex_sheen_roughness, false, &r) : r);
         }
+        if (m.diffuse_transmission > 0.f || m.tex_diffuse_transmission >= 0) {
+          JV w = JV::flt(m.diffuse_transmission);
+          o.set("diffuse_transmission", m.tex_diffuse_transmission >= 0 ? texture(m.tex_diffuse_transmission, false, &w) : w);
+          o.set("diffuse_transmission_color", color_slot(m.transmission, m.tex_diffuse_transmission_color));
+        }
         if (m.iridescence > 0.f || m.tex_iridescence >= 0) {
           JV w = JV::flt(m.iridescence), t = JV::flt(m.iridescence_thickness);
           o.set("iridescence", m.tex_iridescence >= 0 ? texture(m.tex_iridescence, false, &w) : w);

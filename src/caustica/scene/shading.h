@@ -225,6 +225,9 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
       if (s.sheen_table) mr_sheen_table_at(s.sheen_table, m);  // the texel's roughness's albedo table
     }
     weight(m.transmission_weight, m.tex_transmission);
+    weight(m.diffuse_transmission, m.tex_diffuse_transmission);
+    if (m.tex_diffuse_transmission_color >= 0)
+      m.transmission *= texture_lookup(s.textures[m.tex_diffuse_transmission_color], sh.uv).rgb();
     weight(m.specular_weight, m.tex_specular);
     if (m.tex_specular_color >= 0) m.specular *= texture_lookup(s.textures[m.tex_specular_color], sh.uv).rgb();
     weight(m.clearcoat, m.tex_clearcoat);

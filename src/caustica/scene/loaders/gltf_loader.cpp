@@ -43,7 +43,7 @@ constexpr int kByte = 5120, kUByte = 5121, kShort = 5122, kUShort = 5123, kUInt 
 const std::set<std::string>& supported_extensions() {
   static const std::set<std::string> s = {
       "KHR_materials_transmission", "KHR_materials_ior",    "KHR_materials_volume",
-      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_lights_punctual",
+      "KHR_materials_emissive_strength", "KHR_materials_anisotropy", "KHR_materials_clearcoat", "KHR_materials_specular", "KHR_materials_sheen", "KHR_materials_diffuse_transmission", "KHR_lights_punctual",
       "KHR_texture_transform", "KHR_mesh_quantization", "EXT_mesh_gpu_instancing",
       "KHR_materials_pbrSpecularGlossiness", "EXT_texture_webp", "KHR_draco_mesh_compression",
       "EXT_meshopt_compression", "KHR_materials_unlit", "KHR_materials_iridescence", "KHR_materials_variants",
@@ -443,6 +443,7 @@ void check_structure(const Ctx& c, const json& root, bool glb_has_bin, std::vect
           {"KHR_materials_clearcoat", {"clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"}},
           {"KHR_materials_specular", {"specularTexture", "specularColorTexture"}},
           {"KHR_materials_sheen", {"sheenColorTexture", "sheenRoughnessTexture"}},
+          {"KHR_materials_diffuse_transmission", {"diffuseTransmissionTexture", "diffuseTransmissionColorTexture"}},
           {"KHR_materials_iridescence", {"iridescenceTexture", "iridescenceThicknessTexture"}},
           {"KHR_materials_anisotropy", {"anisotropyTexture"}},
           {"KHR_materials_pbrSpecularGlossiness", {"diffuseTexture", "specularGlossinessTexture"}}};
@@ -1227,6 +1228,25 @@ int Converter::material(size_t i) {
     }
     if (const json* tx = member(t, "specularColorTexture"))
       mat.tex_specular_color = texture(*tx, P(sp, "specularColorTexture"), true);
+  }
+  if (const json* dt = extension("KHR_materials_diffuse_transmission", sp)) {
+    // The diffuse base's share dt = diffuseTransmissionFactor times diffuseTransmissionTexture's alpha (moved to
+    // a grey copy's red), transmitted as Lambertian light of colour diffuseTransmissionColorFactor times
+    // diffuseTransmissionColorTexture (sRGB); material/metallic_roughness.h.
+    const json& t = *dt;
+    mat.diffuse_transmission = unit_interval(c_, t, "diffuseTransmissionFactor", sp, 0.f);
+    if (const json* f = member(t, "diffuseTransmissionColorFactor"))
+      mat.transmission = nonneg_color(c_, *f, P(sp, "diffuseTransmissionColorFactor"), 3);
+    if (max_component(mat.transmission) > 1.f)
+      c_.fail(P(sp, "diffuseTransmissionColorFactor"), "expected colour values in [0, 1]");
+    if (mat.diffuse_transmission > 0.f) {
+      if (const json* tx = member(t, "diffuseTransmissionTexture")) {
+        const int ti = texture(*tx, P(sp, "diffuseTransmissionTexture"), false);
+        if (ti >= 0) mat.tex_diffuse_transmission = derived_texture(ti, "#red-from-alpha", alpha_to_red);
+      }
+      if (const json* tx = member(t, "diffuseTransmissionColorTexture"))
+        mat.tex_diffuse_transmission_color = texture(*tx, P(sp, "diffuseTransmissionColorTexture"), true);
+    }
   }
   if (const json* sheen = extension("KHR_materials_sheen", sp)) {
     // The sheen colour sheenColorFactor times sheenColorTexture (sRGB), its roughness sheenRoughnessFactor

@@ -446,7 +446,8 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
                             "eta", "absorption", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff",
                             "diffuse_base", "vertex_colors", "clearcoat", "clearcoat_roughness", "clearcoat_normal_map", "specular", "specular_color",
                             "sheen_color", "sheen_roughness", "iridescence", "iridescence_eta",
-                            "iridescence_thickness", "iridescence_thickness_min"});
+                            "iridescence_thickness", "iridescence_thickness_min", "diffuse_transmission",
+                            "diffuse_transmission_color"});
     RGB base = get_ct("base_color", RGB(0.8f));
     float metallic = unit("metallic", get_f("metallic", 0.f));
     float rough = perceptual_roughness();
@@ -475,6 +476,13 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
     if (max_component(m.sheen_color) > 1.f || min_component(m.sheen_color) < 0.f)
       c.fail(path + "/sheen_color", "expected colour values in [0, 1]");
     m.sheen_roughness = unit_value("sheen_roughness", 0.f, m.tex_sheen_roughness);
+    // KHR_materials_diffuse_transmission: the diffuse base's transmitted share and its colour.
+    m.diffuse_transmission = unit_value("diffuse_transmission", 0.f, m.tex_diffuse_transmission);
+    if (j.contains("diffuse_transmission_color"))
+      m.transmission = color_or_texture(c, j["diffuse_transmission_color"], path + "/diffuse_transmission_color",
+                                        m.tex_diffuse_transmission_color);
+    if (max_component(m.transmission) > 1.f || min_component(m.transmission) < 0.f)
+      c.fail(path + "/diffuse_transmission_color", "expected colour values in [0, 1]");
     // KHR_materials_iridescence's thin film (material/thin_film.h): weight, IOR, thickness in nm (a number,
     // or a texture whose red channel goes from iridescence_thickness_min to its "scale").
     m.iridescence = unit_value("iridescence", 0.f, m.tex_iridescence);
