@@ -592,6 +592,30 @@ TEST(GltfLoader, TransmissionTexture) {
   EXPECT_FALSE(has_warning(d, "transmissionTexture"));
 }
 
+TEST(GltfLoader, SamplerWrapsEachAxisItsOwnWay) {
+  // wrapS along u and wrapT along v, each its own mode (no warning); the same image with both repeating is
+  // the decoded texture itself, with another pair a copy of it.
+  Builder b;
+  std::vector<unsigned char> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
+  b.push("images", {{"uri", "data:image/png;base64," + base64(png(2, 2, rgb))}});
+  b.push("samplers", {{"wrapS", 10497}, {"wrapT", 33071}});
+  b.push("samplers", {{"wrapS", 33648}, {"wrapT", 10497}});
+  b.push("textures", {{"source", 0}, {"sampler", 0}});
+  b.push("textures", {{"source", 0}, {"sampler", 1}});
+  b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+  b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 1}}}}}});
+  int q0 = b.quad(0), q1 = b.quad(1);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}})});
+  SceneDesc d = load_gltf_scene(b.write("wraps"));
+  const TextureDesc& a = d.textures[size_t(d.materials[0].tex_color)];
+  const TextureDesc& m = d.textures[size_t(d.materials[1].tex_color)];
+  EXPECT_EQ(a.wrap_u, TexWrap::kRepeat);
+  EXPECT_EQ(a.wrap_v, TexWrap::kClamp);
+  EXPECT_EQ(m.wrap_u, TexWrap::kMirror);
+  EXPECT_EQ(m.wrap_v, TexWrap::kRepeat);
+  EXPECT_FALSE(has_warning(d, "wrapT"));
+}
+
 TEST(GltfLoader, TexturesSamplersAndTransforms) {
   Builder b;
   std::vector<unsigned char> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};  // 2x2: red green / blue white
@@ -627,7 +651,8 @@ TEST(GltfLoader, TexturesSamplersAndTransforms) {
   EXPECT_FALSE(c.nearest);
   const TextureDesc& t = d.textures[d.materials[1].tex_color];
   EXPECT_TRUE(t.nearest);
-  EXPECT_EQ(t.wrap, TexWrap::kClamp);
+  EXPECT_EQ(t.wrap_u, TexWrap::kClamp);
+  EXPECT_EQ(t.wrap_v, TexWrap::kClamp);
   EXPECT_EQ(t.rgba, c.rgba);
   // glTF uv' = (2u + 0.5, 3v + 0.25), v downwards. In caustica's v_c = 1 - v:
   // v_c' = 1 - (3 (1 - v_c) + 0.25) = 3 v_c - 2.25.

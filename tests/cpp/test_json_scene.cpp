@@ -179,7 +179,8 @@ void expect_desc_eq(const SceneDesc& a, const SceneDesc& b, bool texture_names =
     EXPECT_EQ(x.width, y.width);
     EXPECT_EQ(x.height, y.height);
     EXPECT_EQ(x.srgb, y.srgb);
-    EXPECT_EQ(int(x.wrap), int(y.wrap));
+    EXPECT_EQ(int(x.wrap_u), int(y.wrap_u));
+    EXPECT_EQ(int(x.wrap_v), int(y.wrap_v));
     EXPECT_EQ(x.nearest, y.nearest);
     expect_same(x.uv_offset, y.uv_offset, "uv_offset");
     expect_same(x.uv_scale, y.uv_scale, "uv_scale");
@@ -335,7 +336,8 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
     for (int k = 0; k < tex.width * tex.height; ++k)
       for (int ch = 0; ch < 4; ++ch) tex.rgba.push_back(ch == 3 ? 1.f : float(k * 4 + ch) / 7.f + 1e-7f * t);
     if (t == 1) {
-      tex.wrap = TexWrap::kMirror;
+      tex.wrap_u = TexWrap::kMirror;
+      tex.wrap_v = TexWrap::kClamp;  // an axis each (written as [u, v])
       tex.nearest = true;
       tex.uv_scale = {2.f, 0.5f};
       tex.uv_offset = {0.1f, -0.f};
@@ -644,9 +646,11 @@ TEST(JsonLoader, TexturesOnMaterialsShapesAndEnvironment) {
   // Other sampler settings on the same image: a copy with those settings.
   const Material& clamped = d.materials[1];
   EXPECT_EQ(clamped.tex_color, 2);
-  EXPECT_EQ(int(d.textures[2].wrap), int(TexWrap::kClamp));
+  EXPECT_EQ(int(d.textures[2].wrap_u), int(TexWrap::kClamp));
+  EXPECT_EQ(int(d.textures[2].wrap_v), int(TexWrap::kClamp));
   EXPECT_EQ(d.textures[2].uv_scale.x, 2.f);
-  EXPECT_EQ(int(d.textures[0].wrap), int(TexWrap::kRepeat));
+  EXPECT_EQ(int(d.textures[0].wrap_u), int(TexWrap::kRepeat));
+  EXPECT_EQ(int(d.textures[0].wrap_v), int(TexWrap::kRepeat));
   EXPECT_EQ(d.materials[2].type, MaterialType::kRoughConductor);
   EXPECT_EQ(d.materials[2].tex_roughness, 1);
   EXPECT_FLOAT_EQ(d.materials[2].alpha_x, 0.3f);

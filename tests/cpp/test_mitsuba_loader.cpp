@@ -380,14 +380,16 @@ TEST(MitsubaBsdf, Textures) {
   const Material& a = d.materials[d.shapes[0].material];
   ASSERT_GE(a.tex_color, 0);
   expect_vec_near(a.diffuse, RGB(1.f), 0.f);
-  EXPECT_EQ(d.textures[a.tex_color].wrap, TexWrap::kClamp);
+  EXPECT_EQ(d.textures[a.tex_color].wrap_u, TexWrap::kClamp);
+  EXPECT_EQ(d.textures[a.tex_color].wrap_v, TexWrap::kClamp);
   EXPECT_TRUE(d.textures[a.tex_color].nearest);
   EXPECT_TRUE(d.textures[a.tex_color].srgb);
   const Material& b = d.materials[d.shapes[1].material];
   EXPECT_EQ(b.type, MaterialType::kRoughConductor);
   ASSERT_GE(b.tex_roughness, 0);
   EXPECT_FALSE(d.textures[b.tex_roughness].srgb);
-  EXPECT_EQ(d.textures[b.tex_roughness].wrap, TexWrap::kRepeat);
+  EXPECT_EQ(d.textures[b.tex_roughness].wrap_u, TexWrap::kRepeat);
+  EXPECT_EQ(d.textures[b.tex_roughness].wrap_v, TexWrap::kRepeat);
   EXPECT_EQ(d.textures[b.tex_roughness].width, 2);
   // Mitsuba reads a float texture's luminance (a bitmap's eval_1): the colour image's grey copy.
   EXPECT_NEAR(d.textures[b.tex_roughness].rgba[0], luminance(RGB(1.f, 2.f, 3.f)), 1e-6f);

@@ -68,7 +68,8 @@ TextureView view_of(const TextureDesc& t) {
   v.rgba = t.rgba.data();
   v.width = t.width;
   v.height = t.height;
-  v.wrap = t.wrap;
+  v.wrap_u = t.wrap_u;
+  v.wrap_v = t.wrap_v;
   v.nearest = t.nearest;
   return v;
 }
@@ -136,16 +137,29 @@ TEST(Texture, NearestAndBilinearLookupsHitTexelValues) {
   EXPECT_NEAR(edge.x, 0.5f, 1e-6f);
   EXPECT_NEAR(edge.y, 0.5f, 1e-6f);
   // Clamp: the edge is the edge texel.
-  v.wrap = TexWrap::kClamp;
+  v.wrap_u = v.wrap_v = TexWrap::kClamp;
   EXPECT_EQ(texture_lookup(v, Vec2f(0.f, 0.75f)).rgb(), RGB(1, 0, 0));
   EXPECT_EQ(texture_lookup(v, Vec2f(-3.f, 0.75f)).rgb(), RGB(1, 0, 0));
   // Mirror: u in (1, 2) reads the image backwards, so 1.25 is the right column.
-  v.wrap = TexWrap::kMirror;
+  v.wrap_u = v.wrap_v = TexWrap::kMirror;
   EXPECT_EQ(texture_lookup(v, Vec2f(1.25f, 0.75f)).rgb(), RGB(0, 1, 0));
   EXPECT_EQ(texture_lookup(v, Vec2f(1.75f, 0.75f)).rgb(), RGB(1, 0, 0));
   // Nearest: any point inside a texel returns it.
-  v.wrap = TexWrap::kRepeat;
+  // Each axis its own mode (glTF's wrapS and wrapT): repeat along u, clamp along v. Above the image (v 1.25)
+  // v clamps to the top row while u 1.25 repeats to the left column: (1, 0, 0); u clamped instead reads the
+  // right column, (0, 1, 0); and v repeated reads the bottom row, (0, 0, 1) and (1, 1, 1).
+  v.wrap_u = TexWrap::kRepeat;
+  v.wrap_v = TexWrap::kClamp;
   v.nearest = 1;
+  EXPECT_EQ(texture_lookup(v, Vec2f(1.25f, 1.25f)).rgb(), RGB(1, 0, 0));
+  v.wrap_u = TexWrap::kClamp;
+  EXPECT_EQ(texture_lookup(v, Vec2f(1.25f, 1.25f)).rgb(), RGB(0, 1, 0));
+  v.wrap_u = TexWrap::kRepeat;
+  v.wrap_v = TexWrap::kRepeat;
+  EXPECT_EQ(texture_lookup(v, Vec2f(1.25f, 1.25f)).rgb(), RGB(0, 0, 1));
+  v.wrap_u = TexWrap::kClamp;
+  EXPECT_EQ(texture_lookup(v, Vec2f(1.25f, 1.25f)).rgb(), RGB(1, 1, 1));
+  v.wrap_u = TexWrap::kRepeat;
   EXPECT_EQ(texture_lookup(v, Vec2f(0.51f, 0.99f)).rgb(), RGB(0, 1, 0));
   EXPECT_EQ(texture_lookup(v, Vec2f(1.01f, 0.01f)).rgb(), RGB(0, 0, 1));  // wrapped
   // uv transform: offset 0.5 in u moves the right column to the left half.

@@ -109,6 +109,7 @@ def test_schema_rejects_what_the_loader_rejects():
         dict(base, integrator={"type": "mlt"}),
         dict(base, film={"width": 0}),
         dict(base, camera={"fov": 200}),
+        dict(base, materials={"m": {"type": "diffuse", "reflectance": {"texture": "x.png", "wrap": ["clamp"]}}}),
     ]
     for doc in bad:
         assert list(VALIDATOR.iter_errors(doc)), doc
@@ -154,6 +155,12 @@ def test_load_dict_describe_and_instances():
      "<dict>: /film/width: expected an integer, got number"),
     ({"camera": {}, "shapes": [{"type": "cube"}], "materials": {"m": {"type": "metallic_roughness", "metallic": -1}}},
      "<dict>: /materials/m/metallic: expected a number in [0, 1]"),
+    ({"camera": {}, "shapes": [{"type": "cube"}],
+      "materials": {"m": {"type": "diffuse", "reflectance": {"texture": "x.png", "wrap": ["repeat", "clamp", "clamp"]}}}},
+     "<dict>: /materials/m/reflectance/wrap: expected a wrap mode or two ([u, v])"),
+    ({"camera": {}, "shapes": [{"type": "cube"}],
+      "materials": {"m": {"type": "diffuse", "reflectance": {"texture": "x.png", "wrap": ["repeat", "tile"]}}}},
+     "<dict>: /materials/m/reflectance/wrap/1: unknown wrap mode 'tile' (allowed: repeat, clamp, mirror)"),
     ({"camera": {}, "shapes": [{"type": "cube"}], "lights": [{"type": "environment", "file": "gone.exr"}]},
      "<dict>: /lights/0/file: texture file 'gone.exr' does not exist"),
 ])
@@ -227,7 +234,8 @@ def test_mesh_files_and_textures_round_trip(tmp_path):
     doc = {
         "camera": {"position": [0, -4, 2], "target": [0, 0, 0.3], "up": [0, 0, 1], "width": 40, "height": 30},
         "materials": {
-            "checker": {"type": "diffuse", "reflectance": {"texture": "checker.png", "uv_scale": 4, "filter": "nearest"}},
+            "checker": {"type": "diffuse", "reflectance": {"texture": "checker.png", "uv_scale": 4, "filter": "nearest",
+                                                           "wrap": ["repeat", "mirror"]}},
             "rough": {"type": "conductor", "eta": 0.2, "k": 3, "roughness": 0.2},
             "pbr": {"type": "metallic_roughness", "base_color": [0.9, 0.6, 0.2], "metallic": 0.5, "roughness": 0.4}},
         "meshes": {"quad": {"file": "quad.ply"}, "tetra": {"file": "tetra.obj"}},
@@ -252,6 +260,7 @@ def test_mesh_files_and_textures_round_trip(tmp_path):
     exported = json.loads(out.read_text())
     validate(exported, "exported tex.json")
     assert exported["materials"]["checker"]["reflectance"]["texture"] == "copy.tex0.exr"
+    assert exported["materials"]["checker"]["reflectance"]["wrap"] == ["repeat", "mirror"]  # along u, along v
     assert exported["lights"][0]["file"] == "copy.tex1.exr"
     back = caustica.load_scene(out)
     assert back.describe() == dict(d, name=back.describe()["name"])

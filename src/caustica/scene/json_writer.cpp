@@ -246,8 +246,9 @@ struct Writer {
                                            : exported_texture_name(stem, size_t(index))));
     if (scale) o.set("scale", *scale);
     if (t.srgb != srgb_default) o.set("srgb", JV::boolean(t.srgb));
-    if (t.wrap == TexWrap::kClamp) o.set("wrap", JV::str("clamp"));
-    if (t.wrap == TexWrap::kMirror) o.set("wrap", JV::str("mirror"));
+    auto wrap_name = [](TexWrap w) { return JV::str(w == TexWrap::kClamp ? "clamp" : w == TexWrap::kMirror ? "mirror" : "repeat"); };
+    if (t.wrap_u != t.wrap_v) o.set("wrap", JV::array().push(wrap_name(t.wrap_u)).push(wrap_name(t.wrap_v)));
+    else if (t.wrap_u != TexWrap::kRepeat) o.set("wrap", wrap_name(t.wrap_u));
     if (t.nearest) o.set("filter", JV::str("nearest"));
     if (t.uv_scale.x != 1.f || t.uv_scale.y != 1.f) o.set("uv_scale", vec2(t.uv_scale));
     if (t.uv_offset.x != 0.f || t.uv_offset.y != 0.f || std::signbit(t.uv_offset.x) || std::signbit(t.uv_offset.y))

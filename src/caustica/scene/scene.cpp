@@ -1078,7 +1078,8 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
     tv.rgba = t.rgba.data();
     tv.width = t.width;
     tv.height = t.height;
-    tv.wrap = t.wrap;
+    tv.wrap_u = t.wrap_u;
+    tv.wrap_v = t.wrap_v;
     tv.nearest = t.nearest ? 1u : 0u;
     tv.uv_offset = t.uv_offset;
     tv.uv_scale = t.uv_scale;
@@ -1162,7 +1163,7 @@ std::shared_ptr<Scene> Scene::build(const SceneDesc& desc) {
 void Scene::build_envmap(const TextureView& tex, const Affine& to_world) {
   EnvMapView& e = view_.envmap;
   e.tex = tex;
-  e.tex.wrap = TexWrap::kRepeat;  // u wraps around; v never leaves [0, 1]
+  e.tex.wrap_u = e.tex.wrap_v = TexWrap::kRepeat;  // u wraps around; v never leaves [0, 1]
   int w = tex.width, h = tex.height;
   e.width = w;
   e.height = h;

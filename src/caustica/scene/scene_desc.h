@@ -45,7 +45,7 @@ struct TextureDesc {
   int width = 0, height = 0;
   std::vector<float> rgba;  // width * height * 4
   bool srgb = false;        // what the loader was asked for (part of the cache key)
-  TexWrap wrap = TexWrap::kRepeat;
+  TexWrap wrap_u = TexWrap::kRepeat, wrap_v = TexWrap::kRepeat;  // along u and along v
   bool nearest = false;     // nearest-texel lookup instead of bilinear
   // uv' = R(rotation) * (scale * uv) + offset (KHR_texture_transform order).
   Vec2f uv_offset{0.f, 0.f}, uv_scale{1.f, 1.f};

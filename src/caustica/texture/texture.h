@@ -14,7 +14,7 @@ enum class TexWrap : uint32_t { kRepeat = 0, kClamp, kMirror };
 struct TextureView {
   const float* rgba = nullptr;
   int32_t width = 0, height = 0;
-  TexWrap wrap = TexWrap::kRepeat;
+  TexWrap wrap_u = TexWrap::kRepeat, wrap_v = TexWrap::kRepeat;  // along u (glTF's wrapS) and v (wrapT)
   uint32_t nearest = 0;
   Vec2f uv_offset{0.f, 0.f}, uv_scale{1.f, 1.f};
   float cos_rot = 1.f, sin_rot = 0.f;
@@ -42,8 +42,8 @@ CHD int texel_wrap(int i, int n, TexWrap w) {
 }
 
 CHD RGBA texel(const TextureView& t, int x, int y) {
-  x = texel_wrap(x, t.width, t.wrap);
-  y = texel_wrap(y, t.height, t.wrap);
+  x = texel_wrap(x, t.width, t.wrap_u);
+  y = texel_wrap(y, t.height, t.wrap_v);
   const float* p = t.rgba + (size_t(y) * size_t(t.width) + size_t(x)) * 4;
   return {p[0], p[1], p[2], p[3]};
 }

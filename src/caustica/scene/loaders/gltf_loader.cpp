@@ -690,11 +690,11 @@ bool keep_encoded_image(tinygltf::Image* image, const int, std::string*, std::st
 struct TexKey {
   size_t image;
   bool srgb, nearest;
-  TexWrap wrap;
+  TexWrap wrap_u, wrap_v;
   float ox, oy, sx, sy, rot;
   bool operator<(const TexKey& o) const {
-    return std::tie(image, srgb, nearest, wrap, ox, oy, sx, sy, rot) <
-           std::tie(o.image, o.srgb, o.nearest, o.wrap, o.ox, o.oy, o.sx, o.sy, o.rot);
+    return std::tie(image, srgb, nearest, wrap_u, wrap_v, ox, oy, sx, sy, rot) <
+           std::tie(o.image, o.srgb, o.nearest, o.wrap_u, o.wrap_v, o.ox, o.oy, o.sx, o.sy, o.rot);
   }
 };
 
@@ -990,7 +990,7 @@ int Converter::texture(const json& info, const std::string& path, bool srgb) {
     image_tex_[key] = base;
   }
   // Sampler and KHR_texture_transform: a copy of the decoded texture when they differ from the defaults.
-  TexKey k{ii, srgb, false, TexWrap::kRepeat, 0.f, 0.f, 1.f, 1.f, 0.f};
+  TexKey k{ii, srgb, false, TexWrap::kRepeat, TexWrap::kRepeat, 0.f, 0.f, 1.f, 1.f, 0.f};
   if (const json* s = member(t, "sampler")) {
     const json& sm = root_["samplers"][s->get<size_t>()];
     std::string sp = P("/samplers", s->get<size_t>());
@@ -1001,9 +1001,8 @@ int Converter::texture(const json& info, const std::string& path, bool srgb) {
       if (w == 33648) return TexWrap::kMirror;
       c_.fail(P(sp, key), "unknown wrap mode " + std::to_string(w) + " (expected 10497, 33071 or 33648)");
     };
-    TexWrap ws = wrap_of("wrapS"), wt = wrap_of("wrapT");
-    if (ws != wt) warn_once("samplers with different wrapS and wrapT are not supported; wrapS is used for both");
-    k.wrap = ws;
+    k.wrap_u = wrap_of("wrapS");  // along u; wrapT along v (caustica's v = 1 - glTF's: the same modes)
+    k.wrap_v = wrap_of("wrapT");
     if (const json* mf = member(sm, "magFilter")) k.nearest = integer(c_, *mf, P(sp, "magFilter")) == 9728;
   }
   if (const json* ex = member(info, "extensions")) {
@@ -1024,16 +1023,17 @@ int Converter::texture(const json& info, const std::string& path, bool srgb) {
       k.oy = float(1.0 - off[1] - sc[1] * co);
     }
   }
-  if (!k.nearest && k.wrap == TexWrap::kRepeat && k.ox == 0.f && k.oy == 0.f && k.sx == 1.f && k.sy == 1.f && k.rot == 0.f)
+  if (!k.nearest && k.wrap_u == TexWrap::kRepeat && k.wrap_v == TexWrap::kRepeat && k.ox == 0.f && k.oy == 0.f && k.sx == 1.f && k.sy == 1.f && k.rot == 0.f)
     return base;
   auto it = tex_of_.find(k);
   if (it != tex_of_.end()) return it->second;
   TextureDesc copy = d_.textures[size_t(base)];
   std::ostringstream nm;
-  nm << copy.name << "#sampler" << int(k.wrap) << (k.nearest ? "n" : "l") << "#" << k.ox << "," << k.oy << "," << k.sx
+  nm << copy.name << "#sampler" << int(k.wrap_u) << int(k.wrap_v) << (k.nearest ? "n" : "l") << "#" << k.ox << "," << k.oy << "," << k.sx
      << "," << k.sy << "," << k.rot;
   copy.name = nm.str();
-  copy.wrap = k.wrap;
+  copy.wrap_u = k.wrap_u;
+  copy.wrap_v = k.wrap_v;
   copy.nearest = k.nearest;
   copy.uv_offset = Vec2f(k.ox, k.oy);
   copy.uv_scale = Vec2f(k.sx, k.sy);

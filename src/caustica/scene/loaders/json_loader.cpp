@@ -231,7 +231,7 @@ Affine parse_transform(const Ctx& c, const json& j, const std::string& path) {
 bool is_texture_ref(const json& j) { return j.is_string() || (j.is_object() && j.contains("texture")); }
 
 bool same_sampling(const TextureDesc& a, const TextureDesc& b) {
-  return a.wrap == b.wrap && a.nearest == b.nearest && a.uv_offset.x == b.uv_offset.x &&
+  return a.wrap_u == b.wrap_u && a.wrap_v == b.wrap_v && a.nearest == b.nearest && a.uv_offset.x == b.uv_offset.x &&
          a.uv_offset.y == b.uv_offset.y && a.uv_scale.x == b.uv_scale.x && a.uv_scale.y == b.uv_scale.y &&
          a.uv_rotation == b.uv_rotation;
 }
@@ -254,12 +254,22 @@ int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_defa
     fpath = path + "/texture";
     file = str(c, j["texture"], fpath);
     if (j.contains("srgb")) srgb = boolean(c, j["srgb"], path + "/srgb");
-    if (j.contains("wrap")) {
-      std::string w = str(c, j["wrap"], path + "/wrap");
-      if (w == "repeat") want.wrap = TexWrap::kRepeat;
-      else if (w == "clamp") want.wrap = TexWrap::kClamp;
-      else if (w == "mirror") want.wrap = TexWrap::kMirror;
-      else c.fail(path + "/wrap", "unknown wrap mode '" + w + "' (allowed: repeat, clamp, mirror)");
+    if (j.contains("wrap")) {  // one mode for both axes, or [u, v]
+      auto mode = [&](const json& v, const std::string& p) {
+        std::string w = str(c, v, p);
+        if (w == "repeat") return TexWrap::kRepeat;
+        if (w == "clamp") return TexWrap::kClamp;
+        if (w == "mirror") return TexWrap::kMirror;
+        c.fail(p, "unknown wrap mode '" + w + "' (allowed: repeat, clamp, mirror)");
+      };
+      const json& w = j["wrap"];
+      if (w.is_array()) {
+        if (w.size() != 2) c.fail(path + "/wrap", "expected a wrap mode or two ([u, v])");
+        want.wrap_u = mode(w[0], path + "/wrap/0");
+        want.wrap_v = mode(w[1], path + "/wrap/1");
+      } else {
+        want.wrap_u = want.wrap_v = mode(w, path + "/wrap");
+      }
     }
     if (j.contains("filter")) {
       std::string f = str(c, j["filter"], path + "/filter");
@@ -275,7 +285,8 @@ int parse_texture(Ctx& c, const json& j, const std::string& path, bool srgb_defa
   int tex = load_texture(d, c.resolve(file), srgb, c.source + ": " + fpath);
   c.claimed.resize(d.textures.size(), false);
   auto apply = [&](TextureDesc& t) {
-    t.wrap = want.wrap;
+    t.wrap_u = want.wrap_u;
+    t.wrap_v = want.wrap_v;
     t.nearest = want.nearest;
     t.uv_offset = want.uv_offset;
     t.uv_scale = want.uv_scale;

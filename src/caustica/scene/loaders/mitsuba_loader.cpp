@@ -720,7 +720,7 @@ class Loader {
     t.width = t.height = 2;
     for (RGB c : {c0, c1, c1, c0}) t.rgba.insert(t.rgba.end(), {c.x, c.y, c.z, 1.f});  // rows from the top
     t.nearest = true;
-    t.wrap = TexWrap::kRepeat;
+    t.wrap_u = t.wrap_v = TexWrap::kRepeat;
     if (has_uv) uv_transform(n, uv, t.uv_scale, t.uv_offset, t.uv_rotation);
     d.textures.push_back(std::move(t));
     int idx = int(d.textures.size()) - 1;
@@ -821,10 +821,10 @@ class Loader {
     float rotation = 0.f;
     if (has_uv) uv_transform(n, uv, scale, offset, rotation);
     TextureDesc& td = d.textures[t];
-    bool same = td.wrap == w && td.nearest == nearest && td.uv_scale.x == scale.x && td.uv_scale.y == scale.y &&
+    bool same = td.wrap_u == w && td.wrap_v == w && td.nearest == nearest && td.uv_scale.x == scale.x && td.uv_scale.y == scale.y &&
                 td.uv_offset.x == offset.x && td.uv_offset.y == offset.y && td.uv_rotation == rotation;
     if (!same) {
-      bool fresh = td.wrap == TexWrap::kRepeat && !td.nearest && td.uv_scale.x == 1.f && td.uv_scale.y == 1.f &&
+      bool fresh = td.wrap_u == TexWrap::kRepeat && td.wrap_v == TexWrap::kRepeat && !td.nearest && td.uv_scale.x == 1.f && td.uv_scale.y == 1.f &&
                    td.uv_offset.x == 0.f && td.uv_offset.y == 0.f && td.uv_rotation == 0.f;
       bool shared = false;
       for (const Material& m : d.materials)
@@ -839,7 +839,7 @@ class Loader {
         t = int(d.textures.size()) - 1;
       }
       TextureDesc& out = d.textures[t];
-      out.wrap = w;
+      out.wrap_u = out.wrap_v = w;
       out.nearest = nearest;
       out.uv_scale = scale;
       out.uv_offset = offset;
