@@ -24,6 +24,15 @@ def validate(doc):
         jsonschema.Draft202012Validator(json.load(f)).validate(doc)
 
 
+def png_rgba(rgba):
+    """A 4 x 4 PNG of one RGBA colour (0-255 each), as bytes: the one texture of gltf_with's layer tests."""
+    from PIL import Image
+    import io
+    buf = io.BytesIO()
+    Image.fromarray(np.full((4, 4, 4), rgba, np.uint8), "RGBA").save(buf, format="PNG")
+    return buf.getvalue()
+
+
 def gltf_with(tmp_path, extension, ext, base_color, roughness, image=None):
     """A glTF file of one quad (test_gltf's builder) whose material has `extension` = `ext`, optionally with
     a PNG image as texture 0."""

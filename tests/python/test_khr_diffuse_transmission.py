@@ -11,7 +11,7 @@ import pytest
 
 import caustica
 from conftest import plate_cross_check, white_sky_plate
-from test_clearcoat import export_round_trip, gltf_with
+from test_clearcoat import export_round_trip, gltf_with, png_rgba
 from test_khr_sheen import grey_texture
 
 CUDA, WHY = caustica.cuda_status()
@@ -82,15 +82,10 @@ def test_every_integrator_sees_light_through_the_sheet(integrator):
 def test_gltf_diffuse_transmission_exports_and_renders_the_same(tmp_path):
     """A glTF material with KHR_materials_diffuse_transmission and both textures (no "not supported" warning)
     exports to JSON (valid against the schema), and the export renders the glTF's image exactly."""
-    from PIL import Image
-    import io
-    rgba = np.zeros((4, 4, 4), np.uint8)
-    rgba[..., 0], rgba[..., 1], rgba[..., 2], rgba[..., 3] = 255, 200, 120, 90
-    buf = io.BytesIO()
-    Image.fromarray(rgba, "RGBA").save(buf, format="PNG")
     ext = {"diffuseTransmissionFactor": 0.7, "diffuseTransmissionColorFactor": [0.9, 0.8, 0.5],
            "diffuseTransmissionTexture": {"index": 0}, "diffuseTransmissionColorTexture": {"index": 0}}
-    path = gltf_with(tmp_path, "KHR_materials_diffuse_transmission", ext, (0.2, 0.5, 0.1), 0.6, buf.getvalue())
+    path = gltf_with(tmp_path, "KHR_materials_diffuse_transmission", ext, (0.2, 0.5, 0.1), 0.6,
+                     png_rgba((255, 200, 120, 90)))
     m = export_round_trip(tmp_path, path, "KHR_materials_diffuse_transmission")
     assert m["diffuse_transmission"]["scale"] == pytest.approx(0.7)
     assert m["diffuse_transmission_color"]["scale"] == pytest.approx([0.9, 0.8, 0.5])

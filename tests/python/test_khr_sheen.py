@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import caustica
-from test_clearcoat import SEEDS, TILT_RGB, export_round_trip, gltf_with
+from test_clearcoat import SEEDS, TILT_RGB, export_round_trip, gltf_with, png_rgba
 from conftest import lamp_plate, plate_cross_check, region_z, seeded_region_stats
 from test_khr_specular import mr
 
@@ -65,15 +65,9 @@ def test_a_sheen_roughness_texture_is_the_roughness_per_texel(tmp_path):
 def test_gltf_sheen_exports_and_renders_the_same(tmp_path):
     """A glTF material with KHR_materials_sheen and both textures (no "not supported" warning) exports to JSON
     (valid against the schema), and the export renders the glTF's image exactly."""
-    from PIL import Image
-    import io
-    rgba = np.zeros((4, 4, 4), np.uint8)
-    rgba[..., 0], rgba[..., 1], rgba[..., 2], rgba[..., 3] = 255, 200, 120, 90
-    buf = io.BytesIO()
-    Image.fromarray(rgba, "RGBA").save(buf, format="PNG")
     ext = {"sheenColorFactor": [0.8, 0.7, 0.9], "sheenRoughnessFactor": 0.5,
            "sheenColorTexture": {"index": 0}, "sheenRoughnessTexture": {"index": 0}}
-    path = gltf_with(tmp_path, "KHR_materials_sheen", ext, (0.2, 0.05, 0.1), 0.8, buf.getvalue())
+    path = gltf_with(tmp_path, "KHR_materials_sheen", ext, (0.2, 0.05, 0.1), 0.8, png_rgba((255, 200, 120, 90)))
     m = export_round_trip(tmp_path, path, "KHR_materials_sheen")
     assert m["sheen_color"]["scale"] == pytest.approx([0.8, 0.7, 0.9])
     assert m["sheen_roughness"]["scale"] == pytest.approx(0.5)
