@@ -593,19 +593,20 @@ TEST(GltfLoader, TransmissionTexture) {
 }
 
 TEST(GltfLoader, SamplerWrapsEachAxisItsOwnWay) {
-  // wrapS along u and wrapT along v, each its own mode (no warning); the same image with both repeating is
-  // the decoded texture itself, with another pair a copy of it.
+  // wrapS along u and wrapT along v, each its own mode (no warning); each pair of modes its own copy of the
+  // decoded image, also pairs that differ only along v.
   Builder b;
   std::vector<unsigned char> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
   b.push("images", {{"uri", "data:image/png;base64," + base64(png(2, 2, rgb))}});
   b.push("samplers", {{"wrapS", 10497}, {"wrapT", 33071}});
   b.push("samplers", {{"wrapS", 33648}, {"wrapT", 10497}});
-  b.push("textures", {{"source", 0}, {"sampler", 0}});
-  b.push("textures", {{"source", 0}, {"sampler", 1}});
-  b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
-  b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 1}}}}}});
-  int q0 = b.quad(0), q1 = b.quad(1);
-  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}})});
+  b.push("samplers", {{"wrapS", 10497}, {"wrapT", 33648}});
+  for (int i = 0; i < 3; ++i) {
+    b.push("textures", {{"source", 0}, {"sampler", i}});
+    b.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", i}}}}}});
+  }
+  int q0 = b.quad(0), q1 = b.quad(1), q2 = b.quad(2);
+  b.scene({b.push("nodes", {{"mesh", q0}}), b.push("nodes", {{"mesh", q1}}), b.push("nodes", {{"mesh", q2}})});
   SceneDesc d = load_gltf_scene(b.write("wraps"));
   const TextureDesc& a = d.textures[size_t(d.materials[0].tex_color)];
   const TextureDesc& m = d.textures[size_t(d.materials[1].tex_color)];
@@ -613,6 +614,10 @@ TEST(GltfLoader, SamplerWrapsEachAxisItsOwnWay) {
   EXPECT_EQ(a.wrap_v, TexWrap::kClamp);
   EXPECT_EQ(m.wrap_u, TexWrap::kMirror);
   EXPECT_EQ(m.wrap_v, TexWrap::kRepeat);
+  const TextureDesc& r = d.textures[size_t(d.materials[2].tex_color)];
+  EXPECT_NE(d.materials[2].tex_color, d.materials[0].tex_color);
+  EXPECT_EQ(r.wrap_u, TexWrap::kRepeat);
+  EXPECT_EQ(r.wrap_v, TexWrap::kMirror);
   EXPECT_FALSE(has_warning(d, "wrapT"));
 }
 
