@@ -377,6 +377,9 @@ TEST(JsonRoundTrip, EveryMaterialAndLightKindWithTextures) {
   d.add_material("thin", make_thin_dielectric(1.4f));
   d.add_material("plastic", make_plastic(RGB(0.1f, 0.2f, 0.7f), 1.6f, RGB(0.9f)));
   d.add_material("difftrans", make_diffuse_transmission(RGB(0.3f), RGB(0.6f)));
+  Material leafy = make_diffuse_transmission(RGB(0.2f), RGB(0.5f, 0.7f, 0.1f));
+  leafy.tex_color = 0, leafy.tex_diffuse_transmission_color = 1;  // reflectance and transmittance textures
+  d.add_material("difftrans textures", leafy);
   d.add_material("phong", make_phong(RGB(0.1f), RGB(0.7f), 50.f));
   d.add_material("pbr", make_metallic_roughness(RGB(0.9f, 0.5f, 0.1f), 0.25f, 0.7f, 0.5f, 1.45f));
   Material pbr_odd = make_metallic_roughness(RGB(0.5f), 1.f, 0.f);

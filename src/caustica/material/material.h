@@ -126,7 +126,7 @@ struct Material {
   //     on the surface's normal: the base's normal map does not move the coat).
   //   tex_diffuse_transmission: its diffuse transmission weight times R (diffuseTransmissionTexture's alpha,
   //     moved to red by the glTF loader); tex_diffuse_transmission_color: that transmission's colour times RGB
-  //     (diffuseTransmissionColorTexture).
+  //     (diffuseTransmissionColorTexture), and a diffuse transmission material's transmittance times RGB.
   //   Principled: tex_clearcoat and tex_transmission as above (clearcoat, spec_trans times R), and
   //     tex_metallic, tex_spec_tint, tex_sheen, tex_sheen_tint, tex_flatness, tex_clearcoat_gloss: those weights
   //     times R (the Mitsuba loader gives them grey copies of its images: Mitsuba reads a float texture's

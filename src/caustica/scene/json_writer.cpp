@@ -338,7 +338,7 @@ struct Writer {
       case MaterialType::kDiffuseTransmission:
         two_sided_key = false;
         o.set("type", JV::str("difftrans")).set("reflectance", color_slot(m.diffuse, m.tex_color));
-        o.set("transmittance", col(m.transmission));
+        o.set("transmittance", color_slot(m.transmission, m.tex_diffuse_transmission_color));
         break;
       case MaterialType::kPhong:
         o.set("type", JV::str("phong")).set("diffuse", color_slot(m.diffuse, m.tex_color));

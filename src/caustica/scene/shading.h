@@ -241,6 +241,8 @@ CHD Material surface_material(const SceneView& s, SurfaceHit& sh) {
                     clampf(texture_lookup(s.textures[m.tex_clearcoat_roughness], sh.uv).g, 0.f, 1.f);
       m.clearcoat_alpha = rough * rough;
     }
+  } else if (m.type == MaterialType::kDiffuseTransmission && m.tex_diffuse_transmission_color >= 0) {
+    m.transmission *= texture_lookup(s.textures[m.tex_diffuse_transmission_color], sh.uv).rgb();  // its transmittance
   } else if (m.type == MaterialType::kPrincipled) {  // the Disney BSDF's weights
     weight(m.metallic, m.tex_metallic);
     weight(m.transmission_weight, m.tex_transmission);

@@ -447,7 +447,12 @@ Material parse_material(Ctx& c, const json& j, const std::string& path, const st
   } else if (type == "difftrans") {
     check_keys(c, j, path, {"type", "reflectance", "transmittance", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     RGB r = get_ct("reflectance", RGB(0.f));
-    m = make_diffuse_transmission(r, get_c("transmittance", RGB(0.5f)));
+    int32_t tex_t = -1;
+    const RGB t = j.contains("transmittance")
+                      ? color_or_texture(c, j["transmittance"], path + "/transmittance", tex_t)
+                      : RGB(0.5f);
+    m = make_diffuse_transmission(r, t);
+    m.tex_diffuse_transmission_color = tex_t;  // the transmittance's texture (Material::tex_diffuse_transmission_color)
   } else if (type == "phong") {
     check_keys(c, j, path, {"type", "diffuse", "specular", "exponent", "two_sided", "normal_map", "bump_map", "opacity", "opacity_cutoff", "vertex_colors"});
     RGB kd = get_ct("diffuse", RGB(0.1f));
